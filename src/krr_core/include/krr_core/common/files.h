@@ -1,0 +1,25 @@
+/**
+ * @file files.h
+ * @brief Reading whole files and writing them atomically.
+ *
+ * Learned knowledge and results must never be lost to a crash or a full disk halfway through a
+ * write, so every file the stack writes goes through writeFileAtomic: the data is written to a
+ * temporary file in the same directory, flushed to disk, and renamed over the target.
+ */
+#pragma once
+
+#include <string>
+
+namespace krr {
+
+/// @brief The whole content of a file; throws IoError naming the file if it cannot be read.
+std::string readFile(const std::string& path);
+
+/// @brief Replace path's content with data atomically (temp file + fsync + rename).
+/// @throws IoError naming the file; the previous content is then left untouched.
+void writeFileAtomic(const std::string& path, const std::string& data);
+
+/// @brief Directory part of a path ("." when there is none).
+std::string dirName(const std::string& path);
+
+}  // namespace krr

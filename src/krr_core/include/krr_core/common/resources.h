@@ -1,0 +1,27 @@
+/**
+ * @file resources.h
+ * @brief Wall-clock timing and peak memory, for the benchmarks.
+ */
+#pragma once
+
+#include <chrono>
+
+namespace krr {
+
+/// @brief Seconds since construction, on a monotonic clock.
+class Stopwatch {
+ public:
+  Stopwatch() : start_(std::chrono::steady_clock::now()) {}
+  double seconds() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  }
+  void reset() { start_ = std::chrono::steady_clock::now(); }
+
+ private:
+  std::chrono::steady_clock::time_point start_;
+};
+
+/// @brief Peak resident set size of this process so far, in MiB (from getrusage).
+double peakRssMiB();
+
+}  // namespace krr

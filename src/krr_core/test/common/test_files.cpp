@@ -1,0 +1,68 @@
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstdlib>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/common/files.h"
+#include "krr_core/common/json.h"
+#include "krr_core/common/random.h"
+
+namespace {
+
+std::string tempDir() {
+  char tmpl[] = "/tmp/krr_files_XXXXXX";
+  char* d = ::mkdtemp(tmpl);
+  EXPECT_NE(d, nullptr);
+  return d;
+}
+
+TEST(Files, AtomicWriteReplacesContentAndLeavesNoTemporaries) {
+  std::string dir = tempDir();
+  std::string path = dir + "/kb.plog";
+  krr::writeFileAtomic(path, "first\n");
+  EXPECT_EQ(krr::readFile(path), "first\n");
+  krr::writeFileAtomic(path, "second\n");
+  EXPECT_EQ(krr::readFile(path), "second\n");
+  EXPECT_EQ(std::system(("test $(ls -A " + dir + " | wc -l) -eq 1").c_str()), 0);
+  std::system(("rm -rf " + dir).c_str());
+}
+
+TEST(Files, FailedWriteKeepsOldContentAndNamesTheFile) {
+  std::string dir = tempDir();
+  std::string path = dir + "/sub/none.txt";  // directory does not exist
+  try {
+    krr::writeFileAtomic(path, "x");
+    FAIL() << "expected IoError";
+  } catch (const krr::IoError& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos);
+  }
+  EXPECT_THROW(krr::readFile(dir + "/missing"), krr::IoError);
+  std::system(("rm -rf " + dir).c_str());
+}
+
+TEST(Json, EscapesControlCharactersAndQuotes) {
+  EXPECT_EQ(krr::jsonString("a\"b\\c\n\x01"), "\"a\\\"b\\\\c\\n\\u0001\"");
+  EXPECT_EQ(krr::jsonNumber(0.5), "0.5");
+  EXPECT_EQ(krr::jsonNumber(1.0 / 0.0), "null");
+}
+
+TEST(Random, DerivedStreamsAreReproducibleAndDistinct) {
+  EXPECT_EQ(krr::deriveSeed(42, "trial", 3), krr::deriveSeed(42, "trial", 3));
+  EXPECT_NE(krr::deriveSeed(42, "trial", 3), krr::deriveSeed(42, "trial", 4));
+  EXPECT_NE(krr::deriveSeed(42, "trial", 3), krr::deriveSeed(43, "trial", 3));
+  EXPECT_NE(krr::deriveSeed(42, "trial", 3), krr::deriveSeed(42, "user", 3));
+  krr::Rng a = krr::makeRng(7, "x"), b = krr::makeRng(7, "x");
+  for (int i = 0; i < 10; ++i) EXPECT_EQ(a(), b());
+  double u = krr::uniform01(a);
+  EXPECT_GE(u, 0.0);
+  EXPECT_LT(u, 1.0);
+}
+
+TEST(Errors, ParseErrorCarriesLocation) {
+  krr::ParseError e({"kb.plog", 3, 14}, "expected '.'");
+  EXPECT_STREQ(e.what(), "kb.plog:3:14: expected '.'");
+  EXPECT_EQ(e.location().line, 3);
+}
+
+}  // namespace

@@ -1,0 +1,57 @@
+#!/usr/bin/env bash
+# Every test of the stack: installs dependencies, builds, then runs
+#   1. the core gtests (no roscore),
+#   2. every rostest .test (each starts its own master; run after sourcing devel/setup.bash,
+#      because `catkin_make run_tests` leaves PYTHONPATH empty for Python test nodes),
+#   3. the Python unittest suites of tools/.
+# Prints one summary line "tests: N passed, N failed" and exits non-zero on any failure.
+set -uo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+export PATH="/usr/bin:/bin:$PATH"
+bash "$ROOT/tools/install_deps.sh" || exit 1
+KRR_BUILD_TESTS=1 bash "$ROOT/tools/build.sh" || exit 1
+
+RESULTS="$ROOT/catkin_ws/test_results_all"
+rm -rf "$RESULTS"; mkdir -p "$RESULTS"
+set +u; source "$ROOT/catkin_ws/devel/setup.bash"; set -u
+export ROS_HOME="${ROS_HOME:-$RESULTS/ros_home}"
+export KRR_ROOT="$ROOT"
+
+echo "== core gtests"
+for t in $(find "$ROOT/catkin_ws/devel/lib" -maxdepth 2 -type f -perm -u+x -name '*_test_*' | sort); do
+  n=$(basename "$t")
+  if "$t" --gtest_output="xml:$RESULTS/gtest-$n.xml" > "$RESULTS/$n.log" 2>&1; then
+    echo "  ok   $n"
+  else
+    echo "  FAIL $n"; tail -30 "$RESULTS/$n.log"
+    # a crashed binary writes no XML: record it as a failure
+    [ -f "$RESULTS/gtest-$n.xml" ] || echo "<testsuites><testsuite name=\"$n\" tests=\"1\" failures=\"1\"><testcase name=\"crashed\"><failure message=\"crashed\"/></testcase></testsuite></testsuites>" > "$RESULTS/gtest-$n.xml"
+  fi
+done
+
+echo "== rostests"
+for f in $(find "$ROOT/src" -path '*/test/*.test' | sort); do
+  pkg=$(basename "$(dirname "$(dirname "$f")")")
+  n=$(basename "$f" .test)
+  if timeout 600 rostest --text "$pkg" "$(basename "$f")" > "$RESULTS/rostest-$n.log" 2>&1; then
+    echo "  ok   $pkg/$n"
+  else
+    echo "  FAIL $pkg/$n"; tail -40 "$RESULTS/rostest-$n.log"
+  fi
+  cp "$ROS_HOME"/test_results/"$pkg"/*.xml "$RESULTS/" 2>/dev/null || true
+  if ! ls "$ROS_HOME/test_results/$pkg/"rostest-*"$n"*.xml >/dev/null 2>&1; then
+    grep -q "FAILURE\|ERROR\|FAILED" "$RESULTS/rostest-$n.log" && \
+      echo "<testsuites><testsuite name=\"$n\" tests=\"1\" failures=\"1\"><testcase name=\"rostest\"><failure message=\"see log\"/></testcase></testsuite></testsuites>" > "$RESULTS/rostest-fail-$n.xml"
+  fi
+done
+
+echo "== python unittests"
+if [ -d "$ROOT/tools" ] && find "$ROOT/tools" -name 'test_*.py' | grep -q .; then
+  (cd "$ROOT/tools" && /usr/bin/python3 -m unittest discover -s . -p 'test_*.py' -t . ) \
+    > "$RESULTS/python.log" 2>&1; prc=$?
+  tail -3 "$RESULTS/python.log"
+  /usr/bin/python3 "$ROOT/test/summarize.py" --unittest-log "$RESULTS/python.log" --rc $prc \
+    > "$RESULTS/python-unittest.xml"
+fi
+
+/usr/bin/python3 "$ROOT/test/summarize.py" "$RESULTS"

@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# Install the Debian packages the stack needs. Idempotent: apt is only called for missing ones.
+set -euo pipefail
+PKGS=(build-essential cmake ros-base-dev catkin python3-rospy python3-rostest librostest-dev
+      libtf2-ros-dev libnav-msgs-dev python3-nav-msgs libactionlib-dev python3-actionlib
+      libvisualization-msgs-dev python3-visualization-msgs libgeometry-msgs-dev
+      libompl-dev libeigen3-dev libgtest-dev libyaml-cpp-dev gringo
+      python3-numpy python3-scipy python3-matplotlib python3-yaml python3-distributed)
+missing=()
+for p in "${PKGS[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "[install_deps] installing: ${missing[*]}"
+  SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
+  $SUDO apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+echo "[install_deps] all ${#PKGS[@]} packages present"
