@@ -1,0 +1,137 @@
+/**
+ * @file bench_planning.cpp
+ * @brief Speed of grid A* and OMPL planning on the office domains, simulator throughput, and
+ * the calibration table of navigation success rates (shortest-path policy) per blocking rate.
+ *
+ *   bench_planning [--config config/navigation.yaml] [--seed N] [--episodes N]
+ *
+ * Targets: A* and OMPL queries well under a millisecond each.
+ */
+#include <cstdint>
+#include <cstdio>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/common/random.h"
+#include "krr_core/common/resources.h"
+#include "krr_core/nav/blockage_simulator.h"
+#include "krr_core/nav/grid_astar.h"
+#include "krr_core/nav/navigation_config.h"
+#include "krr_core/nav/ompl_planner.h"
+
+using namespace krr;
+using namespace krr::nav;
+
+int main(int argc, char** argv) {
+  std::string config_path = "config/navigation.yaml";
+  std::uint64_t seed = 1;
+  long episodes = 10000;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    std::string a = argv[i];
+    if (a == "--config") config_path = argv[i + 1];
+    if (a == "--seed") seed = std::stoull(argv[i + 1]);
+    if (a == "--episodes") episodes = std::stol(argv[i + 1]);
+  }
+  try {
+    NavigationConfig cfg = loadNavigationConfig(config_path);
+    OccupancyGrid map = loadMap(cfg.map);
+    PlacesFile places = loadPlaces(cfg.places);
+    OmplPlanner planner(map, cfg.planner, seed);
+    const char* rooms[] = {"room1", "room2", "room3", "room4", "room5"};
+    for (const DomainConfig& d : cfg.domains) {
+      NavGridOptions opt;
+      opt.cols = d.cols;
+      opt.rows = d.rows;
+      opt.max_blocked_fraction = cfg.max_blocked_fraction;
+      NavGrid grid = NavGrid::fromMap(map, places, opt);
+      GridAStar astar(grid);
+      const int shop = grid.placeCell("shop");
+      std::printf("== domain %s (%d free cells, step limit %d)\n", d.name.c_str(),
+                  grid.numFreeCells(), d.step_limit);
+      // Grid A*: shop -> each room.
+      for (const char* room : rooms) {
+        const int goal = grid.placeCell(room);
+        const int reps = 2000;
+        size_t len = 0;
+        Stopwatch sw;
+        for (int k = 0; k < reps; ++k) len = astar.plan(shop, goal).moves.size();
+        std::printf("grid A*      shop->%s: %3zu moves, %8.2f us/query\n", room, len,
+                    1e6 * sw.seconds() / reps);
+      }
+      // OMPL: shop -> each room.
+      for (const char* room : rooms) {
+        const int reps = 200;
+        size_t pts = 0;
+        long calls0 = planner.plannerCalls();
+        Stopwatch sw;
+        for (int k = 0; k < reps; ++k) pts = planner.planRoute(grid, "shop", room).size();
+        std::printf("OMPL route   shop->%s: %3zu waypoints, %8.2f us/query (%ld planner calls)\n",
+                    room, pts, 1e6 * sw.seconds() / reps, planner.plannerCalls() - calls0);
+      }
+      // OMPL per executed grid move: every move along the A* routes shop -> rooms.
+      {
+        std::vector<std::pair<int, int>> moves;
+        for (const char* room : rooms) {
+          GridRoute r = astar.plan(shop, grid.placeCell(room));
+          for (size_t i = 0; i + 1 < r.cells.size(); ++i) moves.emplace_back(r.cells[i], r.cells[i + 1]);
+        }
+        const int reps = 20;
+        long calls0 = planner.plannerCalls();
+        Stopwatch sw;
+        for (int k = 0; k < reps; ++k) {
+          for (const auto& m : moves) planner.planCellMove(grid, m.first, m.second);
+        }
+        std::printf("OMPL cell move (%zu moves on the routes): %8.2f us/query (%ld planner calls "
+                    "of %zu)\n", moves.size(), 1e6 * sw.seconds() / (reps * moves.size()),
+                    planner.plannerCalls() - calls0, reps * moves.size());
+      }
+      // Simulator throughput: random moves from random free cells.
+      {
+        BlockageSimulator sim(grid, cfg.simulator);
+        std::vector<int> cells = grid.freeCells();
+        Rng rng = makeRng(seed, "bench_sim");
+        const long steps = 20000000;
+        long moved = 0;
+        int cell = shop;
+        Stopwatch sw;
+        for (long k = 0; k < steps; ++k) {
+          const Outcome o = sim.step(cell, static_cast<int>(rng() & 3u), Context{}, rng);
+          moved += o.cell != cell;
+          cell = o.trapped ? shop : o.cell;
+        }
+        const double t = sw.seconds();
+        std::printf("simulator: %.1f M steps/s (%ld of %ld steps moved)\n", steps / t / 1e6,
+                    moved, steps);
+        // Success rates of the shortest-path policy per blocking rate.
+        std::printf("shortest-path policy success (%ld episodes each, seed %llu, %s blocking, "
+                    "trap %.4f per blocked step):\n", episodes,
+                    static_cast<unsigned long long>(seed),
+                    cfg.simulator.blocking_mode == BlockingMode::kOnEntry ? "on_entry" : "per_cell",
+                    sim.trapProbability());
+        std::printf("   br ");
+        for (const char* room : rooms) std::printf("  %6s", room);
+        std::printf("\n");
+        for (double br : {0.1, 0.3, 0.5, 0.7}) {
+          std::printf("  %.1f ", br);
+          for (const char* room : rooms) {
+            const int goal = grid.placeCell(room);
+            Context ctx;
+            ctx.blocking_rate = br;
+            Rng r2 = makeRng(seed, "bench_success", static_cast<std::uint64_t>(goal));
+            EpisodeStats st = runPolicy(sim, astar.policyTo(goal), shop, goal, d.step_limit, ctx,
+                                        episodes, r2);
+            std::printf("  %6.3f", st.successRate());
+          }
+          std::printf("\n");
+        }
+      }
+    }
+    std::printf("peak RSS %.1f MiB\n", peakRssMiB());
+  } catch (const krr::Error& e) {
+    std::cerr << "bench_planning: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,95 @@
+/**
+ * @file free_time_learner.h
+ * @brief Procedure 1 of the paper: while the robot has no task it selects navigation tasks,
+ * learns them with R-Max, and writes what it knows back into the knowledge base.
+ *
+ * For each selected task the learner starts R-Max from the model the knowledge base gives
+ * (Procedure 2: pairs backed by learned knowledge start known), runs episodes until the task
+ * converged (no newly known pair for `convergence_episodes` episodes) or the episode budget is
+ * spent, and extracts the known pairs into the knowledge base. An interruption (a task
+ * arrived) is checked between episodes; the pairs known so far are extracted before returning,
+ * so an interrupted session loses nothing it learned.
+ */
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "krr_core/kb/nav_transfer.h"
+
+namespace krr {
+namespace kb {
+
+/// @brief A navigation task: drive from one named place to another.
+struct NavTask {
+  std::string start;
+  std::string goal;
+};
+
+/// @brief The task selector Delta of Procedure 1.
+class TaskSelector {
+ public:
+  virtual ~TaskSelector() = default;
+  /// @brief The next task to practise, given how much the KB already knows.
+  virtual NavTask next(const NavModel& current_model, const NavStateSpace& space, Rng& rng) = 0;
+};
+
+/**
+ * @brief Practise the task whose route the knowledge base knows least: for every candidate
+ * (start, goal) pair, count the unknown pairs along the grid shortest path and pick the
+ * largest count (ties broken at random). A simple curriculum; the paper leaves it open.
+ */
+class LeastKnownSelector : public TaskSelector {
+ public:
+  /// @throws ConfigError when fewer than two places are given.
+  explicit LeastKnownSelector(std::vector<std::string> places, std::string start = "shop");
+  NavTask next(const NavModel& current_model, const NavStateSpace& space, Rng& rng) override;
+
+ private:
+  std::vector<std::string> places_;
+  std::string start_;
+};
+
+/// @brief Parameters of a free-time learning session.
+struct FreeTimeOptions {
+  std::string time = "morning";     ///< time of day the robot learns in (the KB context)
+  double blocking_rate = -1;        ///< simulated br (< 0: the simulator's configuration)
+  std::size_t max_episodes_per_task = 300;
+  std::size_t convergence_episodes = 20;
+  std::size_t max_tasks = 0;        ///< 0: until interrupted
+  mdp::RMaxParams rmax;             ///< step_limit is taken from the domain
+  void validate() const;
+};
+
+/// @brief What a session did.
+struct FreeTimeReport {
+  std::vector<NavTask> tasks;          ///< tasks practised, in order
+  std::vector<std::size_t> episodes;   ///< episodes run per task
+  std::vector<bool> converged;         ///< per task
+  std::size_t pairs_extracted = 0;     ///< pairs written to the KB (last write per task)
+  bool interrupted = false;
+};
+
+class FreeTimeLearner {
+ public:
+  FreeTimeLearner(const NavDomain& domain, NavigationKnowledge& knowledge,
+                  TaskSelector& selector, const FreeTimeOptions& options);
+
+  /**
+   * @brief Run Procedure 1 until `interrupted()` returns true (checked before every episode)
+   * or max_tasks tasks are done. `on_task` (optional) is called after each extraction, e.g.
+   * to persist the learned knowledge.
+   */
+  FreeTimeReport run(Rng& rng, const std::function<bool()>& interrupted,
+                     const std::function<void(const NavTask&)>& on_task = {});
+
+ private:
+  const NavDomain& domain_;
+  NavigationKnowledge& knowledge_;
+  TaskSelector& selector_;
+  FreeTimeOptions options_;
+};
+
+}  // namespace kb
+}  // namespace krr

@@ -1,0 +1,119 @@
+/**
+ * @file nav_transfer.h
+ * @brief The paper's navigation experiment (Sec. IV, Fig. "Navigation tasks"): learn in the
+ * shop-room1 task, extract the knowledge into P-log, apply it to the shop-room2 task.
+ *
+ * One trial:
+ *  1. Procedure 1: R-Max learns shop -> source from scratch in the simulator until it has
+ *     converged (no newly known pair for `convergence_episodes` episodes) or `source_episodes`
+ *     have run; the known pairs are written into the knowledge base (extraction).
+ *  2. Procedure 2: the shop -> target model is built from the knowledge base by the reasoner;
+ *     the pairs backed by learned knowledge start known ("with extraction").
+ *  3. R-Max learns shop -> target for `target_episodes`, with those priors and, from the same
+ *     random stream, without them ("without extraction").
+ * Trials are independent and seeded by (seed, trial index), so results do not depend on how
+ * many threads run them.
+ */
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "krr_core/kb/navigation_knowledge.h"
+#include "krr_core/kb/simulated_navigation.h"
+#include "krr_core/mdp/rmax_agent.h"
+#include "krr_core/nav/blockage_simulator.h"
+#include "krr_core/nav/navigation_config.h"
+
+namespace krr {
+namespace kb {
+
+/// @brief A navigation domain loaded once and shared read-only by all trials.
+struct NavDomain {
+  nav::NavigationConfig config;
+  nav::DomainConfig domain;
+  std::shared_ptr<nav::NavGrid> grid;
+  std::shared_ptr<NavStateSpace> space;
+  std::shared_ptr<nav::BlockageSimulator> simulator;
+  std::vector<std::string> knowledge_files;  ///< geometry, then human navigation knowledge
+
+  /**
+   * @brief Load config/navigation.yaml, derive the named domain's grid from the map, and
+   * name its knowledge files: `geometry_file` (generated, e.g. maps/office_30x30_geometry.plog)
+   * and `navigation_plog` (config/navigation.plog).
+   */
+  static NavDomain load(const std::string& navigation_yaml, const std::string& domain_name,
+                        const std::string& geometry_file, const std::string& navigation_plog);
+};
+
+/**
+ * @brief An R-Max agent for a navigation task in `env`. With `kb_model` (Procedure 2's model),
+ * every pair the knowledge base knows from learning starts known with the KB's distribution
+ * (goal states excepted: they are terminal in this task); everything else is optimistic.
+ * @param prior_pairs if given, receives the number of pairs that started known.
+ */
+mdp::RMaxAgent makeNavigationAgent(const NavDomain& domain, const SimulatedNavigation& env,
+                                   const mdp::RMaxParams& params, const NavModel* kb_model,
+                                   std::size_t* prior_pairs = nullptr);
+
+/**
+ * @brief Run R-Max episodes until it converged (no newly known pair for `quiet_episodes`
+ * episodes), `max_episodes` ran, or `interrupted()` (checked before each episode) is true.
+ * @return episodes run; *converged tells whether convergence ended it.
+ */
+std::size_t learnUntilConverged(SimulatedNavigation& env, mdp::RMaxAgent& agent,
+                                std::size_t max_episodes, std::size_t quiet_episodes, Rng& rng,
+                                const std::function<bool()>& interrupted, bool* converged);
+
+/// @brief Parameters of the transfer experiment.
+struct NavTransferOptions {
+  std::string start = "shop";
+  std::string source = "room1";
+  std::string target = "room2";
+  std::string time = "morning";       ///< time of day the robot learns and acts in
+  double blocking_rate = 0.3;         ///< br of the simulated world (paper default 0.3)
+  std::size_t source_episodes = 300;  ///< cap on source-task learning
+  std::size_t convergence_episodes = 20;  ///< episodes without a newly known pair = converged
+  std::size_t target_episodes = 100;
+  mdp::RMaxParams rmax;               ///< step_limit is taken from the domain
+  /// @throws ConfigError naming the field and value.
+  void validate() const;
+};
+
+/// @brief Results of one trial.
+struct NavTransferTrial {
+  std::vector<double> reward_with, reward_without;       ///< per target episode
+  std::vector<std::uint8_t> success_with, success_without;
+  std::size_t source_episodes_run = 0;
+  std::size_t learned_pairs = 0;  ///< pairs written to the KB by extraction
+  std::size_t prior_pairs = 0;    ///< target pairs that started known from the KB
+};
+
+/**
+ * @brief Run trial `index`. `knowledge` is this worker's knowledge base (its learned part is
+ * cleared first), so a worker reuses one parsed program across trials.
+ */
+NavTransferTrial runNavTransferTrial(const NavDomain& domain, NavigationKnowledge& knowledge,
+                                     const NavTransferOptions& options, std::uint64_t seed,
+                                     std::size_t index);
+
+/// @brief Per-episode means over trials, with 95% confidence half-widths.
+struct NavTransferSummary {
+  std::vector<double> mean_with, mean_without, ci_with, ci_without;
+  std::vector<double> success_with, success_without;
+  std::size_t trials = 0;
+  double mean_learned_pairs = 0, mean_prior_pairs = 0, mean_source_episodes = 0;
+};
+
+/**
+ * @brief Run `trials` trials on `threads` worker threads (each with its own knowledge base)
+ * and summarise. Deterministic for a seed whatever the number of threads.
+ */
+NavTransferSummary runNavTransfer(const NavDomain& domain, const NavTransferOptions& options,
+                                  std::uint64_t seed, std::size_t trials, std::size_t threads);
+
+}  // namespace kb
+}  // namespace krr

@@ -1,0 +1,140 @@
+/**
+ * @file navigation_knowledge.h
+ * @brief The navigation part of the knowledge base, and the two directions of KRR-RL on it.
+ *
+ * Procedure 2 (paper, Sec. III-A): a task-specific navigation MDP is *computed by reasoning*:
+ * one P-log table query P(next_cell | do(curr_cell=C), do(act_move=M)) for every free cell C
+ * and move M, with the exogenous attributes (time of day, walkers in blocking areas) observed
+ * or marginalised. Nothing is copied from a learner: whatever the robot learned enters the
+ * model only through the pr-atoms it wrote into the knowledge base.
+ *
+ * Knowledge extraction (Procedure 1, last line): the pairs R-Max has marked known are written
+ * back as pr-atoms conditioned on the exogenous context they were learned in, e.g.
+ *   pr(next_cell=12 | curr_cell=11, act_move=right, curr_time=morning) = 17/20.
+ *   learned(11, right, morning).
+ * The human (default) pr-atoms of config/navigation.plog carry `not learned(C, M, T)`, so in
+ * that context the learned distribution replaces them, and everywhere else human knowledge
+ * still applies. Learned statements carry the reasoner tag "learned", so re-learning a pair
+ * replaces its probabilities instead of duplicating them, and they can be saved to (and
+ * reloaded from) their own file, written atomically.
+ */
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "krr_core/mdp/rmax_model.h"
+#include "krr_core/mdp/sparse_model.h"
+#include "krr_core/nav/nav_grid.h"
+#include "krr_core/plog/reasoner.h"
+
+namespace krr {
+namespace kb {
+
+/**
+ * @brief States of navigation MDPs over a NavGrid: the free cells in ascending id order, then
+ * one absorbing `trapped` state. Actions are the moves up, down, left, right (nav::Move order).
+ */
+class NavStateSpace {
+ public:
+  explicit NavStateSpace(const nav::NavGrid& grid);
+
+  std::size_t numStates() const { return cells_.size() + 1; }
+  std::size_t numActions() const { return 4; }
+  /// @brief The state of a free cell. @throws UnknownSymbolError for a non-free or invalid cell.
+  mdp::StateId stateOf(int cell) const;
+  /// @brief The cell of a state, -1 for the trapped state.
+  int cellOf(mdp::StateId s) const { return s < cells_.size() ? cells_[s] : -1; }
+  mdp::StateId trappedState() const { return static_cast<mdp::StateId>(cells_.size()); }
+  /// @brief The state of a named place (shop, room1...).
+  mdp::StateId placeState(const std::string& place) const { return stateOf(grid_->placeCell(place)); }
+  const nav::NavGrid& grid() const { return *grid_; }
+
+ private:
+  std::shared_ptr<const nav::NavGrid> grid_;
+  std::vector<int> cells_;
+  std::vector<std::int32_t> state_of_cell_;
+};
+
+/// @brief A navigation transition model computed from the knowledge base.
+struct NavModel {
+  /// S = free cells + trapped, A = 4, rewards 0, trapped terminal, discount as requested.
+  mdp::SparseModel dynamics;
+  /// S*A flags: 1 where the row comes from learned knowledge in every context of the query
+  /// (these pairs start "known" for R-Max; the rest are left to human knowledge).
+  std::vector<std::uint8_t> learned;
+  std::size_t numLearned() const;
+};
+
+/// @brief The navigation knowledge base: geometry + human knowledge + learned knowledge.
+class NavigationKnowledge {
+ public:
+  /**
+   * @param grid the navigation domain (its cells and moves index the model)
+   * @param knowledge_files P-log files loaded in order (generated geometry, then
+   *        config/navigation.plog, then optionally a learned-knowledge file)
+   * @throws ParseError / UnknownSymbolError / IoError from loading, ConfigError when the
+   *         program lacks the attributes the model needs (curr_cell, next_cell, act_move,
+   *         curr_time) or its cell sort disagrees with the grid's free cells.
+   */
+  NavigationKnowledge(const nav::NavGrid& grid, const std::vector<std::string>& knowledge_files);
+
+  /**
+   * @brief Procedure 2: the navigation transition model under the given times of day.
+   * @param times the times the robot may be in: one value (it knows the time), several (it
+   *        does not: the reasoner marginalises over them with the program's prior on
+   *        curr_time, restricted to these values), or empty (every time).
+   * @param discount discount of the returned model.
+   * @throws UnknownSymbolError for a time the program does not declare.
+   */
+  NavModel buildModel(const std::vector<std::string>& times, double discount = 0.95);
+
+  /**
+   * @brief Knowledge extraction: write R-Max's known pairs (those learned from own samples;
+   * priors the knowledge base supplied are skipped) as pr-atoms for time `time`.
+   * Probabilities are written as exact fractions of the sample count.
+   * @return the number of (cell, move) pairs written.
+   */
+  std::size_t addLearned(const std::vector<mdp::KnownPair>& pairs, const std::string& time);
+
+  /// @brief Forget everything learned (all statements tagged "learned").
+  void clearLearned();
+  /// @brief Everything learned, as P-log text that loadLearned() reads back.
+  std::string learnedText() const;
+  /// @brief Save learnedText() atomically: a crash never leaves a half-written file.
+  void saveLearned(const std::string& path) const;
+  /// @brief Add the statements of a learned-knowledge file (as tag "learned").
+  void loadLearned(const std::string& path);
+
+  const NavStateSpace& space() const { return space_; }
+  plog::Reasoner& reasoner() { return reasoner_; }
+
+ private:
+  /// @brief One learned distribution: outcome values ("12", "trapped") with numerators of an
+  /// exact fraction over `denominator` (numerators sum to the denominator).
+  struct LearnedDistribution {
+    std::vector<std::pair<std::string, long>> outcomes;
+    long denominator = 1;
+  };
+  /// (cell, move index, time) -> distribution
+  using LearnedMap = std::map<std::tuple<int, int, std::string>, LearnedDistribution>;
+
+  std::string evidenceFor(const std::vector<std::string>& times) const;
+  /// @brief Replace the reasoner's learned statements by the rendering of learned_.
+  void syncLearned();
+
+  NavStateSpace space_;
+  plog::Reasoner reasoner_;
+  std::vector<std::string> times_;  // values of sort time
+  LearnedMap learned_;
+};
+
+/// @brief The reasoner tag of learned statements.
+constexpr const char* kLearnedTag = "learned";
+
+}  // namespace kb
+}  // namespace krr

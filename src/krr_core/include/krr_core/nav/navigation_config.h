@@ -1,0 +1,90 @@
+/**
+ * @file navigation_config.h
+ * @brief The navigation layer's parameters (config/navigation.yaml), validated on load.
+ *
+ * Nothing about the world (blocking rates, time-of-day effects, per-area overrides, move noise,
+ * robot size, planner budgets) is compiled in: it all comes from this file, and every field is
+ * checked so that a typo or an out-of-range value fails at start-up with a ConfigError naming
+ * the file, the field and the value, instead of silently skewing an experiment.
+ */
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+namespace krr {
+namespace nav {
+
+/// @brief Per-blocking-area overrides.
+struct AreaConfig {
+  double rate = -1.0;                        ///< base blocking rate; < 0: the global default
+  std::map<std::string, double> time_factor;  ///< per time of day; absent: the global factor
+};
+
+/// @brief Where walkers can block a move.
+enum class BlockingMode {
+  kPerCell,  ///< every move into a blocking-area cell (risk grows with the area's depth)
+  kOnEntry,  ///< only moves entering an area from outside it (one risk per crossing)
+};
+
+/// @brief Parameters of the stochastic-blockage simulator.
+struct SimulatorConfig {
+  double move_success = 0.92;  ///< P(reach the intended free neighbour) when not blocked
+  double slip_stay = 0.04;     ///< P(stay in place) when not blocked
+  double slip_lateral = 0.04;  ///< P(slip to one of the two lateral neighbours), split evenly
+  double blocking_rate = 0.3;  ///< default br of every blocking area
+  BlockingMode blocking_mode = BlockingMode::kPerCell;  ///< config: per_cell | on_entry
+  double trap_probability = 0.18;  ///< P(trapped | blocked) at the reference cell size
+  /// Cell size (m) at which trap_probability applies; on a grid of cell size s the per-step
+  /// probability is 1 - (1 - trap_probability)^(s / ref), so the risk of crossing an area of
+  /// given length hardly depends on the grid resolution. <= 0 disables the scaling.
+  double trap_reference_cell_size = 0.5;
+  /// Names of the times of day, in the order Context::time_of_day indexes them.
+  std::vector<std::string> times_of_day{"morning", "noon", "afternoon"};
+  /// Multiplier of every area's rate at each time of day (same order); result clamped to [0,1].
+  std::vector<double> time_factors{1.0, 1.0, 1.0};
+  std::map<std::string, AreaConfig> areas;  ///< per-area overrides, by area name
+};
+
+/// @brief Parameters of the OMPL motion planner.
+struct PlannerConfig {
+  double robot_radius = 0.2;        ///< m; a state is valid iff no non-free cell is closer
+  std::string algorithm = "rrtconnect";  ///< "rrtconnect" or "prm"
+  double timeout = 0.05;            ///< s per query
+  double range = 0.0;               ///< RRTConnect step length (m); 0: OMPL's default
+  double interpolation_step = 0.05;  ///< m between waypoints of returned paths
+  bool simplify = true;             ///< shortcut and reduce vertices before interpolating
+};
+
+/// @brief One navigation domain (grid size and episode length).
+struct DomainConfig {
+  std::string name;  ///< e.g. "office_30x30"
+  int cols = 30;
+  int rows = 30;
+  int step_limit = 200;  ///< moves allowed per navigation episode
+};
+
+/// @brief The whole navigation.yaml.
+struct NavigationConfig {
+  std::string map;     ///< map_server YAML (absolute, resolved against the config's directory)
+  std::string places;  ///< places / blocking areas YAML (absolute or resolved)
+  double max_blocked_fraction = 0.25;  ///< NavGrid cell freeness threshold
+  std::vector<DomainConfig> domains;
+  SimulatorConfig simulator;
+  PlannerConfig planner;
+
+  /// @brief The domain called `name`; UnknownSymbolError if absent.
+  const DomainConfig& domain(const std::string& name) const;
+};
+
+/// @brief Load and validate navigation.yaml. Paths in it are relative to the file's directory.
+/// @throws ConfigError naming file, field and value (unknown fields are errors too).
+NavigationConfig loadNavigationConfig(const std::string& path);
+
+/// @brief Validate a simulator configuration built in code (same checks as the loader).
+/// @throws ConfigError naming the field and the value.
+void validate(const SimulatorConfig& config);
+
+}  // namespace nav
+}  // namespace krr

@@ -1,0 +1,140 @@
+/**
+ * @file engine.h
+ * @brief Exact P-log inference on a ground network by variable elimination.
+ *
+ * Random attribute instances are the variables; each one contributes the factor
+ * P(a(t) | parents) computed with P-log's rules (the applicable pr-atom, or the default: the
+ * unassigned probability mass split evenly over the remaining possible values; value "undefined"
+ * when no selection rule fires). Derived (non-random, dynamic) atoms are deterministic functions
+ * of their random ancestors and are folded into the factors that mention them. Observations and
+ * constraints are indicator factors; do() fixes an instance and removes its own factor.
+ * Only instances relevant in the current context (after do() values have been substituted and
+ * dead pr-atoms and rules dropped) are included, so independent exogenous attributes are never
+ * enumerated jointly.
+ */
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "krr_core/plog/grounder.h"
+
+namespace krr {
+namespace plog {
+
+/// @brief A ground condition: a conjunction of dynamic literals plus a constant part
+/// (static literals are evaluated by the caller into `constant`).
+struct GCondition {
+  std::vector<GLit> lits;
+  bool constant = true;  ///< false: the condition can never hold
+  bool truth = true;     ///< required truth value of the conjunction (obs(l, false))
+};
+
+/// @brief Exact inference over one GroundProgram (which must outlive the engine).
+class ExactEngine {
+ public:
+  explicit ExactEngine(const GroundProgram& g);
+
+  /// @brief Intervention do(inst = value index); -1 removes it.
+  void setFixed(int inst, int value);
+  void clearFixed();
+
+  /// @brief Unnormalised measures (Z(formula and evidence), Z(evidence)).
+  /// @throws IncoherentError (sums above 1, empty dynamic ranges, conflicting pr-atoms).
+  std::pair<double, double> measure(const std::vector<GCondition>& formula,
+                                    const std::vector<GCondition>& evidence);
+
+  /// @brief Unnormalised marginal of one instance over its domain plus a last entry for
+  /// "undefined"; the sum is Z(evidence).
+  std::vector<double> marginal(int inst, const std::vector<GCondition>& evidence);
+
+  /// @brief Sparse marginal: (value index, unnormalised mass) for the values that can have
+  /// mass (index = domain size for "undefined"); the masses sum to Z(evidence).
+  std::vector<std::pair<int, double>> marginalSparse(int inst,
+                                                     const std::vector<GCondition>& evidence);
+
+  /// @brief Build an index of ground bodies keyed by literals on these instances, so that with
+  /// them fixed only the matching pr-atoms and selection rules are inspected (table queries).
+  void indexBy(const std::vector<int>& conditioning_instances);
+
+  /// @brief Number of factors / largest factor size of the last inference (diagnostics).
+  size_t lastFactorCount() const { return last_factors_; }
+  size_t lastMaxFactorSize() const { return last_max_factor_; }
+
+ private:
+  struct Factor {
+    std::vector<int> vars;
+    std::vector<int> card;
+    std::vector<double> t;
+  };
+  struct Item {  // one ground selection rule (kind 0) or pr-atom (kind 1)
+    int kind;
+    int index;
+  };
+
+  int card(int inst) const;
+  bool bodyDead(const std::vector<GLit>& body) const;
+  bool litDeadFixed(const GLit& l) const;
+  void liveItems(int inst, std::vector<Item>& out) const;
+  void scopeOfLit(const GLit& l, std::vector<int>& out);
+  void scopeOfInstance(int inst, std::vector<int>& out);
+  bool holds(const GLit& l);
+  bool atomHolds(int inst, int value);
+  int valueOf(int inst);
+  bool bodyHolds(const std::vector<GLit>& body);
+  void buildFactors(const std::vector<const std::vector<GCondition>*>& seeds, int seed_inst,
+                    std::vector<Factor>& factors);
+  void computeStates(int inst);
+  void buildAtomSccs();
+  void evaluateScc(int scc);
+  struct PendingError {
+    size_t factor;
+    size_t row;
+    std::string message;
+  };
+  void checkPendingErrors(const std::vector<Factor>& factors);
+  void buildCpt(int inst, Factor& f);
+  void buildIndicator(const std::vector<GCondition>& conds, bool constraint_style,
+                      const std::vector<GLit>* constraint_body, std::vector<Factor>& out);
+  std::vector<double> eliminate(std::vector<Factor> factors, int keep);
+  static Factor multiply(const Factor& a, const Factor& b);
+  static Factor sumOut(const Factor& f, int var);
+  void newStamp();
+
+  const GroundProgram& g_;
+  std::vector<int> fixed_;
+  std::vector<int> assign_;                 // current value index per instance (random)
+  std::vector<int> atom_offset_;            // per instance, offset into atom memo
+  std::vector<unsigned> atom_stamp_;
+  std::vector<signed char> atom_state_;     // 0 false, 1 true, 2 in progress
+  unsigned stamp_ = 1;
+  std::vector<unsigned> scope_stamp_;
+  std::vector<std::vector<int>> scope_cache_;
+  std::vector<char> scope_busy_;
+  std::vector<std::vector<int>> live_rules_;  // derived instance -> rules alive in this epoch
+  std::vector<unsigned> rel_stamp_;
+  unsigned rel_counter_ = 1;
+  std::vector<int> touched_derived_;
+  std::vector<int> conflict_derived_;
+  std::vector<int> atom_inst_;              // atom index -> instance
+  std::vector<int> atom_scc_;               // atom -> cyclic SCC id or -1
+  std::vector<std::vector<int>> scc_atoms_;
+  std::vector<char> scc_negative_;          // SCC contains a negative edge       // derived instances with rules for >= 2 values
+
+  std::vector<std::vector<int>> states_;    // per relevant instance: domain indices (+ undefined)
+  // index for table queries
+  bool indexed_ = false;
+  std::vector<int> index_inst_;             // conditioning instances
+  std::vector<std::vector<std::vector<std::vector<Item>>>> buckets_;  // inst -> cond k -> value -> items
+  std::vector<std::vector<Item>> unkeyed_;  // inst -> items without a conditioning literal
+  std::vector<int> cond_pos_;               // instance -> position in index_inst_ or -1
+  std::vector<std::vector<std::vector<std::vector<int>>>> rule_buckets_;  // derived rules
+  std::vector<std::vector<int>> rule_unkeyed_;
+  size_t last_factors_ = 0, last_max_factor_ = 0;
+  std::vector<PendingError> pending_errors_;
+  size_t pending_factor_ = 0;
+};
+
+}  // namespace plog
+}  // namespace krr

@@ -1,0 +1,91 @@
+#include "krr_core/kb/free_time_learner.h"
+
+#include <algorithm>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/nav/grid_astar.h"
+
+namespace krr {
+namespace kb {
+
+LeastKnownSelector::LeastKnownSelector(std::vector<std::string> places, std::string start)
+    : places_(std::move(places)), start_(std::move(start)) {
+  places_.erase(std::remove(places_.begin(), places_.end(), start_), places_.end());
+  if (places_.empty())
+    throw ConfigError("task selector: needs at least one goal place besides the start '" +
+                      start_ + "'");
+}
+
+NavTask LeastKnownSelector::next(const NavModel& model, const NavStateSpace& space, Rng& rng) {
+  nav::GridAStar astar(space.grid());
+  const int start = space.grid().placeCell(start_);
+  std::vector<std::size_t> best;
+  long best_unknown = -1;
+  for (std::size_t i = 0; i < places_.size(); ++i) {
+    const nav::GridRoute route = astar.plan(start, space.grid().placeCell(places_[i]));
+    long unknown = 0;
+    for (std::size_t k = 0; k < route.moves.size(); ++k) {
+      const mdp::StateId s = space.stateOf(route.cells[k]);
+      unknown += model.learned[s * 4 + static_cast<std::size_t>(route.moves[k])] ? 0 : 1;
+    }
+    if (unknown > best_unknown) {
+      best_unknown = unknown;
+      best.clear();
+    }
+    if (unknown == best_unknown) best.push_back(i);
+  }
+  const std::size_t pick = best[static_cast<std::size_t>(uniform01(rng) * best.size())];
+  return NavTask{start_, places_[pick]};
+}
+
+void FreeTimeOptions::validate() const {
+  if (max_episodes_per_task == 0)
+    throw ConfigError("free-time learning: max_episodes_per_task must be at least 1");
+  if (convergence_episodes == 0)
+    throw ConfigError("free-time learning: convergence_episodes must be at least 1");
+  if (blocking_rate > 1)
+    throw ConfigError("free-time learning: blocking_rate " + std::to_string(blocking_rate) +
+                      " is above 1");
+  rmax.validate();
+}
+
+FreeTimeLearner::FreeTimeLearner(const NavDomain& domain, NavigationKnowledge& knowledge,
+                                 TaskSelector& selector, const FreeTimeOptions& options)
+    : domain_(domain), knowledge_(knowledge), selector_(selector), options_(options) {
+  options_.validate();
+  options_.rmax.step_limit = static_cast<std::uint32_t>(domain.domain.step_limit);
+}
+
+FreeTimeReport FreeTimeLearner::run(Rng& rng, const std::function<bool()>& interrupted,
+                                    const std::function<void(const NavTask&)>& on_task) {
+  FreeTimeReport report;
+  nav::Context ctx;
+  ctx.time_of_day = domain_.simulator->timeOfDayIndex(options_.time);
+  ctx.blocking_rate = options_.blocking_rate;
+  const mdp::RMaxParams& p = options_.rmax;
+  while ((options_.max_tasks == 0 || report.tasks.size() < options_.max_tasks) &&
+         !(interrupted && interrupted())) {
+    // Procedure 2 for the current knowledge, then the selector picks a task (Delta).
+    const NavModel model = knowledge_.buildModel({options_.time}, p.discount);
+    const NavTask task = selector_.next(model, *domain_.space, rng);
+    SimulatedNavigation env(*domain_.simulator, *domain_.space,
+                            domain_.grid->placeCell(task.start),
+                            {domain_.grid->placeCell(task.goal)}, ctx, p.navigationReward());
+    mdp::RMaxAgent agent = makeNavigationAgent(domain_, env, p, &model);
+    bool converged = false;
+    const std::size_t episodes =
+        learnUntilConverged(env, agent, options_.max_episodes_per_task,
+                            options_.convergence_episodes, rng, interrupted, &converged);
+    // Use what is known so far to update the knowledge base, interrupted or not.
+    report.pairs_extracted += knowledge_.addLearned(agent.model().knownPairs(), options_.time);
+    report.tasks.push_back(task);
+    report.episodes.push_back(episodes);
+    report.converged.push_back(converged);
+    if (on_task) on_task(task);
+  }
+  report.interrupted = interrupted && interrupted();
+  return report;
+}
+
+}  // namespace kb
+}  // namespace krr

@@ -1,0 +1,190 @@
+#include "krr_core/kb/nav_transfer.h"
+
+#include <atomic>
+#include <cmath>
+#include <exception>
+#include <mutex>
+#include <thread>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/common/random.h"
+#include "krr_core/kb/simulated_navigation.h"
+#include "krr_core/nav/occupancy_grid.h"
+
+namespace krr {
+namespace kb {
+
+NavDomain NavDomain::load(const std::string& navigation_yaml, const std::string& domain_name,
+                          const std::string& geometry_file, const std::string& navigation_plog) {
+  NavDomain d;
+  d.config = nav::loadNavigationConfig(navigation_yaml);
+  d.domain = d.config.domain(domain_name);
+  nav::NavGridOptions opt;
+  opt.cols = d.domain.cols;
+  opt.rows = d.domain.rows;
+  opt.max_blocked_fraction = d.config.max_blocked_fraction;
+  d.grid = std::make_shared<nav::NavGrid>(
+      nav::NavGrid::fromMap(nav::loadMap(d.config.map), nav::loadPlaces(d.config.places), opt));
+  d.space = std::make_shared<NavStateSpace>(*d.grid);
+  d.simulator = std::make_shared<nav::BlockageSimulator>(*d.grid, d.config.simulator);
+  d.knowledge_files = {geometry_file, navigation_plog};
+  return d;
+}
+
+void NavTransferOptions::validate() const {
+  auto bad = [](const std::string& f, const std::string& v) {
+    throw ConfigError("nav transfer: field '" + f + "' has invalid value " + v);
+  };
+  if (!(blocking_rate >= 0 && blocking_rate <= 1)) bad("blocking_rate", std::to_string(blocking_rate));
+  if (source_episodes == 0) bad("source_episodes", "0");
+  if (target_episodes == 0) bad("target_episodes", "0");
+  if (convergence_episodes == 0) bad("convergence_episodes", "0");
+  if (source == target) bad("target", target + " (same as source)");
+  rmax.validate();
+}
+
+mdp::RMaxAgent makeNavigationAgent(const NavDomain& dom, const SimulatedNavigation& env,
+                                   const mdp::RMaxParams& p, const NavModel* kb_model,
+                                   std::size_t* prior_pairs) {
+  const NavStateSpace& sp = *dom.space;
+  auto task = mdp::makeNavigationRMaxTask(sp.numStates(), 4, env.goals(), {sp.trappedState()},
+                                          p.navigationReward());
+  mdp::RMaxAgent agent(task, p);
+  std::size_t n = 0;
+  if (kb_model) {
+    std::vector<std::uint8_t> goal(sp.numStates(), 0);
+    for (mdp::StateId g : env.goals()) goal[g] = 1;
+    for (mdp::StateId s = 0; s < sp.trappedState(); ++s) {
+      if (goal[s]) continue;  // terminal in this task: nothing to learn there
+      for (mdp::ActionId a = 0; a < 4; ++a) {
+        if (!kb_model->learned[s * 4 + a]) continue;
+        mdp::Distribution d;
+        for (mdp::Outcome out : kb_model->dynamics.successors(s, a)) d.push_back(out);
+        agent.setPrior(s, a, d, true);
+        ++n;
+      }
+    }
+  }
+  if (prior_pairs) *prior_pairs = n;
+  return agent;
+}
+
+std::size_t learnUntilConverged(SimulatedNavigation& env, mdp::RMaxAgent& agent,
+                                std::size_t max_episodes, std::size_t quiet_episodes, Rng& rng,
+                                const std::function<bool()>& interrupted, bool* converged) {
+  const std::uint32_t limit = agent.params().step_limit;
+  std::size_t run = 0, quiet = 0;
+  while (run < max_episodes && quiet < quiet_episodes && !(interrupted && interrupted())) {
+    const std::size_t before = agent.model().numKnown();
+    mdp::runEpisode(env, agent, limit, agent.params().rmax, rng);
+    ++run;
+    quiet = agent.model().numKnown() == before ? quiet + 1 : 0;
+  }
+  if (converged) *converged = quiet >= quiet_episodes;
+  return run;
+}
+
+NavTransferTrial runNavTransferTrial(const NavDomain& dom, NavigationKnowledge& knowledge,
+                                     const NavTransferOptions& o, std::uint64_t seed,
+                                     std::size_t index) {
+  mdp::RMaxParams p = o.rmax;
+  p.step_limit = static_cast<std::uint32_t>(dom.domain.step_limit);
+  nav::Context ctx;
+  ctx.time_of_day = dom.simulator->timeOfDayIndex(o.time);
+  ctx.blocking_rate = o.blocking_rate;
+  const NavStateSpace& sp = *dom.space;
+  const int start = dom.grid->placeCell(o.start);
+  NavTransferTrial t;
+
+  // 1. Procedure 1 on the source task (from scratch), then extraction into the KB.
+  knowledge.clearLearned();
+  {
+    SimulatedNavigation env(*dom.simulator, sp, start, {dom.grid->placeCell(o.source)}, ctx,
+                            p.navigationReward());
+    mdp::RMaxAgent agent = makeNavigationAgent(dom, env, p, nullptr);
+    Rng rng = makeRng(seed, "nav_transfer/source", index);
+    t.source_episodes_run = learnUntilConverged(env, agent, o.source_episodes,
+                                                o.convergence_episodes, rng, {}, nullptr);
+    t.learned_pairs = knowledge.addLearned(agent.model().knownPairs(), o.time);
+  }
+
+  // 2. Procedure 2: the target task's model, computed by reasoning.
+  const NavModel model = knowledge.buildModel({o.time}, p.discount);
+
+  // 3. The target task with and without the extracted knowledge (same random stream).
+  SimulatedNavigation env(*dom.simulator, sp, start, {dom.grid->placeCell(o.target)}, ctx,
+                          p.navigationReward());
+  for (int with = 1; with >= 0; --with) {
+    mdp::RMaxAgent agent =
+        makeNavigationAgent(dom, env, p, with ? &model : nullptr, with ? &t.prior_pairs : nullptr);
+    Rng rng = makeRng(seed, "nav_transfer/target", index);
+    auto& rewards = with ? t.reward_with : t.reward_without;
+    auto& success = with ? t.success_with : t.success_without;
+    for (const mdp::EpisodeResult& e :
+         mdp::runEpisodes(env, agent, o.target_episodes, p.step_limit, p.rmax, rng)) {
+      rewards.push_back(e.total_reward);
+      success.push_back(e.success ? 1 : 0);
+    }
+  }
+  return t;
+}
+
+NavTransferSummary runNavTransfer(const NavDomain& dom, const NavTransferOptions& o,
+                                  std::uint64_t seed, std::size_t trials, std::size_t threads) {
+  o.validate();
+  if (trials == 0) throw ConfigError("nav transfer: trials must be at least 1");
+  threads = std::max<std::size_t>(1, std::min(threads, trials));
+  std::vector<NavTransferTrial> results(trials);
+  std::atomic<std::size_t> next{0};
+  std::exception_ptr failure;
+  std::mutex failure_mutex;
+  auto worker = [&]() {
+    try {
+      NavigationKnowledge kb(*dom.grid, dom.knowledge_files);
+      for (std::size_t i = next++; i < trials; i = next++)
+        results[i] = runNavTransferTrial(dom, kb, o, seed, i);
+    } catch (...) {
+      std::lock_guard<std::mutex> lock(failure_mutex);
+      if (!failure) failure = std::current_exception();
+      next = trials;
+    }
+  };
+  std::vector<std::thread> pool;
+  for (std::size_t k = 0; k < threads; ++k) pool.emplace_back(worker);
+  for (auto& th : pool) th.join();
+  if (failure) std::rethrow_exception(failure);
+
+  NavTransferSummary s;
+  s.trials = trials;
+  const std::size_t E = o.target_episodes;
+  auto meanCi = [&](auto get, std::vector<double>& mean, std::vector<double>& ci) {
+    mean.assign(E, 0.0);
+    ci.assign(E, 0.0);
+    for (std::size_t e = 0; e < E; ++e) {
+      double sum = 0, sq = 0;
+      for (const auto& r : results) {
+        const double v = get(r, e);
+        sum += v;
+        sq += v * v;
+      }
+      const double n = static_cast<double>(trials);
+      mean[e] = sum / n;
+      const double var = trials > 1 ? std::max(0.0, (sq - n * mean[e] * mean[e]) / (n - 1)) : 0.0;
+      ci[e] = 1.959963984540054 * std::sqrt(var / n);
+    }
+  };
+  std::vector<double> unused;
+  meanCi([](const NavTransferTrial& r, std::size_t e) { return r.reward_with[e]; }, s.mean_with, s.ci_with);
+  meanCi([](const NavTransferTrial& r, std::size_t e) { return r.reward_without[e]; }, s.mean_without, s.ci_without);
+  meanCi([](const NavTransferTrial& r, std::size_t e) { return double(r.success_with[e]); }, s.success_with, unused);
+  meanCi([](const NavTransferTrial& r, std::size_t e) { return double(r.success_without[e]); }, s.success_without, unused);
+  for (const auto& r : results) {
+    s.mean_learned_pairs += static_cast<double>(r.learned_pairs) / static_cast<double>(trials);
+    s.mean_prior_pairs += static_cast<double>(r.prior_pairs) / static_cast<double>(trials);
+    s.mean_source_episodes += static_cast<double>(r.source_episodes_run) / static_cast<double>(trials);
+  }
+  return s;
+}
+
+}  // namespace kb
+}  // namespace krr

@@ -1,0 +1,356 @@
+#include "krr_core/nav/navigation_config.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+#include <sstream>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/common/files.h"
+
+namespace krr {
+namespace nav {
+
+namespace {
+
+std::string num(double v) {
+  std::ostringstream o;
+  o.precision(10);
+  o << v;
+  return o.str();
+}
+
+std::string dump(const YAML::Node& n) {
+  std::string s = YAML::Dump(n);
+  std::replace(s.begin(), s.end(), '\n', ' ');
+  return s;
+}
+
+/// Reads fields of one YAML mapping, rejecting unknown keys and naming the full field path.
+class Section {
+ public:
+  Section(const YAML::Node& node, std::string file, std::string prefix,
+          std::set<std::string> allowed)
+      : node_(node), file_(std::move(file)), prefix_(std::move(prefix)) {
+    if (!node_.IsMap()) {
+      throw ConfigError(file_ + ": field '" + prefix_ + "': value '" + dump(node_) +
+                        "' must be a mapping");
+    }
+    for (auto it = node_.begin(); it != node_.end(); ++it) {
+      const std::string key = it->first.Scalar();
+      if (!allowed.count(key)) {
+        throw ConfigError(file_ + ": unknown field '" + field(key) + "'");
+      }
+    }
+  }
+
+  std::string field(const std::string& key) const {
+    return prefix_.empty() ? key : prefix_ + "." + key;
+  }
+  bool has(const std::string& key) const { return static_cast<bool>(node_[key]); }
+  YAML::Node get(const std::string& key) const { return node_[key]; }
+
+  double number(const std::string& key, double def, double lo, double hi, bool required = false,
+                bool lo_open = false) const {
+    const YAML::Node n = node_[key];
+    if (!n) {
+      if (required) throw ConfigError(file_ + ": missing field '" + field(key) + "'");
+      return def;
+    }
+    double v;
+    try {
+      v = n.as<double>();
+    } catch (const YAML::Exception&) {
+      throw ConfigError(file_ + ": field '" + field(key) + "': value '" + dump(n) +
+                        "' is not a number");
+    }
+    if (!std::isfinite(v) || v < lo || v > hi || (lo_open && v == lo)) {
+      throw ConfigError(file_ + ": field '" + field(key) + "': value " + num(v) + " must be in " +
+                        (lo_open ? "(" : "[") + num(lo) + ", " + num(hi) + "]");
+    }
+    return v;
+  }
+
+  int integer(const std::string& key, int def, int lo, int hi, bool required = false) const {
+    const YAML::Node n = node_[key];
+    if (!n) {
+      if (required) throw ConfigError(file_ + ": missing field '" + field(key) + "'");
+      return def;
+    }
+    int v;
+    try {
+      v = n.as<int>();
+    } catch (const YAML::Exception&) {
+      throw ConfigError(file_ + ": field '" + field(key) + "': value '" + dump(n) +
+                        "' is not an integer");
+    }
+    if (v < lo || v > hi) {
+      throw ConfigError(file_ + ": field '" + field(key) + "': value " + std::to_string(v) +
+                        " must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
+    }
+    return v;
+  }
+
+  std::string string(const std::string& key, const std::string& def, bool required = false) const {
+    const YAML::Node n = node_[key];
+    if (!n) {
+      if (required) throw ConfigError(file_ + ": missing field '" + field(key) + "'");
+      return def;
+    }
+    if (!n.IsScalar() || n.Scalar().empty()) {
+      throw ConfigError(file_ + ": field '" + field(key) + "': value '" + dump(n) +
+                        "' must be a non-empty string");
+    }
+    return n.Scalar();
+  }
+
+  bool boolean(const std::string& key, bool def) const {
+    const YAML::Node n = node_[key];
+    if (!n) return def;
+    try {
+      return n.as<bool>();
+    } catch (const YAML::Exception&) {
+      throw ConfigError(file_ + ": field '" + field(key) + "': value '" + dump(n) +
+                        "' must be true or false");
+    }
+  }
+
+  const std::string& file() const { return file_; }
+
+ private:
+  YAML::Node node_;
+  std::string file_;
+  std::string prefix_;
+};
+
+std::string resolve(const std::string& base_dir, const std::string& p) {
+  return p[0] == '/' ? p : base_dir + "/" + p;
+}
+
+void checkProbability(double v, const std::string& field) {
+  if (!std::isfinite(v) || v < 0.0 || v > 1.0) {
+    throw ConfigError("simulator config: field '" + field + "': value " + num(v) +
+                      " must be in [0, 1]");
+  }
+}
+
+}  // namespace
+
+void validate(const SimulatorConfig& c) {
+  checkProbability(c.move_success, "move_success");
+  checkProbability(c.slip_stay, "slip_stay");
+  checkProbability(c.slip_lateral, "slip_lateral");
+  const double sum = c.move_success + c.slip_stay + c.slip_lateral;
+  if (std::fabs(sum - 1.0) > 1e-9) {
+    throw ConfigError("simulator config: field 'move_success': move_success + slip_stay + "
+                      "slip_lateral = " + num(sum) + " must be 1");
+  }
+  checkProbability(c.blocking_rate, "blocking_rate");
+  checkProbability(c.trap_probability, "trap_probability");
+  if (!std::isfinite(c.trap_reference_cell_size)) {
+    throw ConfigError("simulator config: field 'trap_reference_cell_size': value " +
+                      num(c.trap_reference_cell_size) + " must be finite");
+  }
+  if (c.times_of_day.size() != c.time_factors.size()) {
+    throw ConfigError("simulator config: field 'time_of_day': " +
+                      std::to_string(c.times_of_day.size()) + " names but " +
+                      std::to_string(c.time_factors.size()) + " factors");
+  }
+  std::set<std::string> seen;
+  for (size_t i = 0; i < c.times_of_day.size(); ++i) {
+    if (c.times_of_day[i].empty() || !seen.insert(c.times_of_day[i]).second) {
+      throw ConfigError("simulator config: field 'time_of_day': bad or duplicate name '" +
+                        c.times_of_day[i] + "'");
+    }
+    if (!std::isfinite(c.time_factors[i]) || c.time_factors[i] < 0.0) {
+      throw ConfigError("simulator config: field 'time_of_day." + c.times_of_day[i] +
+                        "': value " + num(c.time_factors[i]) + " must be >= 0");
+    }
+  }
+  for (const auto& a : c.areas) {
+    // A negative rate means "not overridden".
+    if (!std::isfinite(a.second.rate) || a.second.rate > 1.0) {
+      throw ConfigError("simulator config: field 'areas." + a.first + ".rate': value " +
+                        num(a.second.rate) + " must be in [0, 1]");
+    }
+    for (const auto& t : a.second.time_factor) {
+      if (!seen.count(t.first)) {
+        throw ConfigError("simulator config: field 'areas." + a.first + ".time_of_day': unknown "
+                          "time of day '" + t.first + "'");
+      }
+      if (!std::isfinite(t.second) || t.second < 0.0) {
+        throw ConfigError("simulator config: field 'areas." + a.first + ".time_of_day." +
+                          t.first + "': value " + num(t.second) + " must be >= 0");
+      }
+    }
+  }
+}
+
+const DomainConfig& NavigationConfig::domain(const std::string& name) const {
+  for (const DomainConfig& d : domains) {
+    if (d.name == name) return d;
+  }
+  throw UnknownSymbolError("navigation config: unknown domain '" + name + "'");
+}
+
+NavigationConfig loadNavigationConfig(const std::string& path) {
+  std::string text;
+  try {
+    text = readFile(path);
+  } catch (const IoError& e) {
+    throw ConfigError(path + ": cannot read navigation config: " + e.what());
+  }
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(path + ":" + std::to_string(e.mark.line + 1) + ":" +
+                      std::to_string(e.mark.column + 1) + ": broken YAML: " + e.msg);
+  }
+  NavigationConfig cfg;
+  const std::string dir = dirName(path);
+  Section top(root, path, "", {"map", "places", "grid", "domains", "simulator", "planner"});
+  cfg.map = resolve(dir, top.string("map", "", true));
+  cfg.places = resolve(dir, top.string("places", "", true));
+  if (top.has("grid")) {
+    Section grid(top.get("grid"), path, "grid", {"max_blocked_fraction"});
+    cfg.max_blocked_fraction =
+        grid.number("max_blocked_fraction", cfg.max_blocked_fraction, 0.0, 1.0, false, true);
+  }
+  if (!top.has("domains")) throw ConfigError(path + ": missing field 'domains'");
+  const YAML::Node dn = top.get("domains");
+  if (!dn.IsMap() || dn.size() == 0) {
+    throw ConfigError(path + ": field 'domains': value '" + dump(dn) +
+                      "' must be a non-empty mapping name -> {cols, rows, step_limit}");
+  }
+  for (auto it = dn.begin(); it != dn.end(); ++it) {
+    DomainConfig d;
+    d.name = it->first.Scalar();
+    Section s(it->second, path, "domains." + d.name, {"cols", "rows", "step_limit"});
+    d.cols = s.integer("cols", 0, 1, 10000, true);
+    d.rows = s.integer("rows", 0, 1, 10000, true);
+    d.step_limit = s.integer("step_limit", 0, 1, 100000000, true);
+    cfg.domains.push_back(d);
+  }
+  if (top.has("simulator")) {
+    Section s(top.get("simulator"), path, "simulator",
+              {"move_success", "slip_stay", "slip_lateral", "blocking_rate", "blocking_mode",
+               "trap_probability",
+               "trap_reference_cell_size", "time_of_day", "areas"});
+    SimulatorConfig& c = cfg.simulator;
+    c.move_success = s.number("move_success", c.move_success, 0.0, 1.0, true);
+    c.slip_stay = s.number("slip_stay", c.slip_stay, 0.0, 1.0, true);
+    c.slip_lateral = s.number("slip_lateral", c.slip_lateral, 0.0, 1.0, true);
+    const double sum = c.move_success + c.slip_stay + c.slip_lateral;
+    if (std::fabs(sum - 1.0) > 1e-9) {
+      throw ConfigError(path + ": field 'simulator.move_success': move_success + slip_stay + "
+                        "slip_lateral = " + num(sum) + " must be 1");
+    }
+    c.blocking_rate = s.number("blocking_rate", c.blocking_rate, 0.0, 1.0, true);
+    const std::string mode = s.string("blocking_mode", "per_cell");
+    if (mode == "per_cell") {
+      c.blocking_mode = BlockingMode::kPerCell;
+    } else if (mode == "on_entry") {
+      c.blocking_mode = BlockingMode::kOnEntry;
+    } else {
+      throw ConfigError(path + ": field 'simulator.blocking_mode': unknown value '" + mode +
+                        "' (expected per_cell or on_entry)");
+    }
+    c.trap_probability = s.number("trap_probability", c.trap_probability, 0.0, 1.0, true);
+    c.trap_reference_cell_size =
+        s.number("trap_reference_cell_size", c.trap_reference_cell_size, 0.0, 1e6);
+    if (s.has("time_of_day")) {
+      const YAML::Node t = s.get("time_of_day");
+      if (!t.IsMap() || t.size() == 0) {
+        throw ConfigError(path + ": field 'simulator.time_of_day': value '" + dump(t) +
+                          "' must be a non-empty mapping name -> factor");
+      }
+      c.times_of_day.clear();
+      c.time_factors.clear();
+      for (auto it = t.begin(); it != t.end(); ++it) {
+        const std::string name = it->first.Scalar();
+        c.times_of_day.push_back(name);
+        double v;
+        try {
+          v = it->second.as<double>();
+        } catch (const YAML::Exception&) {
+          throw ConfigError(path + ": field 'simulator.time_of_day." + name + "': value '" +
+                            dump(it->second) + "' is not a number");
+        }
+        if (!std::isfinite(v) || v < 0.0) {
+          throw ConfigError(path + ": field 'simulator.time_of_day." + name + "': value " +
+                            num(v) + " must be >= 0");
+        }
+        c.time_factors.push_back(v);
+      }
+    }
+    if (s.has("areas")) {
+      const YAML::Node an = s.get("areas");
+      if (!an.IsMap() && !(an.IsSequence() && an.size() == 0) && !an.IsNull()) {
+        throw ConfigError(path + ": field 'simulator.areas': value '" + dump(an) +
+                          "' must be a mapping area -> {rate, time_of_day}");
+      }
+      if (an.IsMap()) {
+        for (auto it = an.begin(); it != an.end(); ++it) {
+          const std::string name = it->first.Scalar();
+          Section a(it->second, path, "simulator.areas." + name, {"rate", "time_of_day"});
+          AreaConfig ac;
+          ac.rate = a.number("rate", -1.0, 0.0, 1.0);
+          if (a.has("time_of_day")) {
+            const YAML::Node t = a.get("time_of_day");
+            if (!t.IsMap()) {
+              throw ConfigError(path + ": field 'simulator.areas." + name +
+                                ".time_of_day': value '" + dump(t) + "' must be a mapping");
+            }
+            for (auto jt = t.begin(); jt != t.end(); ++jt) {
+              const std::string tn = jt->first.Scalar();
+              const std::string f = "simulator.areas." + name + ".time_of_day." + tn;
+              if (std::find(c.times_of_day.begin(), c.times_of_day.end(), tn) ==
+                  c.times_of_day.end()) {
+                throw ConfigError(path + ": field '" + f + "': unknown time of day '" + tn + "'");
+              }
+              double v;
+              try {
+                v = jt->second.as<double>();
+              } catch (const YAML::Exception&) {
+                throw ConfigError(path + ": field '" + f + "': value '" + dump(jt->second) +
+                                  "' is not a number");
+              }
+              if (!std::isfinite(v) || v < 0.0) {
+                throw ConfigError(path + ": field '" + f + "': value " + num(v) + " must be >= 0");
+              }
+              ac.time_factor[tn] = v;
+            }
+          }
+          cfg.simulator.areas[name] = ac;
+        }
+      }
+    }
+    try {
+      validate(c);
+    } catch (const ConfigError& e) {
+      throw ConfigError(path + ": " + e.what());
+    }
+  }
+  if (top.has("planner")) {
+    Section s(top.get("planner"), path, "planner",
+              {"robot_radius", "algorithm", "timeout", "range", "interpolation_step", "simplify"});
+    PlannerConfig& p = cfg.planner;
+    p.robot_radius = s.number("robot_radius", p.robot_radius, 0.0, 100.0);
+    p.algorithm = s.string("algorithm", p.algorithm);
+    if (p.algorithm != "rrtconnect" && p.algorithm != "prm") {
+      throw ConfigError(path + ": field 'planner.algorithm': unknown value '" + p.algorithm +
+                        "' (expected rrtconnect or prm)");
+    }
+    p.timeout = s.number("timeout", p.timeout, 0.0, 3600.0, false, true);
+    p.range = s.number("range", p.range, 0.0, 1e6);
+    p.interpolation_step = s.number("interpolation_step", p.interpolation_step, 0.0, 1e6, false, true);
+    p.simplify = s.boolean("simplify", p.simplify);
+  }
+  return cfg;
+}
+
+}  // namespace nav
+}  // namespace krr

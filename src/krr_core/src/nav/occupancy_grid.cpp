@@ -1,0 +1,355 @@
+#include "krr_core/nav/occupancy_grid.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cctype>
+#include <cmath>
+#include <sstream>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/common/files.h"
+
+namespace krr {
+namespace nav {
+
+Point2 OccupancyGrid::mapToWorld(double u, double v) const {
+  const double lx = u * resolution;
+  const double ly = v * resolution;
+  const double c = std::cos(origin_yaw);
+  const double s = std::sin(origin_yaw);
+  return Point2{origin_x + c * lx - s * ly, origin_y + s * lx + c * ly};
+}
+
+void OccupancyGrid::worldToMap(const Point2& p, double* u, double* v) const {
+  const double dx = p.x - origin_x;
+  const double dy = p.y - origin_y;
+  const double c = std::cos(origin_yaw);
+  const double s = std::sin(origin_yaw);
+  *u = (c * dx + s * dy) / resolution;
+  *v = (-s * dx + c * dy) / resolution;
+}
+
+bool OccupancyGrid::worldToCell(const Point2& p, int* col, int* row) const {
+  double u = 0.0;
+  double v = 0.0;
+  worldToMap(p, &u, &v);
+  if (!(u >= 0.0 && v >= 0.0 && u < width && v < height)) return false;
+  *col = static_cast<int>(u);
+  *row = static_cast<int>(v);
+  return true;
+}
+
+namespace {
+
+/// Reads PGM header tokens, skipping whitespace and '#' comments.
+class PgmHeaderReader {
+ public:
+  PgmHeaderReader(const std::string& bytes, const std::string& name) : b_(bytes), name_(name) {}
+
+  long readInt(const char* what) {
+    skipSpaceAndComments();
+    if (pos_ >= b_.size()) throw MapError(name_ + ": truncated PGM header (missing " + what + ")");
+    if (!std::isdigit(static_cast<unsigned char>(b_[pos_]))) {
+      throw MapError(name_ + ": bad PGM header: " + what + " is not a number near byte " +
+                     std::to_string(pos_));
+    }
+    long v = 0;
+    while (pos_ < b_.size() && std::isdigit(static_cast<unsigned char>(b_[pos_]))) {
+      v = v * 10 + (b_[pos_] - '0');
+      if (v > 100000000L) throw MapError(name_ + ": bad PGM header: " + what + " is too large");
+      ++pos_;
+    }
+    return v;
+  }
+
+  void skipSpaceAndComments() {
+    while (pos_ < b_.size()) {
+      char c = b_[pos_];
+      if (c == '#') {
+        while (pos_ < b_.size() && b_[pos_] != '\n') ++pos_;
+      } else if (std::isspace(static_cast<unsigned char>(c))) {
+        ++pos_;
+      } else {
+        break;
+      }
+    }
+  }
+
+  size_t pos_ = 2;  // after the magic
+
+ private:
+  const std::string& b_;
+  const std::string& name_;
+};
+
+}  // namespace
+
+PgmImage parsePgm(const std::string& bytes, const std::string& name) {
+  if (bytes.size() < 2 || bytes[0] != 'P' || (bytes[1] != '5' && bytes[1] != '2')) {
+    std::string magic = bytes.substr(0, std::min<size_t>(2, bytes.size()));
+    for (char& c : magic) {
+      if (!std::isprint(static_cast<unsigned char>(c))) c = '?';
+    }
+    throw MapError(name + ": bad magic '" + magic + "': expected a PGM image (P5 or P2)");
+  }
+  const bool binary = bytes[1] == '5';
+  PgmHeaderReader rd(bytes, name);
+  PgmImage img;
+  long w = rd.readInt("width");
+  long h = rd.readInt("height");
+  long maxval = rd.readInt("maxval");
+  if (w <= 0 || h <= 0) {
+    throw MapError(name + ": bad PGM size " + std::to_string(w) + "x" + std::to_string(h));
+  }
+  if (w * h > 100000000L) throw MapError(name + ": PGM image too large");
+  if (maxval <= 0 || maxval > 65535) {
+    throw MapError(name + ": bad PGM maxval " + std::to_string(maxval) + " (must be 1..65535)");
+  }
+  img.width = static_cast<int>(w);
+  img.height = static_cast<int>(h);
+  img.maxval = static_cast<int>(maxval);
+  const size_t n = static_cast<size_t>(w) * static_cast<size_t>(h);
+  img.pixels.resize(n);
+  size_t pos = rd.pos_;
+  if (binary) {
+    // Exactly one whitespace byte separates the header from the raster.
+    if (pos >= bytes.size() || !std::isspace(static_cast<unsigned char>(bytes[pos]))) {
+      throw MapError(name + ": truncated PGM data (no raster after header)");
+    }
+    ++pos;
+    const size_t bpp = maxval > 255 ? 2 : 1;
+    if (bytes.size() - pos < n * bpp) {
+      throw MapError(name + ": truncated PGM data: expected " + std::to_string(n * bpp) +
+                     " bytes, found " + std::to_string(bytes.size() - pos));
+    }
+    const unsigned char* p = reinterpret_cast<const unsigned char*>(bytes.data()) + pos;
+    for (size_t i = 0; i < n; ++i) {
+      unsigned v = bpp == 1 ? p[i] : (static_cast<unsigned>(p[2 * i]) << 8) | p[2 * i + 1];
+      if (v > static_cast<unsigned>(maxval)) {
+        throw MapError(name + ": PGM pixel " + std::to_string(i) + " value " + std::to_string(v) +
+                       " exceeds maxval " + std::to_string(maxval));
+      }
+      img.pixels[i] = static_cast<std::uint16_t>(v);
+    }
+  } else {
+    rd.pos_ = pos;
+    for (size_t i = 0; i < n; ++i) {
+      rd.skipSpaceAndComments();
+      if (rd.pos_ >= bytes.size()) {
+        throw MapError(name + ": truncated PGM data: expected " + std::to_string(n) +
+                       " values, found " + std::to_string(i));
+      }
+      long v = rd.readInt("pixel value");
+      if (v > maxval) {
+        throw MapError(name + ": PGM pixel " + std::to_string(i) + " value " + std::to_string(v) +
+                       " exceeds maxval " + std::to_string(maxval));
+      }
+      img.pixels[i] = static_cast<std::uint16_t>(v);
+    }
+  }
+  return img;
+}
+
+PgmImage readPgm(const std::string& path) {
+  std::string bytes;
+  try {
+    bytes = readFile(path);
+  } catch (const IoError& e) {
+    throw MapError(path + ": cannot read image: " + e.what());
+  }
+  return parsePgm(bytes, path);
+}
+
+namespace {
+
+double fieldDouble(const YAML::Node& root, const std::string& field, const std::string& file) {
+  const YAML::Node n = root[field];
+  if (!n) throw MapError(file + ": missing field '" + field + "'");
+  try {
+    double v = n.as<double>();
+    if (!std::isfinite(v)) throw YAML::Exception(YAML::Mark(), "not finite");
+    return v;
+  } catch (const YAML::Exception&) {
+    throw MapError(file + ": field '" + field + "': value '" + YAML::Dump(n) +
+                   "' is not a number");
+  }
+}
+
+}  // namespace
+
+MapMetadata loadMapMetadata(const std::string& yaml_path) {
+  std::string text;
+  try {
+    text = readFile(yaml_path);
+  } catch (const IoError& e) {
+    throw MapError(yaml_path + ": cannot read map YAML: " + e.what());
+  }
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw MapError(yaml_path + ":" + std::to_string(e.mark.line + 1) + ":" +
+                   std::to_string(e.mark.column + 1) + ": broken YAML: " + e.msg);
+  }
+  if (!root.IsMap()) throw MapError(yaml_path + ": broken YAML: top level is not a mapping");
+  MapMetadata m;
+  const YAML::Node image = root["image"];
+  if (!image) throw MapError(yaml_path + ": missing field 'image'");
+  if (!image.IsScalar() || image.Scalar().empty()) {
+    throw MapError(yaml_path + ": field 'image': value '" + YAML::Dump(image) +
+                   "' is not a file name");
+  }
+  m.image = image.Scalar();
+  m.resolution = fieldDouble(root, "resolution", yaml_path);
+  if (!(m.resolution > 0.0)) {
+    throw MapError(yaml_path + ": field 'resolution': value " + std::to_string(m.resolution) +
+                   " must be > 0");
+  }
+  const YAML::Node origin = root["origin"];
+  if (!origin) throw MapError(yaml_path + ": missing field 'origin'");
+  if (!origin.IsSequence() || origin.size() != 3) {
+    throw MapError(yaml_path + ": field 'origin': value '" + YAML::Dump(origin) +
+                   "' must be [x, y, yaw]");
+  }
+  for (size_t i = 0; i < 3; ++i) {
+    try {
+      m.origin[i] = origin[i].as<double>();
+    } catch (const YAML::Exception&) {
+      throw MapError(yaml_path + ": field 'origin': value '" + YAML::Dump(origin) +
+                     "' must be three numbers [x, y, yaw]");
+    }
+    if (!std::isfinite(m.origin[i])) {
+      throw MapError(yaml_path + ": field 'origin': value '" + YAML::Dump(origin) +
+                     "' must be finite");
+    }
+  }
+  m.occupied_thresh = fieldDouble(root, "occupied_thresh", yaml_path);
+  m.free_thresh = fieldDouble(root, "free_thresh", yaml_path);
+  if (m.occupied_thresh < 0.0 || m.occupied_thresh > 1.0) {
+    throw MapError(yaml_path + ": field 'occupied_thresh': value " +
+                   std::to_string(m.occupied_thresh) + " must be in [0, 1]");
+  }
+  if (m.free_thresh < 0.0 || m.free_thresh > 1.0) {
+    throw MapError(yaml_path + ": field 'free_thresh': value " + std::to_string(m.free_thresh) +
+                   " must be in [0, 1]");
+  }
+  if (m.occupied_thresh <= m.free_thresh) {
+    throw MapError(yaml_path + ": field 'occupied_thresh': value " +
+                   std::to_string(m.occupied_thresh) + " must be > free_thresh " +
+                   std::to_string(m.free_thresh));
+  }
+  const YAML::Node negate = root["negate"];
+  if (!negate) throw MapError(yaml_path + ": missing field 'negate'");
+  try {
+    // map_server writes negate as 0/1; accept booleans too.
+    if (negate.Scalar() == "0" || negate.Scalar() == "1") {
+      m.negate = negate.Scalar() == "1";
+    } else {
+      m.negate = negate.as<bool>();
+    }
+  } catch (const YAML::Exception&) {
+    throw MapError(yaml_path + ": field 'negate': value '" + YAML::Dump(negate) +
+                   "' must be 0, 1, true or false");
+  }
+  const YAML::Node mode = root["mode"];
+  if (mode) {
+    const std::string s = mode.IsScalar() ? mode.Scalar() : YAML::Dump(mode);
+    if (s == "trinary") {
+      m.mode = MapMode::kTrinary;
+    } else if (s == "scale") {
+      m.mode = MapMode::kScale;
+    } else if (s == "raw") {
+      m.mode = MapMode::kRaw;
+    } else {
+      throw MapError(yaml_path + ": field 'mode': unknown value '" + s +
+                     "' (expected trinary, scale or raw)");
+    }
+  }
+  return m;
+}
+
+OccupancyGrid imageToGrid(const PgmImage& image, const MapMetadata& meta) {
+  OccupancyGrid g;
+  g.width = image.width;
+  g.height = image.height;
+  g.resolution = meta.resolution;
+  g.origin_x = meta.origin[0];
+  g.origin_y = meta.origin[1];
+  g.origin_yaw = meta.origin[2];
+  g.data.assign(static_cast<size_t>(g.width) * static_cast<size_t>(g.height), kUnknown);
+  const double scale = 255.0 / image.maxval;
+  for (int j = 0; j < image.height; ++j) {
+    const int row = image.height - 1 - j;  // image row 0 is the top of the map
+    for (int i = 0; i < image.width; ++i) {
+      double v = image.pixels[static_cast<size_t>(j) * image.width + i] * scale;
+      if (meta.negate) v = 255.0 - v;
+      std::int8_t value;
+      if (meta.mode == MapMode::kRaw) {
+        // map_server stores the grey value itself (wrapping into the int8 message field).
+        value = static_cast<std::int8_t>(static_cast<std::uint8_t>(std::lround(v)));
+      } else {
+        const double occ = (255.0 - v) / 255.0;
+        if (occ > meta.occupied_thresh) {
+          value = kOccupied;
+        } else if (occ < meta.free_thresh) {
+          value = kFree;
+        } else if (meta.mode == MapMode::kTrinary) {
+          value = kUnknown;
+        } else {
+          const double ratio = (occ - meta.free_thresh) / (meta.occupied_thresh - meta.free_thresh);
+          value = static_cast<std::int8_t>(1 + 98 * ratio);  // truncation, as map_server does
+        }
+      }
+      g.data[static_cast<size_t>(g.index(i, row))] = value;
+    }
+  }
+  return g;
+}
+
+OccupancyGrid loadMap(const std::string& yaml_path) {
+  MapMetadata meta = loadMapMetadata(yaml_path);
+  std::string image_path = meta.image;
+  if (image_path[0] != '/') image_path = dirName(yaml_path) + "/" + image_path;
+  PgmImage img = readPgm(image_path);
+  return imageToGrid(img, meta);
+}
+
+std::string encodePgm(const OccupancyGrid& grid) {
+  std::ostringstream out;
+  out << "P5\n# CREATOR: krr_core nav " << grid.resolution << " m/pix\n"
+      << grid.width << " " << grid.height << "\n255\n";
+  std::string header = out.str();
+  std::string data(static_cast<size_t>(grid.width) * static_cast<size_t>(grid.height), '\0');
+  for (int j = 0; j < grid.height; ++j) {
+    const int row = grid.height - 1 - j;
+    for (int i = 0; i < grid.width; ++i) {
+      const std::int8_t v = grid.data[static_cast<size_t>(grid.index(i, row))];
+      unsigned char px = 205;  // unknown (map_saver convention)
+      if (v == kFree) {
+        px = 254;
+      } else if (v == kOccupied) {
+        px = 0;
+      }
+      data[static_cast<size_t>(j) * grid.width + i] = static_cast<char>(px);
+    }
+  }
+  return header + data;
+}
+
+void saveMap(const OccupancyGrid& grid, const std::string& yaml_path,
+             const std::string& image_name) {
+  writeFileAtomic(dirName(yaml_path) + "/" + image_name, encodePgm(grid));
+  std::ostringstream y;
+  y.precision(10);
+  y << "image: " << image_name << "\n"
+    << "resolution: " << grid.resolution << "\n"
+    << "origin: [" << grid.origin_x << ", " << grid.origin_y << ", " << grid.origin_yaw << "]\n"
+    << "negate: 0\n"
+    << "occupied_thresh: 0.65\n"
+    << "free_thresh: 0.196\n"
+    << "mode: trinary\n";
+  writeFileAtomic(yaml_path, y.str());
+}
+
+}  // namespace nav
+}  // namespace krr

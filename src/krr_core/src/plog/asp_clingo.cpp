@@ -1,0 +1,295 @@
+/**
+ * @file asp_clingo.cpp
+ * @brief Running the clingo binary as a subprocess and reading its answer sets.
+ *
+ * clingo is started with posix_spawnp on a program written to a private temporary directory
+ * (mkdtemp), its stdout and stderr go to files in that directory, and the parent waits for its
+ * end on a pidfd with the remaining time as poll timeout, killing it when the time limit is
+ * exceeded. The directory is always removed (unless AspOptions::keep_files).
+ * Answer sets are read from clingo's plain text output (-V0: one answer set per line, then
+ * the result word), split into atoms and arguments by a small term scanner that respects
+ * parentheses and quoted strings.
+ */
+#include "krr_core/plog/asp_backend.h"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/syscall.h>
+#include <sys/stat.h>
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/common/files.h"
+
+extern char** environ;
+
+namespace krr {
+namespace plog {
+
+namespace {
+
+/// Removes a directory tree when it goes out of scope, whatever happens in between.
+class TempDir {
+ public:
+  TempDir() {
+    const char* base = std::getenv("TMPDIR");
+    std::string pattern = std::string(base != nullptr && *base != '\0' ? base : "/tmp") +
+                          "/krr_asp_XXXXXX";
+    std::vector<char> buf(pattern.begin(), pattern.end());
+    buf.push_back('\0');
+    if (mkdtemp(buf.data()) == nullptr) {
+      throw IoError("AspBackend: cannot create a temporary directory from '" + pattern +
+                    "': " + std::strerror(errno));
+    }
+    path_ = buf.data();
+  }
+  ~TempDir() {
+    if (keep_) return;
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  const std::string& path() const { return path_; }
+  void keep() { keep_ = true; }
+
+ private:
+  std::string path_;
+  bool keep_ = false;
+};
+
+std::string readWhole(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+std::string trimmed(const std::string& s, std::size_t max_len = 4000) {
+  std::size_t b = s.find_first_not_of(" \t\r\n");
+  if (b == std::string::npos) return "";
+  std::size_t e = s.find_last_not_of(" \t\r\n");
+  std::string out = s.substr(b, e - b + 1);
+  if (out.size() > max_len) out = out.substr(0, max_len) + " [...]";
+  return out;
+}
+
+}  // namespace
+
+std::vector<std::string> splitAspTerms(const std::string& text, char separator) {
+  std::vector<std::string> out;
+  std::string cur;
+  int depth = 0;
+  bool in_string = false;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    char c = text[i];
+    if (in_string) {
+      cur.push_back(c);
+      if (c == '\\' && i + 1 < text.size()) {
+        cur.push_back(text[++i]);
+      } else if (c == '"') {
+        in_string = false;
+      }
+      continue;
+    }
+    if (c == '"') {
+      in_string = true;
+      cur.push_back(c);
+    } else if (c == '(') {
+      ++depth;
+      cur.push_back(c);
+    } else if (c == ')') {
+      --depth;
+      cur.push_back(c);
+    } else if (depth == 0 && (c == separator || (separator == ' ' && (c == '\t' || c == '\r')))) {
+      if (!cur.empty()) out.push_back(cur);
+      cur.clear();
+    } else {
+      cur.push_back(c);
+    }
+  }
+  if (!cur.empty()) out.push_back(cur);
+  return out;
+}
+
+AspAtom parseAspAtom(const std::string& text) {
+  AspAtom atom;
+  std::size_t open = text.find('(');
+  if (open == std::string::npos || text.empty() || text.back() != ')' || text[0] == '"') {
+    atom.name = text;
+    return atom;
+  }
+  atom.name = text.substr(0, open);
+  atom.args = splitAspTerms(text.substr(open + 1, text.size() - open - 2), ',');
+  return atom;
+}
+
+ClingoResult runClingo(const std::string& program, const AspOptions& options,
+                       const std::vector<std::string>& extra_args) {
+  if (!(options.timeout_s > 0.0) || !std::isfinite(options.timeout_s)) {
+    throw ConfigError("AspOptions.timeout_s must be a positive number of seconds, got " +
+                      std::to_string(options.timeout_s));
+  }
+  TempDir dir;
+  if (options.keep_files) dir.keep();
+  const std::string lp = dir.path() + "/program.lp";
+  const std::string out_path = dir.path() + "/stdout.txt";
+  const std::string err_path = dir.path() + "/stderr.txt";
+  {
+    std::ofstream f(lp, std::ios::binary);
+    f << program;
+    if (!f) throw IoError("AspBackend: cannot write the ASP program to '" + lp + "'");
+  }
+
+  std::vector<std::string> args = {options.clingo_path, "--models=0", "-V0", "--warn=none"};
+  for (const auto& a : options.extra_args) args.push_back(a);
+  for (const auto& a : extra_args) args.push_back(a);
+  args.push_back(lp);
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, out_path.c_str(),
+                                   O_WRONLY | O_CREAT | O_TRUNC, 0600);
+  posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, err_path.c_str(),
+                                   O_WRONLY | O_CREAT | O_TRUNC, 0600);
+  pid_t pid = 0;
+  int rc = posix_spawnp(&pid, options.clingo_path.c_str(), &actions, nullptr, argv.data(),
+                        environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (rc != 0) {
+    throw Error("AspBackend: cannot start clingo '" + options.clingo_path + "' on " + lp +
+                ": " + std::strerror(rc) +
+                " (install clingo >= 5.4 or set AspOptions.clingo_path)");
+  }
+
+  const auto start = std::chrono::steady_clock::now();
+  const auto limit = std::chrono::duration<double>(options.timeout_s);
+  auto timedOut = [&]() {
+    kill(pid, SIGKILL);
+    int st = 0;
+    while (waitpid(pid, &st, 0) < 0 && errno == EINTR) {
+    }
+    throw Error("AspBackend: clingo on " + lp + " exceeded the time limit of " +
+                std::to_string(options.timeout_s) + " s and was killed");
+  };
+  int status = 0;
+  // Wait for the end of clingo without polling latency: a pidfd becomes readable when the
+  // process exits. Where pidfds are unavailable, fall back to polling waitpid.
+  // (Direct system call: glibc 2.36's <sys/pidfd.h> lacks C linkage for C++.)
+#ifdef SYS_pidfd_open
+  const int pidfd = static_cast<int>(syscall(SYS_pidfd_open, pid, 0));
+#else
+  const int pidfd = -1;
+#endif
+  if (pidfd >= 0) {
+    for (;;) {
+      const auto left = limit - (std::chrono::steady_clock::now() - start);
+      const long ms = static_cast<long>(
+          std::ceil(std::chrono::duration<double, std::milli>(left).count()));
+      if (ms <= 0) {
+        close(pidfd);
+        timedOut();
+      }
+      struct pollfd pfd = {pidfd, POLLIN, 0};
+      const int r = poll(&pfd, 1, static_cast<int>(std::min<long>(ms, 1000000L)));
+      if (r > 0) break;
+      if (r < 0 && errno != EINTR) {
+        close(pidfd);
+        throw Error("AspBackend: waiting for clingo on " + lp + " failed: " +
+                    std::strerror(errno));
+      }
+    }
+    close(pidfd);
+    while (waitpid(pid, &status, 0) < 0) {
+      if (errno != EINTR) {
+        throw Error("AspBackend: waiting for clingo on " + lp + " failed: " +
+                    std::strerror(errno));
+      }
+    }
+  } else {
+    auto pause = std::chrono::microseconds(50);
+    for (;;) {
+      pid_t w = waitpid(pid, &status, WNOHANG);
+      if (w == pid) break;
+      if (w < 0 && errno != EINTR) {
+        throw Error("AspBackend: waiting for clingo on " + lp + " failed: " +
+                    std::strerror(errno));
+      }
+      if (std::chrono::steady_clock::now() - start > limit) timedOut();
+      std::this_thread::sleep_for(pause);
+      if (pause < std::chrono::milliseconds(2)) pause *= 2;
+    }
+  }
+
+  std::error_code size_error;
+  const auto out_size = std::filesystem::file_size(out_path, size_error);
+  if (!size_error && out_size > options.max_output_bytes) {
+    throw Error("AspBackend: clingo's output on " + lp + " has " + std::to_string(out_size) +
+                " bytes, more than AspOptions.max_output_bytes = " +
+                std::to_string(options.max_output_bytes) +
+                " (too many possible worlds to enumerate; use the native engine)");
+  }
+  const std::string out = readWhole(out_path);
+  const std::string err = readWhole(err_path);
+  if (WIFSIGNALED(status)) {
+    throw Error("AspBackend: clingo on " + lp + " was killed by signal " +
+                std::to_string(WTERMSIG(status)) + ": " + trimmed(err));
+  }
+  const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  // clingo's exit code is a bit set: 1 interrupted, 10 satisfiable, 20 search space exhausted,
+  // 33 out of memory, 65 error, 128 no run. posix_spawnp reports exec failures of a found but
+  // unrunnable file through exit code 127.
+  if (code == 127 || code >= 33 || (code & 1) != 0 || (code & 20) != 20) {
+    std::string why = trimmed(err);
+    if (why.empty()) why = trimmed(out);
+    throw Error("AspBackend: clingo '" + options.clingo_path + "' failed on " + lp +
+                " (exit code " + std::to_string(code) + "; AspOptions.keep_files keeps the file): " +
+                (why.empty() ? std::string("no message") : why));
+  }
+
+  ClingoResult result;
+  std::istringstream lines(out);
+  std::string line;
+  bool status_seen = false;
+  while (std::getline(lines, line)) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line == "SATISFIABLE" || line == "UNSATISFIABLE" || line == "OPTIMUM FOUND") {
+      result.satisfiable = (line != "UNSATISFIABLE");
+      status_seen = true;
+      break;
+    }
+    if (line == "UNKNOWN") {
+      throw Error("AspBackend: clingo did not finish the search on " + lp);
+    }
+    result.models.push_back(splitAspTerms(line, ' '));
+  }
+  if (!status_seen) {
+    throw Error("AspBackend: unexpected clingo output on " + lp + " (no result line): " +
+                trimmed(out));
+  }
+  // No model lines precede an UNSATISFIABLE; with a multi-shot script the result line is that
+  // of the last solve only, and earlier solves' answer sets are kept.
+  return result;
+}
+
+}  // namespace plog
+}  // namespace krr

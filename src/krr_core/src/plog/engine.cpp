@@ -1,0 +1,1025 @@
+#include "krr_core/plog/engine.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace krr {
+namespace plog {
+
+namespace {
+constexpr size_t kMaxFactor = size_t(1) << 24;
+}
+
+ExactEngine::ExactEngine(const GroundProgram& g) : g_(g) {
+  const size_t n = g.instances.size();
+  fixed_.assign(n, -1);
+  assign_.assign(n, -1);
+  atom_offset_.resize(n + 1);
+  int off = 0;
+  for (size_t i = 0; i < n; ++i) {
+    atom_offset_[i] = off;
+    off += static_cast<int>(g.instances[i].domain.size());
+  }
+  atom_offset_[n] = off;
+  atom_stamp_.assign(static_cast<size_t>(off), 0);
+  atom_state_.assign(static_cast<size_t>(off), 0);
+  scope_stamp_.assign(n, 0);
+  scope_cache_.resize(n);
+  scope_busy_.assign(n, 0);
+  rel_stamp_.assign(n, 0);
+  cond_pos_.assign(n, -1);
+  states_.resize(n);
+  live_rules_.resize(n);
+  buildAtomSccs();
+  for (size_t i = 0; i < n; ++i) {
+    const GInstance& gi = g.instances[i];
+    if (gi.random) continue;
+    for (const auto& r : gi.rules)
+      if (r.first != gi.rules[0].first) {
+        conflict_derived_.push_back(static_cast<int>(i));
+        break;
+      }
+  }
+}
+
+void ExactEngine::setFixed(int inst, int value) { fixed_[static_cast<size_t>(inst)] = value; }
+
+void ExactEngine::clearFixed() { std::fill(fixed_.begin(), fixed_.end(), -1); }
+
+int ExactEngine::card(int inst) const {
+  return static_cast<int>(states_[static_cast<size_t>(inst)].size());
+}
+
+void ExactEngine::computeStates(int inst) {
+  const GInstance& gi = g_.instances[static_cast<size_t>(inst)];
+  const int D = static_cast<int>(gi.domain.size());
+  std::vector<int>& st = states_[static_cast<size_t>(inst)];
+  st.clear();
+  std::vector<Item> items;
+  liveItems(inst, items);
+  bool full = false;
+  for (const auto& it : items) {
+    if (it.kind != 0) continue;
+    const GSelection& sel = gi.selections[static_cast<size_t>(it.index)];
+    if (!sel.dynamic_range) {
+      full = true;
+      break;
+    }
+    for (const auto& r : sel.range) st.push_back(r.first);
+  }
+  if (full) {
+    st.resize(static_cast<size_t>(D));
+    for (int v = 0; v < D; ++v) st[static_cast<size_t>(v)] = v;
+  } else {
+    std::sort(st.begin(), st.end());
+    st.erase(std::unique(st.begin(), st.end()), st.end());
+  }
+  // "undefined" is a state unless some selection rule always applies in this context
+  // (its body is empty or made of literals on do()-fixed instances that hold).
+  bool always = false;
+  for (const auto& it : items) {
+    if (it.kind != 0) continue;
+    bool all_fixed = true;
+    for (const auto& l : gi.selections[static_cast<size_t>(it.index)].body)
+      if (fixed_[static_cast<size_t>(l.inst)] < 0) all_fixed = false;
+    if (all_fixed) always = true;  // live, so its fixed literals hold
+  }
+  if (!always) st.push_back(D);  // undefined
+}
+
+void ExactEngine::newStamp() {
+  ++stamp_;
+  if (stamp_ == 0) {
+    std::fill(atom_stamp_.begin(), atom_stamp_.end(), 0);
+    stamp_ = 1;
+  }
+}
+
+int ExactEngine::valueOf(int inst) {
+  int f = fixed_[static_cast<size_t>(inst)];
+  if (f >= 0) return f;
+  const GInstance& gi = g_.instances[static_cast<size_t>(inst)];
+  const int undef = static_cast<int>(gi.domain.size());
+  if (gi.random) {
+    int a = assign_[static_cast<size_t>(inst)];
+    return a < 0 ? undef : a;
+  }
+  for (int v = 0; v < undef; ++v)
+    if (atomHolds(inst, v)) return v;
+  return undef;
+}
+
+bool ExactEngine::atomHolds(int inst, int value) {
+  const GInstance& gi = g_.instances[static_cast<size_t>(inst)];
+  if (gi.random || fixed_[static_cast<size_t>(inst)] >= 0) return valueOf(inst) == value;
+  size_t k = static_cast<size_t>(atom_offset_[static_cast<size_t>(inst)] + value);
+  if (atom_stamp_[k] == stamp_) {
+    if (atom_state_[k] == 2)
+      throw Error("atom " + gi.name + "=" + g_.symbols->text(gi.domain[static_cast<size_t>(value)]) +
+                  " depends on itself (cyclic rules); this is outside the native reasoner's "
+                  "fast path (use the ASP back end)");
+    return atom_state_[k] == 1;
+  }
+  if (atom_scc_[k] >= 0) {
+    evaluateScc(atom_scc_[k]);
+    return atom_state_[k] == 1;
+  }
+  atom_stamp_[k] = stamp_;
+  atom_state_[k] = 2;
+  bool r = false;
+  if (scope_stamp_[static_cast<size_t>(inst)] == rel_counter_) {
+    for (int ri : live_rules_[static_cast<size_t>(inst)]) {
+      const auto& rule = gi.rules[static_cast<size_t>(ri)];
+      if (rule.first == value && bodyHolds(rule.second)) {
+        r = true;
+        break;
+      }
+    }
+  } else {
+    for (const auto& rule : gi.rules) {
+      if (rule.first != value) continue;
+      if (bodyHolds(rule.second)) {
+        r = true;
+        break;
+      }
+    }
+  }
+  atom_state_[k] = r ? 1 : 0;
+  return r;
+}
+
+void ExactEngine::evaluateScc(int c) {
+  const std::vector<int>& atoms = scc_atoms_[static_cast<size_t>(c)];
+  if (scc_negative_[static_cast<size_t>(c)]) {
+    int a = atoms[0];
+    const GInstance& gi = g_.instances[static_cast<size_t>(atom_inst_[static_cast<size_t>(a)])];
+    throw Error("atom " + gi.name + "=" +
+                g_.symbols->text(gi.domain[static_cast<size_t>(a - atom_offset_[static_cast<size_t>(
+                                                                     atom_inst_[static_cast<size_t>(a)])])]) +
+                " depends on itself through negation (non-stratified, cyclic rules); this is "
+                "outside the native reasoner's fast path (use the ASP back end)");
+  }
+  // least fixpoint of a positive cycle: all members start false
+  for (int a : atoms) {
+    atom_stamp_[static_cast<size_t>(a)] = stamp_;
+    atom_state_[static_cast<size_t>(a)] = 0;
+  }
+  bool changed = true;
+  while (changed) {
+    changed = false;
+    for (int a : atoms) {
+      if (atom_state_[static_cast<size_t>(a)] == 1) continue;
+      int inst = atom_inst_[static_cast<size_t>(a)];
+      int value = a - atom_offset_[static_cast<size_t>(inst)];
+      for (const auto& rule : g_.instances[static_cast<size_t>(inst)].rules) {
+        if (rule.first != value || bodyDead(rule.second)) continue;
+        if (bodyHolds(rule.second)) {
+          atom_state_[static_cast<size_t>(a)] = 1;
+          changed = true;
+          break;
+        }
+      }
+    }
+  }
+}
+
+void ExactEngine::buildAtomSccs() {
+  const size_t na = atom_state_.size();
+  atom_inst_.assign(na, 0);
+  for (size_t i = 0; i < g_.instances.size(); ++i)
+    for (int k = atom_offset_[i]; k < atom_offset_[i + 1]; ++k) atom_inst_[static_cast<size_t>(k)] = static_cast<int>(i);
+  // dependency edges between atoms of derived instances: (target atom, negative?)
+  std::vector<std::vector<std::pair<int, bool>>> edges(na);
+  for (size_t i = 0; i < g_.instances.size(); ++i) {
+    const GInstance& gi = g_.instances[i];
+    if (gi.random) continue;
+    for (const auto& r : gi.rules) {
+      size_t from = static_cast<size_t>(atom_offset_[i] + r.first);
+      for (const auto& l : r.second) {
+        const GInstance& t = g_.instances[static_cast<size_t>(l.inst)];
+        if (t.random) continue;
+        int D = static_cast<int>(t.domain.size());
+        for (int v = 0; v < D; ++v) {
+          bool dep = l.neg ? v != l.value : v == l.value;
+          if (dep) edges[from].push_back({atom_offset_[static_cast<size_t>(l.inst)] + v, l.naf});
+        }
+      }
+    }
+  }
+  atom_scc_.assign(na, -1);
+  std::vector<int> index(na, -1), low(na, 0), comp(na, -1);
+  std::vector<char> on(na, 0);
+  std::vector<int> stack;
+  int counter = 0, ncomp = 0;
+  // iterative Tarjan (ground chains can be long)
+  struct Frame {
+    int v;
+    size_t next;
+  };
+  for (size_t root = 0; root < na; ++root) {
+    if (index[root] >= 0 || edges[root].empty()) continue;
+    std::vector<Frame> call{{static_cast<int>(root), 0}};
+    index[root] = low[root] = counter++;
+    stack.push_back(static_cast<int>(root));
+    on[root] = 1;
+    while (!call.empty()) {
+      Frame& f = call.back();
+      size_t v = static_cast<size_t>(f.v);
+      if (f.next < edges[v].size()) {
+        size_t w = static_cast<size_t>(edges[v][f.next++].first);
+        if (index[w] < 0) {
+          index[w] = low[w] = counter++;
+          stack.push_back(static_cast<int>(w));
+          on[w] = 1;
+          call.push_back({static_cast<int>(w), 0});
+        } else if (on[w]) {
+          low[v] = std::min(low[v], index[w]);
+        }
+        continue;
+      }
+      if (low[v] == index[v]) {
+        std::vector<int> members;
+        int w;
+        do {
+          w = stack.back();
+          stack.pop_back();
+          on[static_cast<size_t>(w)] = 0;
+          comp[static_cast<size_t>(w)] = ncomp;
+          members.push_back(w);
+        } while (w != f.v);
+        bool cyclic = members.size() > 1;
+        if (!cyclic)
+          for (const auto& e : edges[v])
+            if (static_cast<size_t>(e.first) == v) cyclic = true;
+        if (cyclic) {
+          bool negative = false;
+          for (int m : members)
+            for (const auto& e : edges[static_cast<size_t>(m)])
+              if (e.second && comp[static_cast<size_t>(e.first)] == ncomp) negative = true;
+          int id = static_cast<int>(scc_atoms_.size());
+          for (int m : members) atom_scc_[static_cast<size_t>(m)] = id;
+          scc_atoms_.push_back(members);
+          scc_negative_.push_back(negative ? 1 : 0);
+        }
+        ++ncomp;
+      }
+      int done = f.v;
+      call.pop_back();
+      if (!call.empty()) {
+        size_t p = static_cast<size_t>(call.back().v);
+        low[p] = std::min(low[p], low[static_cast<size_t>(done)]);
+      }
+    }
+  }
+}
+
+bool ExactEngine::holds(const GLit& l) {
+  const GInstance& gi = g_.instances[static_cast<size_t>(l.inst)];
+  const int undef = static_cast<int>(gi.domain.size());
+  bool r;
+  if (gi.random || fixed_[static_cast<size_t>(l.inst)] >= 0) {
+    int v = valueOf(l.inst);
+    if (l.neg) r = v < undef && v != l.value;
+    else r = l.value >= 0 && v == l.value;
+  } else if (l.neg) {
+    r = false;
+    for (int v = 0; v < undef && !r; ++v)
+      if (v != l.value && atomHolds(l.inst, v)) r = true;
+  } else {
+    r = l.value >= 0 && atomHolds(l.inst, l.value);
+  }
+  return l.naf ? !r : r;
+}
+
+bool ExactEngine::bodyHolds(const std::vector<GLit>& body) {
+  for (const auto& l : body)
+    if (!holds(l)) return false;
+  return true;
+}
+
+bool ExactEngine::litDeadFixed(const GLit& l) const {
+  int f = fixed_[static_cast<size_t>(l.inst)];
+  if (f < 0) return false;
+  const int undef = static_cast<int>(g_.instances[static_cast<size_t>(l.inst)].domain.size());
+  bool r = l.neg ? (f < undef && f != l.value) : (l.value >= 0 && f == l.value);
+  if (l.naf) r = !r;
+  return !r;
+}
+
+bool ExactEngine::bodyDead(const std::vector<GLit>& body) const {
+  for (const auto& l : body)
+    if (litDeadFixed(l)) return true;
+  return false;
+}
+
+void ExactEngine::indexBy(const std::vector<int>& conditioning) {
+  indexed_ = true;
+  index_inst_ = conditioning;
+  std::fill(cond_pos_.begin(), cond_pos_.end(), -1);
+  for (size_t k = 0; k < conditioning.size(); ++k)
+    cond_pos_[static_cast<size_t>(conditioning[k])] = static_cast<int>(k);
+  const size_t n = g_.instances.size();
+  buckets_.assign(n, {});
+  unkeyed_.assign(n, {});
+  rule_buckets_.assign(n, {});
+  rule_unkeyed_.assign(n, {});
+  for (size_t i = 0; i < n; ++i) {
+    const GInstance& gi = g_.instances[i];
+    if (gi.random || gi.rules.empty()) continue;
+    rule_buckets_[i].resize(conditioning.size());
+    for (size_t k = 0; k < conditioning.size(); ++k)
+      rule_buckets_[i][k].resize(g_.instances[static_cast<size_t>(conditioning[k])].domain.size() + 1);
+    for (size_t ri = 0; ri < gi.rules.size(); ++ri) {
+      const GLit* best = nullptr;
+      size_t best_size = 0;
+      for (const auto& l : gi.rules[ri].second) {
+        int k = cond_pos_[static_cast<size_t>(l.inst)];
+        if (k >= 0 && !l.naf && !l.neg && l.value >= 0) {
+          size_t sz = g_.instances[static_cast<size_t>(l.inst)].domain.size();
+          if (!best || sz > best_size) {
+            best = &l;
+            best_size = sz;
+          }
+        }
+      }
+      if (best)
+        rule_buckets_[i][static_cast<size_t>(cond_pos_[static_cast<size_t>(best->inst)])]
+                     [static_cast<size_t>(best->value)].push_back(static_cast<int>(ri));
+      else
+        rule_unkeyed_[i].push_back(static_cast<int>(ri));
+    }
+  }
+  for (size_t i = 0; i < n; ++i) {
+    const GInstance& gi = g_.instances[i];
+    if (!gi.random) continue;
+    buckets_[i].resize(conditioning.size());
+    for (size_t k = 0; k < conditioning.size(); ++k)
+      buckets_[i][k].resize(g_.instances[static_cast<size_t>(conditioning[k])].domain.size() + 1);
+    // key each body by its most selective literal on a conditioning instance
+    auto place = [&](const std::vector<GLit>& body, Item it) {
+      const GLit* best = nullptr;
+      size_t best_size = 0;
+      for (const auto& l : body) {
+        int k = cond_pos_[static_cast<size_t>(l.inst)];
+        if (k >= 0 && !l.naf && !l.neg && l.value >= 0) {
+          size_t sz = g_.instances[static_cast<size_t>(l.inst)].domain.size();
+          if (!best || sz > best_size) {
+            best = &l;
+            best_size = sz;
+          }
+        }
+      }
+      if (best) {
+        size_t k = static_cast<size_t>(cond_pos_[static_cast<size_t>(best->inst)]);
+        buckets_[i][k][static_cast<size_t>(best->value)].push_back(it);
+      } else {
+        unkeyed_[i].push_back(it);
+      }
+    };
+    for (size_t s = 0; s < gi.selections.size(); ++s)
+      place(gi.selections[s].body, Item{0, static_cast<int>(s)});
+    for (size_t p = 0; p < gi.prs.size(); ++p) place(gi.prs[p].body, Item{1, static_cast<int>(p)});
+  }
+}
+
+void ExactEngine::liveItems(int inst, std::vector<Item>& out) const {
+  out.clear();
+  const GInstance& gi = g_.instances[static_cast<size_t>(inst)];
+  auto consider = [&](const Item& it) {
+    const std::vector<GLit>& body =
+        it.kind == 0 ? gi.selections[static_cast<size_t>(it.index)].body
+                     : gi.prs[static_cast<size_t>(it.index)].body;
+    if (!bodyDead(body)) out.push_back(it);
+  };
+  if (indexed_ && !buckets_[static_cast<size_t>(inst)].empty()) {
+    for (const auto& it : unkeyed_[static_cast<size_t>(inst)]) consider(it);
+    for (size_t k = 0; k < index_inst_.size(); ++k) {
+      int f = fixed_[static_cast<size_t>(index_inst_[k])];
+      const auto& bk = buckets_[static_cast<size_t>(inst)][k];
+      if (f >= 0) {
+        for (const auto& it : bk[static_cast<size_t>(f)]) consider(it);
+      } else {
+        for (const auto& b : bk)
+          for (const auto& it : b) consider(it);
+      }
+    }
+    // keep the program order: selection rules first, then pr-atoms, each by index
+    std::sort(out.begin(), out.end(), [](const Item& a, const Item& b) {
+      return a.kind != b.kind ? a.kind < b.kind : a.index < b.index;
+    });
+    return;
+  }
+  for (size_t s = 0; s < gi.selections.size(); ++s) consider(Item{0, static_cast<int>(s)});
+  for (size_t p = 0; p < gi.prs.size(); ++p) consider(Item{1, static_cast<int>(p)});
+}
+
+void ExactEngine::scopeOfLit(const GLit& l, std::vector<int>& out) {
+  if (fixed_[static_cast<size_t>(l.inst)] >= 0) return;
+  const GInstance& gi = g_.instances[static_cast<size_t>(l.inst)];
+  if (gi.random) {
+    out.push_back(l.inst);
+    return;
+  }
+  scopeOfInstance(l.inst, out);
+}
+
+void ExactEngine::scopeOfInstance(int inst, std::vector<int>& out) {
+  size_t i = static_cast<size_t>(inst);
+  if (fixed_[i] >= 0) return;
+  if (g_.instances[i].random) {
+    out.push_back(inst);
+    return;
+  }
+  if (scope_stamp_[i] != rel_counter_) {
+    if (scope_busy_[i]) return;  // cycle: its scope is being collected further up
+    scope_busy_[i] = 1;
+    std::vector<int> s;
+    std::vector<int> live;
+    const auto& rules = g_.instances[i].rules;
+    auto consider = [&](size_t ri) {
+      if (bodyDead(rules[ri].second)) return;
+      live.push_back(static_cast<int>(ri));
+      for (const auto& l : rules[ri].second) scopeOfLit(l, s);
+    };
+    if (indexed_ && !rule_buckets_[i].empty()) {
+      for (int ri : rule_unkeyed_[i]) consider(static_cast<size_t>(ri));
+      for (size_t k = 0; k < index_inst_.size(); ++k) {
+        int f = fixed_[static_cast<size_t>(index_inst_[k])];
+        const auto& bk = rule_buckets_[i][k];
+        if (f >= 0) {
+          for (int ri : bk[static_cast<size_t>(f)]) consider(static_cast<size_t>(ri));
+        } else {
+          for (const auto& b : bk)
+            for (int ri : b) consider(static_cast<size_t>(ri));
+        }
+      }
+      std::sort(live.begin(), live.end());
+    } else {
+      for (size_t ri = 0; ri < rules.size(); ++ri) consider(ri);
+    }
+    live_rules_[i] = std::move(live);
+    std::sort(s.begin(), s.end());
+    s.erase(std::unique(s.begin(), s.end()), s.end());
+    scope_busy_[i] = 0;
+    scope_cache_[i] = s;
+    scope_stamp_[i] = rel_counter_;
+    touched_derived_.push_back(inst);
+  }
+  out.insert(out.end(), scope_cache_[i].begin(), scope_cache_[i].end());
+}
+
+void ExactEngine::buildCpt(int inst, Factor& f) {
+  const GInstance& gi = g_.instances[static_cast<size_t>(inst)];
+  std::vector<Item> items;
+  liveItems(inst, items);
+  std::vector<int> parents;
+  for (const auto& it : items) {
+    if (it.kind == 0) {
+      const GSelection& s = gi.selections[static_cast<size_t>(it.index)];
+      for (const auto& l : s.body) scopeOfLit(l, parents);
+      for (const auto& r : s.range)
+        for (const auto& l : r.second) scopeOfLit(l, parents);
+    } else {
+      for (const auto& l : gi.prs[static_cast<size_t>(it.index)].body) scopeOfLit(l, parents);
+    }
+  }
+  std::sort(parents.begin(), parents.end());
+  parents.erase(std::unique(parents.begin(), parents.end()), parents.end());
+  if (std::binary_search(parents.begin(), parents.end(), inst))
+    throw Error("random attribute " + gi.name + " depends on itself (cyclic pr-atom or selection "
+                "rule); this is outside the native reasoner's fast path (use the ASP back end)");
+  const int D = static_cast<int>(gi.domain.size());
+  const std::vector<int>& xs = states_[static_cast<size_t>(inst)];
+  const size_t S = xs.size();
+  f.vars.assign(1, inst);
+  f.card.assign(1, static_cast<int>(S));
+  size_t total = S;
+  for (int p : parents) {
+    f.vars.push_back(p);
+    f.card.push_back(card(p));
+    total *= static_cast<size_t>(card(p));
+    if (total > kMaxFactor)
+      throw Error("factor for " + gi.name + " is too large (" + std::to_string(parents.size()) +
+                  " parents); this is outside the native reasoner's fast path");
+  }
+  f.t.assign(total, 0.0);
+  std::vector<int> cur(parents.size(), 0);
+  std::vector<char> possible(S);
+  std::vector<double> assigned(S);
+  std::vector<int> assigned_by(S);
+  const bool has_undef = !xs.empty() && xs.back() == D;
+  const size_t NV = has_undef ? S - 1 : S;  // number of value states
+  std::vector<int> pos_of(static_cast<size_t>(D), -1);
+  for (size_t k = 0; k < NV; ++k) pos_of[static_cast<size_t>(xs[k])] = static_cast<int>(k);
+  const size_t nrows = total / S;
+  for (size_t row = 0; row < nrows; ++row) {
+    for (size_t k = 0; k < parents.size(); ++k)
+      assign_[static_cast<size_t>(parents[k])] =
+          states_[static_cast<size_t>(parents[k])][static_cast<size_t>(cur[k])];
+    newStamp();
+    double* out = &f.t[row * S];
+    try {
+    int fired = -1;
+    for (const auto& it : items) {
+      if (it.kind != 0) continue;
+      if (bodyHolds(gi.selections[static_cast<size_t>(it.index)].body)) {
+        if (fired >= 0)
+          throw IncoherentError(gi.selections[static_cast<size_t>(it.index)].loc.str() +
+                                ": two random selection rules for " + gi.name +
+                                " apply in the same possible world");
+        fired = it.index;
+      }
+    }
+    if (fired < 0) {
+      if (has_undef) out[S - 1] = 1.0;
+    } else {
+      const GSelection& sel = gi.selections[static_cast<size_t>(fired)];
+      int npossible = 0;
+      if (!sel.dynamic_range) {
+        std::fill(possible.begin(), possible.end(), 1);
+        if (has_undef) possible[S - 1] = 0;
+        npossible = static_cast<int>(NV);
+      } else {
+        std::fill(possible.begin(), possible.end(), 0);
+        for (const auto& r : sel.range) {
+          size_t k = static_cast<size_t>(pos_of[static_cast<size_t>(r.first)]);
+          if (!possible[k] && bodyHolds(r.second)) {
+            possible[k] = 1;
+            ++npossible;
+          }
+        }
+      }
+      if (npossible == 0)
+        throw IncoherentError(sel.loc.str() + ": random attribute " + gi.name +
+                              " has an empty dynamic range in a possible world where its "
+                              "selection rule applies");
+      std::fill(assigned.begin(), assigned.end(), -1.0);
+      double sum = 0;
+      int nassigned = 0;
+      for (const auto& it : items) {
+        if (it.kind != 1) continue;
+        const GPr& pr = gi.prs[static_cast<size_t>(it.index)];
+        int kp = pos_of[static_cast<size_t>(pr.value)];
+        if (kp < 0) continue;
+        size_t k = static_cast<size_t>(kp);
+        if (!possible[k]) continue;
+        if (!pr.label.empty() && pr.label != sel.label) continue;
+        if (!bodyHolds(pr.body)) continue;
+        if (assigned[k] >= 0) {
+          const GPr& old = gi.prs[static_cast<size_t>(assigned_by[k])];
+          if (pr.priority > old.priority) {  // newer knowledge overrides
+            sum += pr.probability - assigned[k];
+            assigned[k] = pr.probability;
+            assigned_by[k] = it.index;
+            continue;
+          }
+          if (pr.priority < old.priority) continue;
+          if (std::fabs(assigned[k] - pr.probability) > 1e-12)
+            throw IncoherentError(pr.loc.str() + ": conflicting probabilities for " + gi.name +
+                                  "=" + g_.symbols->text(gi.domain[static_cast<size_t>(pr.value)]) +
+                                  " (" + std::to_string(assigned[k]) + " from " +
+                                  gi.prs[static_cast<size_t>(assigned_by[k])].loc.str() +
+                                  " and " + std::to_string(pr.probability) + ")");
+          continue;
+        }
+        assigned[k] = pr.probability;
+        assigned_by[k] = it.index;
+        sum += pr.probability;
+        ++nassigned;
+      }
+      if (sum > 1.0 + 1e-9) {
+        std::ostringstream os;
+        os << "probabilities assigned to the values of " << gi.name << " sum to " << sum
+           << " > 1 in a possible world (pr-atoms at";
+        for (size_t k = 0; k < NV; ++k)
+          if (assigned[k] >= 0) os << " " << gi.prs[static_cast<size_t>(assigned_by[k])].loc.str();
+        os << ")";
+        throw IncoherentError(os.str());
+      }
+      int rest = npossible - nassigned;
+      double share = rest > 0 ? std::max(0.0, 1.0 - sum) / rest : 0.0;
+      for (size_t k = 0; k < NV; ++k) {
+        if (!possible[k]) continue;
+        out[k] = assigned[k] >= 0 ? assigned[k] : share;
+      }
+    }
+    } catch (const IncoherentError& e) {
+      // Only an error if this parent configuration occurs in a possible world: checked after
+      // all factors are built (see checkPendingErrors).
+      std::fill(out, out + S, 0.0);
+      pending_errors_.push_back(PendingError{pending_factor_, row, e.what()});
+    }
+    for (size_t k = 0; k < cur.size(); ++k) {
+      if (++cur[k] < f.card[k + 1]) break;
+      cur[k] = 0;
+    }
+  }
+  for (int p : parents) assign_[static_cast<size_t>(p)] = -1;
+}
+
+void ExactEngine::buildIndicator(const std::vector<GCondition>& conds, bool constraint_style,
+                                 const std::vector<GLit>* constraint_body,
+                                 std::vector<Factor>& out) {
+  std::vector<int> scope;
+  if (constraint_style) {
+    for (const auto& l : *constraint_body) scopeOfLit(l, scope);
+  } else {
+    for (const auto& c : conds)
+      for (const auto& l : c.lits) scopeOfLit(l, scope);
+  }
+  std::sort(scope.begin(), scope.end());
+  scope.erase(std::unique(scope.begin(), scope.end()), scope.end());
+  Factor f;
+  f.vars = scope;
+  size_t total = 1;
+  for (int v : scope) {
+    f.card.push_back(card(v));
+    total *= static_cast<size_t>(card(v));
+    if (total > kMaxFactor)
+      throw Error("condition spans too many random attributes for the native reasoner");
+  }
+  f.t.assign(total, 0.0);
+  std::vector<int> cur(scope.size(), 0);
+  for (size_t row = 0; row < total; ++row) {
+    for (size_t k = 0; k < scope.size(); ++k)
+      assign_[static_cast<size_t>(scope[k])] =
+          states_[static_cast<size_t>(scope[k])][static_cast<size_t>(cur[k])];
+    newStamp();
+    bool ok;
+    if (constraint_style) {
+      ok = !bodyHolds(*constraint_body);
+    } else {
+      ok = true;
+      for (const auto& c : conds) {
+        bool v = c.constant && bodyHolds(c.lits);
+        if (v != c.truth) {
+          ok = false;
+          break;
+        }
+      }
+    }
+    f.t[row] = ok ? 1.0 : 0.0;
+    for (size_t k = 0; k < cur.size(); ++k) {
+      if (++cur[k] < f.card[k]) break;
+      cur[k] = 0;
+    }
+  }
+  for (int v : scope) assign_[static_cast<size_t>(v)] = -1;
+  out.push_back(std::move(f));
+}
+
+ExactEngine::Factor ExactEngine::multiply(const Factor& a, const Factor& b) {
+  Factor r;
+  r.vars = a.vars;
+  r.card = a.card;
+  for (size_t i = 0; i < b.vars.size(); ++i)
+    if (std::find(r.vars.begin(), r.vars.end(), b.vars[i]) == r.vars.end()) {
+      r.vars.push_back(b.vars[i]);
+      r.card.push_back(b.card[i]);
+    }
+  size_t total = 1;
+  for (int c : r.card) {
+    total *= static_cast<size_t>(c);
+    if (total > kMaxFactor)
+      throw Error("intermediate factor too large for the native reasoner (treewidth too high)");
+  }
+  // strides of r's vars in a and b
+  std::vector<size_t> sa(r.vars.size(), 0), sb(r.vars.size(), 0);
+  {
+    size_t s = 1;
+    for (size_t i = 0; i < a.vars.size(); ++i) {
+      sa[i] = s;  // a's vars are the first ones of r, same order
+      s *= static_cast<size_t>(a.card[i]);
+    }
+    s = 1;
+    for (size_t i = 0; i < b.vars.size(); ++i) {
+      size_t pos = static_cast<size_t>(std::find(r.vars.begin(), r.vars.end(), b.vars[i]) - r.vars.begin());
+      sb[pos] = s;
+      s *= static_cast<size_t>(b.card[i]);
+    }
+  }
+  r.t.assign(total, 0.0);
+  std::vector<int> cur(r.vars.size(), 0);
+  size_t ia = 0, ib = 0;
+  for (size_t row = 0; row < total; ++row) {
+    r.t[row] = a.t[ia] * b.t[ib];
+    for (size_t k = 0; k < cur.size(); ++k) {
+      if (++cur[k] < r.card[k]) {
+        ia += sa[k];
+        ib += sb[k];
+        break;
+      }
+      ia -= sa[k] * static_cast<size_t>(r.card[k] - 1);
+      ib -= sb[k] * static_cast<size_t>(r.card[k] - 1);
+      cur[k] = 0;
+    }
+  }
+  return r;
+}
+
+ExactEngine::Factor ExactEngine::sumOut(const Factor& f, int var) {
+  size_t pos = static_cast<size_t>(std::find(f.vars.begin(), f.vars.end(), var) - f.vars.begin());
+  Factor r;
+  size_t inner = 1;
+  for (size_t i = 0; i < pos; ++i) inner *= static_cast<size_t>(f.card[i]);
+  size_t c = static_cast<size_t>(f.card[pos]);
+  size_t outer = f.t.size() / (inner * c);
+  for (size_t i = 0; i < f.vars.size(); ++i)
+    if (i != pos) {
+      r.vars.push_back(f.vars[i]);
+      r.card.push_back(f.card[i]);
+    }
+  r.t.assign(inner * outer, 0.0);
+  for (size_t o = 0; o < outer; ++o)
+    for (size_t k = 0; k < c; ++k) {
+      const double* src = &f.t[(o * c + k) * inner];
+      double* dst = &r.t[o * inner];
+      for (size_t i = 0; i < inner; ++i) dst[i] += src[i];
+    }
+  return r;
+}
+
+std::vector<double> ExactEngine::eliminate(std::vector<Factor> factors, int keep) {
+  last_factors_ = factors.size();
+  last_max_factor_ = 0;
+  for (const auto& f : factors) last_max_factor_ = std::max(last_max_factor_, f.t.size());
+  for (;;) {
+    // candidate variables
+    std::vector<int> vars;
+    for (const auto& f : factors)
+      for (int v : f.vars)
+        if (v != keep) vars.push_back(v);
+    if (vars.empty()) break;
+    std::sort(vars.begin(), vars.end());
+    vars.erase(std::unique(vars.begin(), vars.end()), vars.end());
+    int best = -1;
+    double best_cost = 0;
+    for (int v : vars) {
+      std::vector<std::pair<int, int>> u;
+      for (const auto& f : factors)
+        if (std::find(f.vars.begin(), f.vars.end(), v) != f.vars.end())
+          for (size_t i = 0; i < f.vars.size(); ++i) u.push_back({f.vars[i], f.card[i]});
+      std::sort(u.begin(), u.end());
+      u.erase(std::unique(u.begin(), u.end()), u.end());
+      double cost = 1;
+      for (auto& p : u) cost *= p.second;
+      if (best < 0 || cost < best_cost) {
+        best = v;
+        best_cost = cost;
+      }
+    }
+    std::vector<Factor> rest;
+    Factor prod;
+    bool have = false;
+    for (auto& f : factors) {
+      if (std::find(f.vars.begin(), f.vars.end(), best) != f.vars.end()) {
+        if (!have) {
+          prod = std::move(f);
+          have = true;
+        } else {
+          prod = multiply(prod, f);
+        }
+      } else {
+        rest.push_back(std::move(f));
+      }
+    }
+    Factor s = sumOut(prod, best);
+    last_max_factor_ = std::max(last_max_factor_, prod.t.size());
+    rest.push_back(std::move(s));
+    factors = std::move(rest);
+  }
+  Factor r;
+  r.t.assign(1, 1.0);
+  for (const auto& f : factors) r = multiply(r, f);
+  return r.t;
+}
+
+namespace {
+void pushUnique(std::vector<int>& v, int x) {
+  if (std::find(v.begin(), v.end(), x) == v.end()) v.push_back(x);
+}
+}  // namespace
+
+void ExactEngine::buildFactors(const std::vector<const std::vector<GCondition>*>& seeds,
+                               int seed_inst, std::vector<Factor>& factors) {
+  // Relevance: random instances reachable from the conditions, constraints touching them.
+  ++rel_counter_;
+  touched_derived_.clear();
+  std::vector<int> rel, queue;
+  auto addScope = [&](const std::vector<int>& s) {
+    for (int v : s)
+      if (rel_stamp_[static_cast<size_t>(v)] != rel_counter_) {
+        rel_stamp_[static_cast<size_t>(v)] = rel_counter_;
+        rel.push_back(v);
+        queue.push_back(v);
+        computeStates(v);
+      }
+  };
+  std::vector<int> s;
+  if (seed_inst >= 0) addScope({seed_inst});
+  for (const auto* cs : seeds)
+    for (const auto& c : *cs)
+      for (const auto& l : c.lits) {
+        s.clear();
+        scopeOfLit(l, s);
+        addScope(s);
+      }
+  std::vector<Item> items;
+  auto drain = [&]() {
+    while (!queue.empty()) {
+      int x = queue.back();
+      queue.pop_back();
+      const GInstance& gi = g_.instances[static_cast<size_t>(x)];
+      liveItems(x, items);
+      s.clear();
+      for (const auto& it : items) {
+        if (it.kind == 0) {
+          const GSelection& sel = gi.selections[static_cast<size_t>(it.index)];
+          for (const auto& l : sel.body) scopeOfLit(l, s);
+          for (const auto& r : sel.range)
+            for (const auto& l : r.second) scopeOfLit(l, s);
+        } else {
+          for (const auto& l : gi.prs[static_cast<size_t>(it.index)].body) scopeOfLit(l, s);
+        }
+      }
+      addScope(s);
+    }
+  };
+  drain();
+  // Constraints (and derived instances that may get two values, which make a world
+  // inconsistent) act as evidence. They are all included: one independent of the query scales
+  // both measures by the same constant (its ratio is unchanged), but when it can never be
+  // satisfied the program has no possible world, which must be reported.
+  std::vector<char> used(g_.constraints.size(), 0);
+  std::vector<int> used_list;
+  std::vector<char> dused(conflict_derived_.size(), 0);
+  std::vector<int> derived;
+  bool changed = true;
+  while (changed) {
+    changed = false;
+    for (size_t c = 0; c < g_.constraints.size(); ++c) {
+      if (used[c] || bodyDead(g_.constraints[c].first)) continue;
+      s.clear();
+      for (const auto& l : g_.constraints[c].first) scopeOfLit(l, s);
+      used[c] = 1;
+      used_list.push_back(static_cast<int>(c));
+      addScope(s);
+      drain();
+      changed = true;
+    }
+    for (size_t k = 0; k < conflict_derived_.size(); ++k) {
+      int d = conflict_derived_[k];
+      if (dused[k] || fixed_[static_cast<size_t>(d)] >= 0) continue;
+      s.clear();
+      scopeOfInstance(d, s);
+      dused[k] = 1;
+      derived.push_back(d);
+      addScope(s);
+      drain();
+      changed = true;
+    }
+  }
+  pending_errors_.clear();
+  for (int x : rel) {
+    Factor f;
+    pending_factor_ = factors.size();
+    buildCpt(x, f);
+    factors.push_back(std::move(f));
+  }
+  for (int c : used_list)
+    buildIndicator({}, true, &g_.constraints[static_cast<size_t>(c)].first, factors);
+  for (int d : derived) {
+    const GInstance& gi = g_.instances[static_cast<size_t>(d)];
+    std::vector<int> vals;
+    for (const auto& r : gi.rules)
+      if (!bodyDead(r.second)) pushUnique(vals, r.first);
+    if (vals.size() < 2) continue;
+    // factor: at most one value of d holds
+    std::vector<int> scope;
+    scopeOfInstance(d, scope);
+    std::sort(scope.begin(), scope.end());
+    scope.erase(std::unique(scope.begin(), scope.end()), scope.end());
+    Factor f;
+    f.vars = scope;
+    size_t total = 1;
+    for (int v : scope) {
+      f.card.push_back(card(v));
+      total *= static_cast<size_t>(card(v));
+      if (total > kMaxFactor) throw Error("derived attribute " + gi.name + " has too many causes");
+    }
+    f.t.assign(total, 0.0);
+    std::vector<int> cur(scope.size(), 0);
+    for (size_t row = 0; row < total; ++row) {
+      for (size_t k = 0; k < scope.size(); ++k)
+        assign_[static_cast<size_t>(scope[k])] =
+            states_[static_cast<size_t>(scope[k])][static_cast<size_t>(cur[k])];
+      newStamp();
+      int n = 0;
+      for (int v : vals)
+        if (atomHolds(d, v)) ++n;
+      f.t[row] = n <= 1 ? 1.0 : 0.0;
+      for (size_t k = 0; k < cur.size(); ++k) {
+        if (++cur[k] < f.card[k]) break;
+        cur[k] = 0;
+      }
+    }
+    for (int v : scope) assign_[static_cast<size_t>(v)] = -1;
+    factors.push_back(std::move(f));
+  }
+}
+
+void ExactEngine::checkPendingErrors(const std::vector<Factor>& factors) {
+  if (pending_errors_.empty()) return;
+  // For each factor with error rows: the mass of the worlds whose parent configuration is an
+  // error row (the factor replaced by the indicator of its error rows). Positive mass means a
+  // possible world violates P-log's coherence conditions.
+  std::vector<PendingError> errs;
+  errs.swap(pending_errors_);
+  size_t i = 0;
+  while (i < errs.size()) {
+    size_t fi = errs[i].factor;
+    std::vector<Factor> fs = factors;
+    Factor& f = fs[fi];
+    const size_t S = static_cast<size_t>(f.card[0]);
+    std::fill(f.t.begin(), f.t.end(), 0.0);
+    size_t j = i;
+    for (; j < errs.size() && errs[j].factor == fi; ++j)
+      std::fill(f.t.begin() + static_cast<long>(errs[j].row * S),
+                f.t.begin() + static_cast<long>((errs[j].row + 1) * S), 1.0);
+    double z = eliminate(std::move(fs), -1).at(0);
+    if (z > 0) throw IncoherentError(errs[i].message);
+    i = j;
+  }
+}
+
+std::pair<double, double> ExactEngine::measure(const std::vector<GCondition>& formula,
+                                               const std::vector<GCondition>& evidence) {
+  std::vector<Factor> factors;
+  buildFactors({&formula, &evidence}, -1, factors);
+  std::vector<Factor> with_evidence = factors;
+  if (!evidence.empty()) buildIndicator(evidence, false, nullptr, with_evidence);
+  checkPendingErrors(with_evidence);
+  double ze = eliminate(with_evidence, -1).at(0);
+  double zqe = 0;
+  if (ze > 0) {
+    if (!formula.empty()) buildIndicator(formula, false, nullptr, with_evidence);
+    zqe = eliminate(std::move(with_evidence), -1).at(0);
+  }
+  return {zqe, ze};
+}
+
+std::vector<std::pair<int, double>> ExactEngine::marginalSparse(
+    int inst, const std::vector<GCondition>& evidence) {
+  const GInstance& gi = g_.instances[static_cast<size_t>(inst)];
+  std::vector<std::pair<int, double>> out;
+  if (gi.random && fixed_[static_cast<size_t>(inst)] < 0) {
+    std::vector<Factor> factors;
+    buildFactors({&evidence}, inst, factors);
+    if (!evidence.empty()) buildIndicator(evidence, false, nullptr, factors);
+    checkPendingErrors(factors);
+    std::vector<double> t = eliminate(std::move(factors), inst);
+    const std::vector<int>& st = states_[static_cast<size_t>(inst)];
+    if (t.size() == st.size()) {
+      for (size_t k = 0; k < st.size(); ++k) out.push_back({st[k], t[k]});
+    } else {
+      out.push_back({static_cast<int>(gi.domain.size()), t.empty() ? 0.0 : t[0]});
+    }
+    return out;
+  }
+  std::vector<double> m = marginal(inst, evidence);
+  for (size_t v = 0; v < m.size(); ++v)
+    if (m[v] != 0) out.push_back({static_cast<int>(v), m[v]});
+  return out;
+}
+
+std::vector<double> ExactEngine::marginal(int inst, const std::vector<GCondition>& evidence) {
+  const GInstance& gi = g_.instances[static_cast<size_t>(inst)];
+  const size_t D = gi.domain.size();
+  std::vector<double> out(D + 1, 0.0);
+  if (gi.random && fixed_[static_cast<size_t>(inst)] < 0) {
+    std::vector<Factor> factors;
+    buildFactors({&evidence}, inst, factors);
+    if (!evidence.empty()) buildIndicator(evidence, false, nullptr, factors);
+    checkPendingErrors(factors);
+    std::vector<double> t = eliminate(std::move(factors), inst);
+    const std::vector<int>& st = states_[static_cast<size_t>(inst)];
+    if (t.size() == st.size()) {
+      for (size_t k = 0; k < st.size(); ++k) out[static_cast<size_t>(st[k])] = t[k];
+    } else {
+      out[D] = t.empty() ? 0.0 : t[0];
+    }
+    return out;
+  }
+  // fixed or derived instance: one measure per value
+  for (size_t v = 0; v <= D; ++v) {
+    GCondition c;
+    if (v < D) c.lits.push_back(GLit{inst, static_cast<int>(v), false, false});
+    else c.lits.push_back(GLit{inst, -1, true, true});
+    out[v] = measure({c}, evidence).first;
+  }
+  return out;
+}
+
+}  // namespace plog
+}  // namespace krr

@@ -1,0 +1,1057 @@
+#include "krr_core/plog/grounder.h"
+
+#include <algorithm>
+#include <functional>
+#include <limits>
+#include <map>
+
+namespace krr {
+namespace plog {
+
+int SymbolTable::intern(const std::string& text) {
+  auto it = ids_.find(text);
+  if (it != ids_.end()) return it->second;
+  int id = static_cast<int>(texts_.size());
+  texts_.push_back(text);
+  long long v = 0;
+  bool isint = !text.empty();
+  size_t start = (text[0] == '-' && text.size() > 1) ? 1 : 0;
+  for (size_t i = start; i < text.size() && isint; ++i)
+    if (text[i] < '0' || text[i] > '9') isint = false;
+  if (isint) {
+    try {
+      v = std::stoll(text);
+    } catch (...) {
+      isint = false;
+    }
+  }
+  is_int_.push_back(isint ? 1 : 0);
+  ints_.push_back(v);
+  ids_.emplace(text, id);
+  return id;
+}
+
+int SymbolTable::internInt(long long v) { return intern(std::to_string(v)); }
+
+bool SymbolTable::isInt(int id, long long* v) const {
+  if (id < 0 || static_cast<size_t>(id) >= texts_.size()) return false;
+  if (!is_int_[static_cast<size_t>(id)]) return false;
+  if (v) *v = ints_[static_cast<size_t>(id)];
+  return true;
+}
+
+int GInstance::valueIndex(int sym) const {
+  for (size_t i = 0; i < domain.size(); ++i)
+    if (domain[i] == sym) return static_cast<int>(i);
+  return -1;
+}
+
+int GroundProgram::findInstance(const std::string& printable) const {
+  auto it = instance_ids.find(printable);
+  return it == instance_ids.end() ? -1 : it->second;
+}
+
+bool GroundProgram::staticHolds(int attr, const std::string& printable_atom) const {
+  if (attr < 0 || static_cast<size_t>(attr) >= static_atoms.size()) return false;
+  return static_atoms[static_cast<size_t>(attr)].count(printable_atom) > 0;
+}
+
+namespace {
+
+// -------------------------------------------------------------------------------------------
+// Attribute dependency analysis
+// -------------------------------------------------------------------------------------------
+
+void attrsOfBody(const std::vector<Literal>& b, std::set<std::string>& out) {
+  for (const auto& l : b)
+    if (l.kind == Literal::Kind::Atom) out.insert(l.atom.attr.name);
+}
+
+struct Deps {
+  std::map<std::string, std::set<std::string>> parents;  // attr -> attrs it depends on
+};
+
+Deps dependencies(const Program& p) {
+  Deps d;
+  for (const auto& r : p.random_rules) {
+    auto& s = d.parents[r.attr.name];
+    attrsOfBody(r.body, s);
+    attrsOfBody(r.range_body, s);
+  }
+  for (const auto& pr : p.pr_atoms) attrsOfBody(pr.body, d.parents[pr.atom.attr.name]);
+  for (const auto& r : p.rules)
+    if (r.head) attrsOfBody(r.body, d.parents[r.head->attr.name]);
+  return d;
+}
+
+// -------------------------------------------------------------------------------------------
+// Compiled terms and literals
+// -------------------------------------------------------------------------------------------
+
+struct CTerm {
+  enum K { Const, Var, Bin, Neg, Comp } k = Const;
+  int sym = -1;
+  int slot = -1;
+  std::string op;
+  std::vector<CTerm> args;
+};
+
+struct CLit {
+  bool is_atom = true;
+  int attr = -1;
+  bool dynamic = false;
+  bool naf = false, neg = false;
+  std::vector<CTerm> args;
+  CTerm value;
+  CompareOp op = CompareOp::Eq;
+  CTerm lhs, rhs;
+  int origin = 0;  // 0 = body, 1 = range body
+  SourceLocation loc;
+  std::vector<int> vars;  // slots
+};
+
+struct VecHash {
+  size_t operator()(const std::vector<int>& v) const {
+    size_t h = 1469598103934665603ull;
+    for (int x : v) {
+      h ^= static_cast<size_t>(x) + 0x9e3779b97f4a7c15ull + (h << 6) + (h >> 2);
+    }
+    return h;
+  }
+};
+
+// Static facts of one attribute: tuples (args..., value).
+struct FactSet {
+  int arity = 0;
+  std::vector<std::vector<int>> tuples;
+  std::unordered_map<std::vector<int>, std::vector<int>, VecHash> by_args;  // args -> values
+  std::vector<std::unordered_map<int, std::vector<int>>> pos_index;        // pos -> sym -> tuple
+  bool add(const std::vector<int>& args, int value) {
+    auto& vals = by_args[args];
+    for (int v : vals)
+      if (v == value) return false;
+    vals.push_back(value);
+    std::vector<int> t = args;
+    t.push_back(value);
+    int id = static_cast<int>(tuples.size());
+    if (pos_index.size() < t.size()) pos_index.resize(t.size());
+    for (size_t i = 0; i < t.size(); ++i) pos_index[i][t[i]].push_back(id);
+    tuples.push_back(std::move(t));
+    return true;
+  }
+};
+
+class Grounder {
+ public:
+  Grounder(const Program& p, GroundProgram& g) : prog_(p), g_(g) {
+    g_.symbols = std::make_shared<SymbolTable>();
+    syms_ = g_.symbols.get();
+    for (size_t i = 0; i < p.attributes.size(); ++i) attr_index_[p.attributes[i].name] = int(i);
+    for (size_t i = 0; i < p.sorts.size(); ++i) {
+      sort_index_[p.sorts[i].name] = int(i);
+      std::vector<int> vals;
+      for (const auto& v : p.sorts[i].values) vals.push_back(syms_->intern(toString(v)));
+      sort_vals_.push_back(vals);
+    }
+    true_ = syms_->intern("true");
+    false_ = syms_->intern("false");
+    facts_.resize(p.attributes.size());
+  }
+
+  void run(const std::set<std::string>& cone_names) {
+    const size_t na = prog_.attributes.size();
+    g_.attr_random.assign(na, false);
+    g_.attr_dynamic.assign(na, false);
+    g_.attr_in_cone.assign(na, false);
+    for (const auto& r : prog_.random_rules) g_.attr_random[attrId(r.attr.name, r.loc)] = true;
+    for (size_t i = 0; i < na; ++i) g_.attr_dynamic[i] = g_.attr_random[i];
+    bool changed = true;
+    while (changed) {
+      changed = false;
+      for (const auto& r : prog_.rules) {
+        if (!r.head) continue;
+        int h = attrId(r.head->attr.name, r.loc);
+        if (g_.attr_dynamic[h]) continue;
+        for (const auto& l : r.body)
+          if (l.kind == Literal::Kind::Atom && g_.attr_dynamic[attrId(l.atom.attr.name, l.loc)]) {
+            g_.attr_dynamic[h] = true;
+            changed = true;
+            break;
+          }
+      }
+    }
+    for (const auto& r : prog_.rules)
+      if (r.head && g_.attr_random[attrId(r.head->attr.name, r.loc)])
+        throw Error(r.loc.str() + ": rule defining random attribute '" + r.head->attr.name +
+                    "' is outside the native reasoner's fast path (use the ASP back end)");
+    for (const auto& n : cone_names) {
+      auto it = attr_index_.find(n);
+      if (it != attr_index_.end()) g_.attr_in_cone[it->second] = true;
+    }
+    evaluateStatic();
+    groundDynamic();
+    g_.static_atoms.assign(na, {});
+    for (size_t a = 0; a < na; ++a) {
+      if (g_.attr_dynamic[a] || !g_.attr_in_cone[a]) continue;
+      for (const auto& t : facts_[a].tuples) {
+        std::string s = prog_.attributes[a].name;
+        if (t.size() > 1) {
+          s += "(";
+          for (size_t i = 0; i + 1 < t.size(); ++i) s += (i ? "," : "") + syms_->text(t[i]);
+          s += ")";
+        }
+        s += "=" + syms_->text(t.back());
+        g_.static_atoms[a].insert(s);
+      }
+    }
+  }
+
+ private:
+  int attrId(const std::string& n, const SourceLocation& loc) const {
+    auto it = attr_index_.find(n);
+    if (it == attr_index_.end())
+      throw UnknownSymbolError(loc.str() + ": unknown attribute '" + n + "'");
+    return it->second;
+  }
+
+  const std::vector<int>& sortValues(const std::string& s, const SourceLocation& loc) const {
+    auto it = sort_index_.find(s);
+    if (it == sort_index_.end())
+      throw UnknownSymbolError(loc.str() + ": unknown sort '" + s + "'");
+    return sort_vals_[static_cast<size_t>(it->second)];
+  }
+
+  // ---- compilation ----
+  struct Stmt {
+    std::vector<CLit> lits;
+    std::vector<std::string> slot_names;
+    std::vector<int> slot_sort;  // sort index or -1
+    std::unordered_map<std::string, int> slots;
+    SourceLocation loc;
+  };
+
+  int slotOf(Stmt& s, const std::string& name) {
+    auto it = s.slots.find(name);
+    if (it != s.slots.end()) return it->second;
+    int id = static_cast<int>(s.slot_names.size());
+    s.slots.emplace(name, id);
+    s.slot_names.push_back(name);
+    s.slot_sort.push_back(-1);
+    return id;
+  }
+
+  CTerm compile(Stmt& s, const Term& t) {
+    CTerm c;
+    switch (t.kind) {
+      case Term::Kind::Symbol:
+      case Term::Kind::Integer:
+        c.k = CTerm::Const;
+        c.sym = syms_->intern(toString(t));
+        break;
+      case Term::Kind::Variable:
+        c.k = CTerm::Var;
+        if (t.name == "_") {
+          c.slot = slotOf(s, "_anon" + std::to_string(anon_++));
+        } else {
+          c.slot = slotOf(s, t.name);
+        }
+        break;
+      case Term::Kind::Compound:
+        if (t.isGround()) {
+          c.k = CTerm::Const;
+          c.sym = syms_->intern(toString(t));
+          break;
+        }
+        c.k = CTerm::Comp;
+        c.op = t.name;
+        for (const auto& a : t.args) c.args.push_back(compile(s, a));
+        break;
+      case Term::Kind::Binary:
+        c.k = CTerm::Bin;
+        c.op = t.name;
+        for (const auto& a : t.args) c.args.push_back(compile(s, a));
+        break;
+      case Term::Kind::Negate:
+        c.k = CTerm::Neg;
+        for (const auto& a : t.args) c.args.push_back(compile(s, a));
+        break;
+    }
+    return c;
+  }
+
+  static void termVars(const CTerm& t, std::vector<int>& out) {
+    if (t.k == CTerm::Var) out.push_back(t.slot);
+    for (const auto& a : t.args) termVars(a, out);
+  }
+
+  CLit compileLit(Stmt& s, const Literal& l, int origin) {
+    CLit c;
+    c.loc = l.loc;
+    c.origin = origin;
+    c.naf = l.naf;
+    if (l.kind == Literal::Kind::Atom) {
+      c.is_atom = true;
+      c.attr = attrId(l.atom.attr.name, l.loc);
+      c.dynamic = g_.attr_dynamic[c.attr];
+      c.neg = l.negated;
+      for (const auto& a : l.atom.attr.args) c.args.push_back(compile(s, a));
+      c.value = compile(s, l.atom.value);
+      for (const auto& a : c.args) termVars(a, c.vars);
+      termVars(c.value, c.vars);
+    } else {
+      c.is_atom = false;
+      c.op = l.op;
+      c.lhs = compile(s, l.lhs);
+      c.rhs = compile(s, l.rhs);
+      termVars(c.lhs, c.vars);
+      termVars(c.rhs, c.vars);
+    }
+    return c;
+  }
+
+  void typeSlots(Stmt& s, const VariableSorts& vs) {
+    for (size_t i = 0; i < s.slot_names.size(); ++i) {
+      auto it = vs.find(s.slot_names[i]);
+      std::string sort = it != vs.end() ? it->second : prog_.domainSortOf(s.slot_names[i]);
+      if (!sort.empty()) {
+        auto si = sort_index_.find(sort);
+        if (si == sort_index_.end())
+          throw UnknownSymbolError(s.loc.str() + ": unknown sort '" + sort + "' of variable " +
+                                   s.slot_names[i]);
+        s.slot_sort[i] = si->second;
+      }
+    }
+  }
+
+  // ---- evaluation ----
+  int evalTerm(const CTerm& t, const std::vector<int>& b) {
+    switch (t.k) {
+      case CTerm::Const: return t.sym;
+      case CTerm::Var: return b[static_cast<size_t>(t.slot)];
+      case CTerm::Neg: {
+        int a = evalTerm(t.args[0], b);
+        long long v;
+        if (a < 0 || !syms_->isInt(a, &v)) return -1;
+        return syms_->internInt(-v);
+      }
+      case CTerm::Bin: {
+        int a = evalTerm(t.args[0], b), c = evalTerm(t.args[1], b);
+        long long x, y;
+        if (a < 0 || c < 0 || !syms_->isInt(a, &x) || !syms_->isInt(c, &y)) return -1;
+        if (t.op == "+") return syms_->internInt(x + y);
+        if (t.op == "-") return syms_->internInt(x - y);
+        if (t.op == "*") return syms_->internInt(x * y);
+        if (y == 0) return -1;
+        if (t.op == "/") return syms_->internInt(x / y);
+        return syms_->internInt(x % y);
+      }
+      case CTerm::Comp: {
+        std::string s = t.op + "(";
+        for (size_t i = 0; i < t.args.size(); ++i) {
+          int a = evalTerm(t.args[i], b);
+          if (a < 0) return -1;
+          s += (i ? "," : "") + syms_->text(a);
+        }
+        return syms_->intern(s + ")");
+      }
+    }
+    return -1;
+  }
+
+  bool bound(const CTerm& t, const std::vector<int>& b) const {
+    if (t.k == CTerm::Var) return b[static_cast<size_t>(t.slot)] >= 0;
+    for (const auto& a : t.args)
+      if (!bound(a, b)) return false;
+    return true;
+  }
+
+  bool compare(CompareOp op, int a, int c) const {
+    if (op == CompareOp::Eq) return a == c;
+    if (op == CompareOp::Ne) return a != c;
+    long long x, y;
+    int r;
+    bool ia = syms_->isInt(a, &x), ic = syms_->isInt(c, &y);
+    if (ia && ic) r = x < y ? -1 : (x > y ? 1 : 0);
+    else if (ia) r = -1;
+    else if (ic) r = 1;
+    else r = syms_->text(a).compare(syms_->text(c));
+    switch (op) {
+      case CompareOp::Lt: return r < 0;
+      case CompareOp::Le: return r <= 0;
+      case CompareOp::Gt: return r > 0;
+      case CompareOp::Ge: return r >= 0;
+      default: return false;
+    }
+  }
+
+  // Does the static atom hold?  (args, value bound)
+  bool staticAtom(int attr, const std::vector<int>& args, int value, bool neg) const {
+    const FactSet& f = facts_[static_cast<size_t>(attr)];
+    auto it = f.by_args.find(args);
+    if (it == f.by_args.end()) return false;
+    bool has = std::find(it->second.begin(), it->second.end(), value) != it->second.end();
+    if (!neg) return has;
+    for (int v : it->second)
+      if (v != value) return true;
+    return false;
+  }
+
+  std::string instanceName(int attr, const std::vector<int>& args) const {
+    std::string s = prog_.attributes[static_cast<size_t>(attr)].name;
+    if (!args.empty()) {
+      s += "(";
+      for (size_t i = 0; i < args.size(); ++i) s += (i ? "," : "") + syms_->text(args[i]);
+      s += ")";
+    }
+    return s;
+  }
+
+  int instanceFor(int attr, const std::vector<int>& args) {
+    std::string name = instanceName(attr, args);
+    auto it = g_.instance_ids.find(name);
+    if (it != g_.instance_ids.end()) return it->second;
+    const AttributeDecl& d = prog_.attributes[static_cast<size_t>(attr)];
+    GInstance inst;
+    inst.attr = attr;
+    inst.args = args;
+    inst.name = name;
+    inst.random = g_.attr_random[static_cast<size_t>(attr)];
+    inst.domain = sortValues(d.range_sort, d.loc);
+    int id = static_cast<int>(g_.instances.size());
+    g_.instances.push_back(std::move(inst));
+    g_.instance_ids.emplace(name, id);
+    return id;
+  }
+
+  // Join: enumerate bindings satisfying the literals; dynamic literals are collected as GLits.
+  using Emit = std::function<void(const std::vector<int>&, const std::vector<GLit>&,
+                                  const std::vector<int>&)>;
+
+  void join(Stmt& s, std::vector<char>& done, std::vector<int>& b, std::vector<GLit>& acc,
+            std::vector<int>& acc_origin, const std::vector<int>& required, const Emit& emit) {
+    // choose the next literal
+    int best = -1;
+    size_t best_cost = std::numeric_limits<size_t>::max();
+    int best_pos = -1;
+    for (size_t i = 0; i < s.lits.size(); ++i) {
+      if (done[i]) continue;
+      const CLit& l = s.lits[i];
+      size_t cost;
+      int pos = -1;
+      if (!l.is_atom) {
+        bool lb = bound(l.lhs, b), rb = bound(l.rhs, b);
+        if (lb && rb) cost = 0;
+        else if (l.op == CompareOp::Eq && !l.naf &&
+                 ((!lb && rb && l.lhs.k == CTerm::Var) || (lb && !rb && l.rhs.k == CTerm::Var)))
+          cost = 1;
+        else
+          continue;
+      } else {
+        bool args_bound = true;
+        for (const auto& a : l.args) args_bound = args_bound && bound(a, b);
+        bool vb = bound(l.value, b);
+        if (l.naf || l.neg) {
+          if (!(args_bound && vb)) continue;
+          cost = 0;
+        } else if (l.dynamic) {
+          if (!args_bound) continue;
+          if (vb) cost = 0;
+          else if (l.value.k == CTerm::Var)
+            cost = sortValues(prog_.attributes[static_cast<size_t>(l.attr)].range_sort, l.loc).size();
+          else
+            continue;
+        } else {
+          const FactSet& f = facts_[static_cast<size_t>(l.attr)];
+          if (args_bound && vb) {
+            cost = 0;
+          } else {
+            cost = f.tuples.size();
+            for (size_t p = 0; p <= l.args.size(); ++p) {
+              const CTerm& t = p < l.args.size() ? l.args[p] : l.value;
+              if (!bound(t, b)) continue;
+              int v = evalTerm(t, b);
+              size_t c = 0;
+              if (p < f.pos_index.size()) {
+                auto it = f.pos_index[p].find(v);
+                if (it != f.pos_index[p].end()) c = it->second.size();
+              }
+              if (c < cost || pos < 0) {
+                cost = c;
+                pos = static_cast<int>(p);
+              }
+            }
+          }
+        }
+      }
+      if (cost < best_cost) {
+        best_cost = cost;
+        best = static_cast<int>(i);
+        best_pos = pos;
+      }
+      if (cost == 0) break;
+    }
+    if (best < 0) {
+      // no literal ready: enumerate a variable from its sort (remaining literals first)
+      int var = -1;
+      size_t vsize = std::numeric_limits<size_t>::max();
+      auto consider = [&](int slot) {
+        if (b[static_cast<size_t>(slot)] >= 0) return;
+        int so = s.slot_sort[static_cast<size_t>(slot)];
+        if (so < 0) return;
+        size_t n = sort_vals_[static_cast<size_t>(so)].size();
+        if (n < vsize) {
+          vsize = n;
+          var = slot;
+        }
+      };
+      bool any_left = false;
+      for (size_t i = 0; i < s.lits.size(); ++i) {
+        if (done[i]) continue;
+        any_left = true;
+        for (int v : s.lits[i].vars) consider(v);
+      }
+      if (!any_left)
+        for (int v : required) consider(v);
+      if (var < 0) {
+        for (size_t i = 0; i < s.lits.size() && any_left; ++i) {
+          if (done[i]) continue;
+          for (int v : s.lits[i].vars)
+            if (b[static_cast<size_t>(v)] < 0)
+              throw UnknownSymbolError(s.lits[i].loc.str() + ": cannot determine the sort of "
+                                       "variable " + s.slot_names[static_cast<size_t>(v)] +
+                                       " (declare it with #domain or use it as an attribute "
+                                       "argument)");
+        }
+        for (int v : required)
+          if (b[static_cast<size_t>(v)] < 0)
+            throw UnknownSymbolError(s.loc.str() + ": cannot determine the sort of variable " +
+                                     s.slot_names[static_cast<size_t>(v)]);
+        emit(b, acc, acc_origin);
+        return;
+      }
+      for (int val : sort_vals_[static_cast<size_t>(s.slot_sort[static_cast<size_t>(var)])]) {
+        b[static_cast<size_t>(var)] = val;
+        join(s, done, b, acc, acc_origin, required, emit);
+      }
+      b[static_cast<size_t>(var)] = -1;
+      return;
+    }
+    const CLit& l = s.lits[static_cast<size_t>(best)];
+    done[static_cast<size_t>(best)] = 1;
+    auto recurse = [&]() { join(s, done, b, acc, acc_origin, required, emit); };
+    if (!l.is_atom) {
+      bool lb = bound(l.lhs, b), rb = bound(l.rhs, b);
+      if (lb && rb) {
+        int x = evalTerm(l.lhs, b), y = evalTerm(l.rhs, b);
+        bool ok = x >= 0 && y >= 0 && compare(l.op, x, y);
+        if (l.naf) ok = !ok && x >= 0 && y >= 0;
+        if (ok) recurse();
+      } else {
+        const CTerm& var = lb ? l.rhs : l.lhs;
+        int v = evalTerm(lb ? l.lhs : l.rhs, b);
+        if (v >= 0) {
+          int so = s.slot_sort[static_cast<size_t>(var.slot)];
+          bool in_sort = so < 0;
+          if (!in_sort) {
+            const auto& sv = sort_vals_[static_cast<size_t>(so)];
+            in_sort = std::find(sv.begin(), sv.end(), v) != sv.end();
+          }
+          if (in_sort) {
+            b[static_cast<size_t>(var.slot)] = v;
+            recurse();
+            b[static_cast<size_t>(var.slot)] = -1;
+          }
+        }
+      }
+    } else if (l.dynamic) {
+      std::vector<int> args;
+      bool ok = true;
+      for (const auto& a : l.args) {
+        int v = evalTerm(a, b);
+        if (v < 0) ok = false;
+        args.push_back(v);
+      }
+      if (ok) {
+        const AttributeDecl& d = prog_.attributes[static_cast<size_t>(l.attr)];
+        for (size_t i = 0; i < args.size() && ok; ++i) {
+          if (d.arg_sorts[i].empty()) continue;
+          const auto& sv = sortValues(d.arg_sorts[i], d.loc);
+          if (std::find(sv.begin(), sv.end(), args[i]) == sv.end()) ok = false;
+        }
+        if (!ok) {
+          // instance outside its sorts: the atom is false
+          if (l.naf) recurse();
+        } else {
+          int inst = instanceFor(l.attr, args);
+          if (bound(l.value, b)) {
+            int v = evalTerm(l.value, b);
+            int vi = v < 0 ? -1 : g_.instances[static_cast<size_t>(inst)].valueIndex(v);
+            if (vi < 0 && !l.naf && !l.neg) {
+              // impossible value: literal false
+            } else if (vi < 0 && l.naf && !l.neg) {
+              recurse();
+            } else {
+              acc.push_back(GLit{inst, vi, l.naf, l.neg});
+              acc_origin.push_back(l.origin);
+              recurse();
+              acc.pop_back();
+              acc_origin.pop_back();
+            }
+          } else {
+            std::vector<int> dom = g_.instances[static_cast<size_t>(inst)].domain;
+            for (size_t vi = 0; vi < dom.size(); ++vi) {
+              b[static_cast<size_t>(l.value.slot)] = dom[vi];
+              acc.push_back(GLit{inst, static_cast<int>(vi), false, false});
+              acc_origin.push_back(l.origin);
+              recurse();
+              acc.pop_back();
+              acc_origin.pop_back();
+            }
+            b[static_cast<size_t>(l.value.slot)] = -1;
+          }
+        }
+      }
+    } else {
+      const FactSet& f = facts_[static_cast<size_t>(l.attr)];
+      bool all = true;
+      for (const auto& a : l.args) all = all && bound(a, b);
+      all = all && bound(l.value, b);
+      if (all) {
+        std::vector<int> args;
+        bool ok = true;
+        for (const auto& a : l.args) {
+          args.push_back(evalTerm(a, b));
+          if (args.back() < 0) ok = false;
+        }
+        int v = evalTerm(l.value, b);
+        bool holds = ok && v >= 0 && staticAtom(l.attr, args, v, l.neg);
+        if (l.naf) holds = !holds;
+        if (holds) recurse();
+      } else {
+        // iterate candidate tuples (copy the id list: facts may grow during static fixpoint)
+        std::vector<int> cand;
+        if (best_pos >= 0) {
+          const CTerm& t = static_cast<size_t>(best_pos) < l.args.size() ? l.args[best_pos] : l.value;
+          int v = evalTerm(t, b);
+          if (static_cast<size_t>(best_pos) < f.pos_index.size()) {
+            auto it = f.pos_index[best_pos].find(v);
+            if (it != f.pos_index[best_pos].end()) cand = it->second;
+          }
+        } else {
+          cand.resize(f.tuples.size());
+          for (size_t i = 0; i < cand.size(); ++i) cand[i] = static_cast<int>(i);
+        }
+        std::vector<int> set_slots;
+        for (int ti : cand) {
+          const std::vector<int> tuple = f.tuples[static_cast<size_t>(ti)];
+          if (tuple.size() != l.args.size() + 1) continue;
+          bool ok = true;
+          set_slots.clear();
+          for (size_t p = 0; p < tuple.size() && ok; ++p) {
+            const CTerm& t = p < l.args.size() ? l.args[p] : l.value;
+            if (t.k == CTerm::Var && b[static_cast<size_t>(t.slot)] < 0) {
+              b[static_cast<size_t>(t.slot)] = tuple[p];
+              set_slots.push_back(t.slot);
+            } else if (bound(t, b)) {
+              if (evalTerm(t, b) != tuple[p]) ok = false;
+            } else {
+              ok = false;  // compound pattern with unbound variables: unsupported match
+            }
+          }
+          if (ok) recurse();
+          for (int sl : set_slots) b[static_cast<size_t>(sl)] = -1;
+        }
+      }
+    }
+    done[static_cast<size_t>(best)] = 0;
+  }
+
+  void runJoin(Stmt& s, const std::vector<int>& required, const Emit& emit) {
+    std::vector<char> done(s.lits.size(), 0);
+    std::vector<int> b(s.slot_names.size(), -1);
+    std::vector<GLit> acc;
+    std::vector<int> origin;
+    join(s, done, b, acc, origin, required, emit);
+  }
+
+  // ---- static evaluation ----
+  void evaluateStatic() {
+    const size_t na = prog_.attributes.size();
+    // static rules grouped by head attribute; dependency graph among static attributes
+    std::vector<std::vector<int>> rules_of(na);
+    std::vector<std::vector<std::pair<int, bool>>> edges(na);  // head -> (body attr, negative)
+    for (size_t r = 0; r < prog_.rules.size(); ++r) {
+      const Rule& rule = prog_.rules[r];
+      if (!rule.head) continue;
+      int h = attrId(rule.head->attr.name, rule.loc);
+      if (g_.attr_dynamic[h]) continue;
+      rules_of[h].push_back(static_cast<int>(r));
+      for (const auto& l : rule.body)
+        if (l.kind == Literal::Kind::Atom)
+          edges[h].push_back({attrId(l.atom.attr.name, l.loc), l.naf || l.negated});
+    }
+    // Needed static attributes: cone attributes and everything they depend on.
+    // Tarjan SCC over static attributes.
+    std::vector<int> index(na, -1), low(na, 0), comp(na, -1);
+    std::vector<char> on(na, 0);
+    std::vector<int> stack;
+    int counter = 0, ncomp = 0;
+    std::vector<std::vector<int>> comps;
+    std::function<void(int)> dfs = [&](int v) {
+      index[v] = low[v] = counter++;
+      stack.push_back(v);
+      on[v] = 1;
+      for (auto& e : edges[v]) {
+        int w = e.first;
+        if (g_.attr_dynamic[w]) continue;
+        if (index[w] < 0) {
+          dfs(w);
+          low[v] = std::min(low[v], low[w]);
+        } else if (on[w]) {
+          low[v] = std::min(low[v], index[w]);
+        }
+      }
+      if (low[v] == index[v]) {
+        std::vector<int> c;
+        int w;
+        do {
+          w = stack.back();
+          stack.pop_back();
+          on[w] = 0;
+          comp[w] = ncomp;
+          c.push_back(w);
+        } while (w != v);
+        comps.push_back(c);
+        ++ncomp;
+      }
+    };
+    for (size_t a = 0; a < na; ++a)
+      if (!g_.attr_dynamic[a] && g_.attr_in_cone[a] && index[a] < 0) dfs(static_cast<int>(a));
+    // Tarjan emits components in reverse topological order of dependencies => dependencies first.
+    for (const auto& c : comps) {
+      for (int a : c)
+        for (auto& e : edges[a])
+          if (e.second && !g_.attr_dynamic[e.first] && comp[e.first] == comp[a])
+            throw Error(prog_.attributes[a].loc.str() + ": attribute '" +
+                        prog_.attributes[a].name +
+                        "' depends on itself through negation (non-stratified); this is "
+                        "outside the native reasoner's fast path (use the ASP back end)");
+      bool recursive = c.size() > 1;
+      for (int a : c)
+        for (auto& e : edges[a])
+          if (e.first == a) recursive = true;
+      std::vector<Stmt> stmts;
+      std::vector<const Rule*> srcs;
+      for (int a : c)
+        for (int r : rules_of[a]) {
+          const Rule& rule = prog_.rules[static_cast<size_t>(r)];
+          Stmt s;
+          s.loc = rule.loc;
+          for (const auto& l : rule.body) s.lits.push_back(compileLit(s, l, 0));
+          stmts.push_back(std::move(s));
+          srcs.push_back(&rule);
+        }
+      for (;;) {
+        bool added = false;
+        for (size_t k = 0; k < stmts.size(); ++k) {
+          Stmt& s = stmts[k];
+          const Rule& rule = *srcs[k];
+          int h = attrId(rule.head->attr.name, rule.loc);
+          std::vector<CTerm> hargs;
+          for (const auto& a : rule.head->attr.args) hargs.push_back(compile(s, a));
+          CTerm hval = compile(s, rule.head->value);
+          typeSlots(s, rule.variable_sorts);
+          std::vector<int> required;
+          for (const auto& a : hargs) termVars(a, required);
+          termVars(hval, required);
+          std::vector<std::pair<std::vector<int>, int>> news;
+          runJoin(s, required, [&](const std::vector<int>& b, const std::vector<GLit>&,
+                                   const std::vector<int>&) {
+            std::vector<int> args;
+            for (const auto& a : hargs) {
+              int v = evalTerm(a, b);
+              if (v < 0) return;
+              args.push_back(v);
+            }
+            int v = evalTerm(hval, b);
+            if (v < 0) return;
+            news.push_back({args, v});
+          });
+          for (auto& nv : news) {
+            FactSet& f = facts_[static_cast<size_t>(h)];
+            if (f.add(nv.first, nv.second)) {
+              added = true;
+              auto it = f.by_args.find(nv.first);
+              if (it->second.size() > 1)
+                throw IncoherentError(rule.loc.str() + ": attribute " + instanceName(h, nv.first) +
+                                      " gets two values (" + syms_->text(it->second[0]) + " and " +
+                                      syms_->text(it->second[1]) + ")");
+            }
+          }
+        }
+        if (!recursive || !added) break;
+      }
+    }
+  }
+
+  // ---- dynamic grounding ----
+  void groundDynamic() {
+    // random selection rules
+    for (const auto& r : prog_.random_rules) {
+      int a = attrId(r.attr.name, r.loc);
+      if (!g_.attr_in_cone[a]) continue;
+      Stmt s;
+      s.loc = r.loc;
+      for (const auto& l : r.body) s.lits.push_back(compileLit(s, l, 0));
+      int range_slot = -1;
+      if (r.has_range) {
+        range_slot = slotOf(s, r.range_var);
+        for (const auto& l : r.range_body) s.lits.push_back(compileLit(s, l, 1));
+      }
+      std::vector<CTerm> hargs;
+      for (const auto& t : r.attr.args) hargs.push_back(compile(s, t));
+      typeSlots(s, r.variable_sorts);
+      std::vector<int> required;
+      for (const auto& t : hargs) termVars(t, required);
+      const size_t nbody = r.body.size();
+      std::unordered_map<std::string, std::pair<int, int>> groups;  // key -> (inst, sel idx)
+      std::vector<char> done(s.lits.size(), 0);
+      for (size_t i = nbody; i < s.lits.size(); ++i) done[i] = 1;  // range literals later
+      std::vector<int> b(s.slot_names.size(), -1);
+      std::vector<GLit> acc;
+      std::vector<int> origin;
+      join(s, done, b, acc, origin, required, [&](const std::vector<int>& bb,
+                                                  const std::vector<GLit>& body,
+                                                  const std::vector<int>&) {
+        std::vector<int> args;
+        for (const auto& t : hargs) {
+          int v = evalTerm(t, bb);
+          if (v < 0) return;
+          args.push_back(v);
+        }
+        if (!argsInSorts(a, args)) return;
+        int inst = instanceFor(a, args);
+        std::string key = std::to_string(inst) + ":" + litKey(body);
+        auto it = groups.find(key);
+        if (it == groups.end()) {
+          GSelection sel;
+          sel.label = r.label;
+          sel.body = body;
+          sel.dynamic_range = r.has_range;
+          sel.loc = r.loc;
+          GInstance& gi = g_.instances[static_cast<size_t>(inst)];
+          gi.selections.push_back(sel);
+          it = groups.emplace(key, std::make_pair(inst, int(gi.selections.size()) - 1)).first;
+          ++g_.ground_statements;
+        }
+        if (range_slot < 0) return;
+        // ground the dynamic range for this body binding
+        std::vector<char> done2(s.lits.size(), 1);
+        for (size_t i = nbody; i < s.lits.size(); ++i) done2[i] = 0;
+        std::vector<int> b2 = bb;
+        std::vector<GLit> acc2;
+        std::vector<int> origin2;
+        const int sel_index = it->second.second;
+        join(s, done2, b2, acc2, origin2, {range_slot}, [&](const std::vector<int>& b3,
+                                                            const std::vector<GLit>& cond,
+                                                            const std::vector<int>&) {
+          GInstance& gi = g_.instances[static_cast<size_t>(inst)];
+          int vi = gi.valueIndex(b3[static_cast<size_t>(range_slot)]);
+          if (vi >= 0) gi.selections[static_cast<size_t>(sel_index)].range.push_back({vi, cond});
+        });
+      });
+    }
+    // pr-atoms
+    for (const auto& p : prog_.pr_atoms) {
+      int a = attrId(p.atom.attr.name, p.loc);
+      if (!g_.attr_in_cone[a]) continue;
+      if (!g_.attr_random[a]) {
+        throw UnknownSymbolError(p.loc.str() + ": pr-atom for attribute '" + p.atom.attr.name +
+                                 "' which has no random selection rule");
+      }
+      Stmt s;
+      s.loc = p.loc;
+      for (const auto& l : p.body) s.lits.push_back(compileLit(s, l, 0));
+      std::vector<CTerm> hargs;
+      for (const auto& t : p.atom.attr.args) hargs.push_back(compile(s, t));
+      CTerm hval = compile(s, p.atom.value);
+      typeSlots(s, p.variable_sorts);
+      std::vector<int> required;
+      for (const auto& t : hargs) termVars(t, required);
+      termVars(hval, required);
+      runJoin(s, required, [&](const std::vector<int>& b, const std::vector<GLit>& acc,
+                               const std::vector<int>&) {
+        std::vector<int> args;
+        for (const auto& t : hargs) {
+          int v = evalTerm(t, b);
+          if (v < 0) return;
+          args.push_back(v);
+        }
+        if (!argsInSorts(a, args)) return;
+        int inst = instanceFor(a, args);
+        GInstance& gi = g_.instances[static_cast<size_t>(inst)];
+        int v = evalTerm(hval, b);
+        int vi = v < 0 ? -1 : gi.valueIndex(v);
+        if (vi < 0) return;
+        GPr pr;
+        pr.value = vi;
+        pr.probability = p.probability;
+        pr.label = p.label;
+        pr.body = acc;
+        pr.loc = p.loc;
+        pr.priority = p.priority;
+        gi.prs.push_back(std::move(pr));
+        ++g_.ground_statements;
+      });
+    }
+    // dynamic derived rules and constraints
+    for (const auto& r : prog_.rules) {
+      int h = -1;
+      if (r.head) {
+        h = attrId(r.head->attr.name, r.loc);
+        if (!g_.attr_dynamic[h] || !g_.attr_in_cone[h]) continue;
+      } else {
+        bool touches = false;
+        for (const auto& l : r.body)
+          if (l.kind == Literal::Kind::Atom && g_.attr_in_cone[attrId(l.atom.attr.name, l.loc)])
+            touches = true;
+        if (!touches && !r.body.empty()) continue;
+      }
+      Stmt s;
+      s.loc = r.loc;
+      for (const auto& l : r.body) s.lits.push_back(compileLit(s, l, 0));
+      std::vector<CTerm> hargs;
+      CTerm hval;
+      if (r.head) {
+        for (const auto& t : r.head->attr.args) hargs.push_back(compile(s, t));
+        hval = compile(s, r.head->value);
+      }
+      typeSlots(s, r.variable_sorts);
+      std::vector<int> required;
+      for (const auto& t : hargs) termVars(t, required);
+      if (r.head) termVars(hval, required);
+      runJoin(s, required, [&](const std::vector<int>& b, const std::vector<GLit>& acc,
+                               const std::vector<int>&) {
+        if (!r.head) {
+          if (acc.empty())
+            throw IncoherentError(r.loc.str() + ": constraint is violated by the facts of the "
+                                  "program (no possible world)");
+          g_.constraints.push_back({acc, r.loc});
+          ++g_.ground_statements;
+          return;
+        }
+        std::vector<int> args;
+        for (const auto& t : hargs) {
+          int v = evalTerm(t, b);
+          if (v < 0) return;
+          args.push_back(v);
+        }
+        if (!argsInSorts(h, args)) return;
+        int inst = instanceFor(h, args);
+        GInstance& gi = g_.instances[static_cast<size_t>(inst)];
+        int v = evalTerm(hval, b);
+        int vi = v < 0 ? -1 : gi.valueIndex(v);
+        if (vi < 0)
+          throw UnknownSymbolError(r.loc.str() + ": value '" + (v < 0 ? "?" : syms_->text(v)) +
+                                   "' is not in the range of " + gi.name);
+        gi.rules.push_back({vi, acc});
+        ++g_.ground_statements;
+      });
+    }
+  }
+
+  bool argsInSorts(int attr, const std::vector<int>& args) const {
+    const AttributeDecl& d = prog_.attributes[static_cast<size_t>(attr)];
+    for (size_t i = 0; i < args.size() && i < d.arg_sorts.size(); ++i) {
+      if (d.arg_sorts[i].empty()) continue;
+      const auto& sv = sortValues(d.arg_sorts[i], d.loc);
+      if (std::find(sv.begin(), sv.end(), args[i]) == sv.end()) return false;
+    }
+    return true;
+  }
+
+  static std::string litKey(const std::vector<GLit>& body) {
+    std::string k;
+    for (const auto& l : body)
+      k += std::to_string(l.inst) + "/" + std::to_string(l.value) + (l.naf ? "n" : "") +
+           (l.neg ? "-" : "") + ";";
+    return k;
+  }
+
+  const Program& prog_;
+  GroundProgram& g_;
+  SymbolTable* syms_ = nullptr;
+  std::unordered_map<std::string, int> attr_index_;
+  std::unordered_map<std::string, int> sort_index_;
+  std::vector<std::vector<int>> sort_vals_;
+  std::vector<FactSet> facts_;
+  int true_ = 0, false_ = 0;
+  int anon_ = 0;
+};
+
+}  // namespace
+
+std::set<std::string> relevanceCone(const Program& program, const std::set<std::string>& names) {
+  Deps d = dependencies(program);
+  std::set<std::string> cone;
+  std::vector<std::string> work(names.begin(), names.end());
+  auto close = [&]() {
+    while (!work.empty()) {
+      std::string a = work.back();
+      work.pop_back();
+      if (!cone.insert(a).second) continue;
+      auto it = d.parents.find(a);
+      if (it == d.parents.end()) continue;
+      for (const auto& p : it->second)
+        if (!cone.count(p)) work.push_back(p);
+    }
+  };
+  close();
+  // Constraints, and derived attributes that may get two values in a world (an inconsistency),
+  // act as evidence: a world violating them is not a possible world. Even when independent of
+  // the query they matter if they can never be satisfied (then the program has no possible
+  // world at all), so they are always part of the cone.
+  std::set<std::string> random_attrs;
+  for (const auto& r : program.random_rules) random_attrs.insert(r.attr.name);
+  std::map<std::string, std::set<std::string>> head_values;  // derived attr -> head values
+  for (const auto& r : program.rules)
+    if (r.head && !random_attrs.count(r.head->attr.name))
+      head_values[r.head->attr.name].insert(r.head->value.kind == Term::Kind::Variable
+                                                ? "_var"
+                                                : toString(r.head->value));
+  bool changed = true;
+  while (changed) {
+    changed = false;
+    for (const auto& r : program.rules) {
+      if (r.head) continue;
+      std::set<std::string> as;
+      attrsOfBody(r.body, as);
+      bool all = true;
+      for (const auto& a : as)
+        if (!cone.count(a)) all = false;
+      if (all) continue;
+      for (const auto& a : as)
+        if (!cone.count(a)) work.push_back(a);
+      close();
+      changed = true;
+    }
+    for (const auto& hv : head_values) {
+      if (cone.count(hv.first)) continue;
+      if (hv.second.size() < 2 && !hv.second.count("_var")) continue;
+      work.push_back(hv.first);
+      close();
+      changed = true;
+    }
+  }
+  return cone;
+}
+
+GroundProgram groundProgram(const Program& program, const std::set<std::string>& cone_attributes) {
+  GroundProgram g;
+  Grounder gr(program, g);
+  gr.run(relevanceCone(program, cone_attributes));
+  return g;
+}
+
+}  // namespace plog
+}  // namespace krr

@@ -1,0 +1,580 @@
+#include "krr_core/pomdp/cassandra_io.h"
+
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <sstream>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/common/files.h"
+
+namespace krr {
+namespace pomdp {
+
+namespace {
+
+struct Token {
+  std::string text;
+  int line;
+  int col;
+};
+
+std::vector<Token> tokenize(const std::string& text) {
+  std::vector<Token> out;
+  int line = 1, col = 1;
+  std::size_t i = 0;
+  auto advance = [&](char c) {
+    if (c == '\n') {
+      ++line;
+      col = 1;
+    } else {
+      ++col;
+    }
+  };
+  while (i < text.size()) {
+    char c = text[i];
+    if (c == '#') {
+      while (i < text.size() && text[i] != '\n') advance(text[i++]);
+      continue;
+    }
+    if (std::isspace(static_cast<unsigned char>(c))) {
+      advance(c);
+      ++i;
+      continue;
+    }
+    if (c == ':') {
+      out.push_back({":", line, col});
+      advance(c);
+      ++i;
+      continue;
+    }
+    Token t{"", line, col};
+    while (i < text.size() && !std::isspace(static_cast<unsigned char>(text[i])) &&
+           text[i] != ':' && text[i] != '#') {
+      t.text += text[i];
+      advance(text[i++]);
+    }
+    out.push_back(t);
+  }
+  return out;
+}
+
+bool isNumber(const std::string& s, double* v) {
+  if (s.empty()) return false;
+  const char* p = s.c_str();
+  char* e = nullptr;
+  errno = 0;
+  double d = std::strtod(p, &e);
+  if (e == p || *e != '\0' || errno == ERANGE || !std::isfinite(d)) return false;
+  if (v) *v = d;
+  return true;
+}
+
+bool isInteger(const std::string& s, long* v) {
+  if (s.empty()) return false;
+  for (char c : s)
+    if (!std::isdigit(static_cast<unsigned char>(c))) return false;
+  errno = 0;
+  long x = std::strtol(s.c_str(), nullptr, 10);
+  if (errno == ERANGE) return false;
+  if (v) *v = x;
+  return true;
+}
+
+const char* kKeywords[] = {"discount", "values", "states", "actions", "observations", "start",
+                           "T", "O", "R"};
+
+/// One symbol set (states, actions or observations): a count or names.
+struct Symbols {
+  bool defined = false;
+  std::size_t n = 0;
+  std::vector<std::string> names;  // empty: numbered only
+};
+
+/// -1 stands for the '*' wildcard.
+using Idx = long;
+
+class Parser {
+ public:
+  Parser(const std::string& text, const std::string& file)
+      : file_(file), toks_(tokenize(text)) {
+    int l = 1, c = 1;
+    for (char ch : text) {
+      if (ch == '\n') {
+        ++l;
+        c = 1;
+      } else {
+        ++c;
+      }
+    }
+    eof_ = {"<end of file>", l, c};
+  }
+
+  Model parse();
+
+ private:
+  [[noreturn]] void fail(const Token& t, const std::string& msg) const {
+    throw ParseError(SourceLocation{file_, t.line, t.col}, msg);
+  }
+  const Token& peek(std::size_t k = 0) const {
+    return pos_ + k < toks_.size() ? toks_[pos_ + k] : eof_;
+  }
+  bool atEnd() const { return pos_ >= toks_.size(); }
+  const Token& next(const char* what) {
+    if (atEnd()) fail(eof_, std::string("unexpected end of file, expected ") + what);
+    return toks_[pos_++];
+  }
+  void expectColon() {
+    const Token& t = next("':'");
+    if (t.text != ":") fail(t, "expected ':', got '" + t.text + "'");
+  }
+  bool isKeywordStart(std::size_t k) const {
+    if (pos_ + k >= toks_.size()) return true;
+    const std::string& s = toks_[pos_ + k].text;
+    for (const char* kw : kKeywords)
+      if (s == kw) {
+        const std::string& n = peek(k + 1).text;
+        return n == ":" || (s == "start" && (n == "include" || n == "exclude"));
+      }
+    return false;
+  }
+  double number(const char* what) {
+    const Token& t = next(what);
+    double v = 0.0;
+    if (!isNumber(t.text, &v)) fail(t, std::string("expected ") + what + ", got '" + t.text + "'");
+    return v;
+  }
+  double probability(const char* what) {
+    const Token& t = peek();
+    double v = number(what);
+    if (v < -1e-12 || v > 1.0 + 1e-9)
+      fail(t, std::string(what) + " " + t.text + " is not in [0, 1]");
+    return v;
+  }
+  void symbolList(Symbols& sym, const char* kind) {
+    const Token& kw = toks_[pos_ - 2];
+    if (sym.defined) fail(kw, std::string(kind) + " defined twice");
+    sym.defined = true;
+    long n = 0;
+    if (!atEnd() && isInteger(peek().text, &n) && isKeywordStart(1)) {
+      if (n <= 0) fail(peek(), std::string("number of ") + kind + " must be positive");
+      ++pos_;
+      sym.n = static_cast<std::size_t>(n);
+      return;
+    }
+    while (!isKeywordStart(0)) {
+      if (peek(1).text == ":" || peek().text == ":")
+        fail(peek(), "expected one of discount, values, states, actions, "
+             "observations, start, T, O, R; got '" + peek().text + "'");
+      const Token& t = next("a name");
+      if (t.text == "*") fail(t, "'*' is not a valid name");
+      for (const auto& existing : sym.names)
+        if (existing == t.text) fail(t, std::string("duplicate ") + kind + " name '" + t.text + "'");
+      sym.names.push_back(t.text);
+    }
+    if (sym.names.empty()) fail(peek(), std::string("expected a count or names of ") + kind);
+    sym.n = sym.names.size();
+  }
+  Idx symbol(const Symbols& sym, const char* kind, bool allowWildcard) {
+    const Token& t = next(kind);
+    if (!sym.defined) fail(t, std::string(kind) + " used before they are declared");
+    if (t.text == "*") {
+      if (!allowWildcard) fail(t, "wildcard '*' not allowed here");
+      return -1;
+    }
+    for (std::size_t i = 0; i < sym.names.size(); ++i)
+      if (sym.names[i] == t.text) return static_cast<Idx>(i);
+    long v = 0;
+    if (isInteger(t.text, &v)) {
+      if (static_cast<std::size_t>(v) >= sym.n)
+        fail(t, std::string(kind) + " index " + t.text + " out of range (" +
+                    std::to_string(sym.n) + " " + kind + "s)");
+      return v;
+    }
+    fail(t, std::string("unknown ") + kind + " '" + t.text + "'");
+  }
+  std::vector<std::size_t> range(Idx i, std::size_t n) const {
+    std::vector<std::size_t> out;
+    if (i >= 0) {
+      out.push_back(static_cast<std::size_t>(i));
+    } else {
+      for (std::size_t k = 0; k < n; ++k) out.push_back(k);
+    }
+    return out;
+  }
+  void requireAll(const Token& t) {
+    if (!states_.defined || !actions_.defined || !obs_.defined)
+      fail(t, "T:, O: and R: need states, actions and observations declared first");
+    if (t_.empty()) {
+      const auto S = static_cast<Eigen::Index>(states_.n), O = static_cast<Eigen::Index>(obs_.n);
+      t_.assign(actions_.n, Eigen::MatrixXd::Zero(S, S));
+      z_.assign(actions_.n, Eigen::MatrixXd::Zero(S, O));
+      tLoc_.assign(actions_.n * states_.n, Token{"", 0, 0});
+      zLoc_.assign(actions_.n * states_.n, Token{"", 0, 0});
+    }
+  }
+  void parseStart();
+  void parseT();
+  void parseO();
+  void parseR();
+  void setT(Idx a, Idx s, Idx s1, double p, const Token& where);
+  void setZ(Idx a, Idx s1, Idx o, double p, const Token& where);
+
+  std::string file_;
+  std::vector<Token> toks_;
+  Token eof_;
+  std::size_t pos_ = 0;
+  bool haveDiscount_ = false, cost_ = false, haveStart_ = false;
+  double discount_ = 1.0;
+  Symbols states_, actions_, obs_;
+  Eigen::VectorXd start_;
+  std::vector<Eigen::MatrixXd> t_, z_;
+  std::vector<Token> tLoc_, zLoc_;
+  struct REntry {
+    Idx a, s, s1, o;
+    double v;
+  };
+  std::vector<REntry> r_;
+};
+
+void Parser::setT(Idx a, Idx s, Idx s1, double p, const Token& where) {
+  for (std::size_t ai : range(a, actions_.n))
+    for (std::size_t si : range(s, states_.n)) {
+      for (std::size_t k : range(s1, states_.n)) t_[ai](si, k) = p;
+      tLoc_[ai * states_.n + si] = where;
+    }
+}
+
+void Parser::setZ(Idx a, Idx s1, Idx o, double p, const Token& where) {
+  for (std::size_t ai : range(a, actions_.n))
+    for (std::size_t si : range(s1, states_.n)) {
+      for (std::size_t k : range(o, obs_.n)) z_[ai](si, k) = p;
+      zLoc_[ai * states_.n + si] = where;
+    }
+}
+
+void Parser::parseStart() {
+  const bool list = peek().text == "include" || peek().text == "exclude";
+  const Token& kw = toks_[pos_ - (list ? 1 : 2)];
+  if (!states_.defined) fail(kw, "start: needs states declared first");
+  const auto S = static_cast<Eigen::Index>(states_.n);
+  haveStart_ = true;
+  if (list) {
+    const bool include = next("include").text == "include";
+    expectColon();
+    std::vector<char> listed(states_.n, 0);
+    bool any = false;
+    while (!isKeywordStart(0)) {
+      Idx s = symbol(states_, "state", false);
+      listed[static_cast<std::size_t>(s)] = 1;
+      any = true;
+    }
+    if (!any) fail(peek(), "expected state names after start " + std::string(include ? "include" : "exclude"));
+    start_ = Eigen::VectorXd::Zero(S);
+    for (std::size_t s = 0; s < states_.n; ++s)
+      if (static_cast<bool>(listed[s]) == include) start_(s) = 1.0;
+    if (start_.sum() == 0.0) fail(kw, "start exclude: excludes every state");
+    start_ /= start_.sum();
+    return;
+  }
+  const Token& t = peek();
+  if (t.text == "uniform") {
+    ++pos_;
+    start_ = Eigen::VectorXd::Constant(S, 1.0 / states_.n);
+    return;
+  }
+  // A single state (name, or index when S > 1) followed by a keyword: that state surely.
+  if (isKeywordStart(1) && (!isNumber(t.text, nullptr) || (states_.n > 1 && isInteger(t.text, nullptr)))) {
+    Idx s = symbol(states_, "state", false);
+    start_ = Eigen::VectorXd::Zero(S);
+    start_(s) = 1.0;
+    return;
+  }
+  start_.resize(S);
+  for (Eigen::Index i = 0; i < S; ++i) start_(i) = probability("start probability");
+  if (std::abs(start_.sum() - 1.0) > Model::kTolerance)
+    fail(t, "start probabilities sum to " + std::to_string(start_.sum()) + " (expected 1)");
+}
+
+void Parser::parseT() {
+  const Token& kw = toks_[pos_ - 2];
+  requireAll(kw);
+  Idx a = symbol(actions_, "action", true);
+  if (peek().text != ":") {  // matrix form
+    const Token& t = peek();
+    if (t.text == "identity" || t.text == "uniform") {
+      ++pos_;
+      for (std::size_t ai : range(a, actions_.n))
+        for (std::size_t s = 0; s < states_.n; ++s) {
+          for (std::size_t k = 0; k < states_.n; ++k)
+            t_[ai](s, k) = t.text == "identity" ? (s == k ? 1.0 : 0.0) : 1.0 / states_.n;
+          tLoc_[ai * states_.n + s] = kw;
+        }
+      return;
+    }
+    for (std::size_t s = 0; s < states_.n; ++s)
+      for (std::size_t k = 0; k < states_.n; ++k)
+        setT(a, static_cast<Idx>(s), static_cast<Idx>(k), probability("transition probability"), kw);
+    return;
+  }
+  expectColon();
+  Idx s = symbol(states_, "state", true);
+  if (peek().text != ":") {  // row form
+    if (peek().text == "uniform") {
+      ++pos_;
+      setT(a, s, -1, 1.0 / states_.n, kw);
+      return;
+    }
+    for (std::size_t k = 0; k < states_.n; ++k)
+      setT(a, s, static_cast<Idx>(k), probability("transition probability"), kw);
+    return;
+  }
+  expectColon();
+  Idx s1 = symbol(states_, "state", true);
+  setT(a, s, s1, probability("transition probability"), kw);
+}
+
+void Parser::parseO() {
+  const Token& kw = toks_[pos_ - 2];
+  requireAll(kw);
+  Idx a = symbol(actions_, "action", true);
+  if (peek().text != ":") {  // matrix form
+    if (peek().text == "uniform") {
+      ++pos_;
+      setZ(a, -1, -1, 1.0 / obs_.n, kw);
+      return;
+    }
+    for (std::size_t s = 0; s < states_.n; ++s)
+      for (std::size_t o = 0; o < obs_.n; ++o)
+        setZ(a, static_cast<Idx>(s), static_cast<Idx>(o), probability("observation probability"), kw);
+    return;
+  }
+  expectColon();
+  Idx s1 = symbol(states_, "state", true);
+  if (peek().text != ":") {  // row form
+    if (peek().text == "uniform") {
+      ++pos_;
+      setZ(a, s1, -1, 1.0 / obs_.n, kw);
+      return;
+    }
+    for (std::size_t o = 0; o < obs_.n; ++o)
+      setZ(a, s1, static_cast<Idx>(o), probability("observation probability"), kw);
+    return;
+  }
+  expectColon();
+  Idx o = symbol(obs_, "observation", true);
+  setZ(a, s1, o, probability("observation probability"), kw);
+}
+
+void Parser::parseR() {
+  const Token& kw = toks_[pos_ - 2];
+  requireAll(kw);
+  Idx a = symbol(actions_, "action", true);
+  expectColon();
+  Idx s = symbol(states_, "state", true);
+  if (peek().text != ":") {  // matrix S' x O
+    for (std::size_t s1 = 0; s1 < states_.n; ++s1)
+      for (std::size_t o = 0; o < obs_.n; ++o)
+        r_.push_back({a, s, static_cast<Idx>(s1), static_cast<Idx>(o), number("reward value")});
+    return;
+  }
+  expectColon();
+  Idx s1 = symbol(states_, "state", true);
+  if (peek().text != ":") {  // row over O
+    for (std::size_t o = 0; o < obs_.n; ++o)
+      r_.push_back({a, s, s1, static_cast<Idx>(o), number("reward value")});
+    return;
+  }
+  expectColon();
+  Idx o = symbol(obs_, "observation", true);
+  r_.push_back({a, s, s1, o, number("reward value")});
+}
+
+Model Parser::parse() {
+  while (!atEnd()) {
+    const Token& kw = next("a keyword");
+    if (kw.text == "start" && (peek().text == "include" || peek().text == "exclude")) {
+      parseStart();
+      continue;
+    }
+    bool known = false;
+    for (const char* k : kKeywords) known = known || kw.text == k;
+    if (!known)
+      fail(kw, "expected one of discount, values, states, actions, observations, start, T, O, R; got '" +
+                   kw.text + "'");
+    expectColon();
+    if (kw.text == "discount") {
+      const Token& t = peek();
+      discount_ = number("discount");
+      if (!(discount_ > 0.0 && discount_ <= 1.0)) fail(t, "discount " + t.text + " outside (0, 1]");
+      haveDiscount_ = true;
+    } else if (kw.text == "values") {
+      const Token& t = next("reward or cost");
+      if (t.text != "reward" && t.text != "cost")
+        fail(t, "values must be 'reward' or 'cost', got '" + t.text + "'");
+      cost_ = t.text == "cost";
+    } else if (kw.text == "states") {
+      symbolList(states_, "states");
+    } else if (kw.text == "actions") {
+      symbolList(actions_, "actions");
+    } else if (kw.text == "observations") {
+      symbolList(obs_, "observations");
+    } else if (kw.text == "start") {
+      parseStart();
+    } else if (kw.text == "T") {
+      parseT();
+    } else if (kw.text == "O") {
+      parseO();
+    } else {
+      parseR();
+    }
+  }
+  if (!haveDiscount_) fail(eof_, "missing 'discount:'");
+  if (!states_.defined) fail(eof_, "missing 'states:'");
+  if (!actions_.defined) fail(eof_, "missing 'actions:'");
+  if (!obs_.defined) fail(eof_, "missing 'observations:'");
+  requireAll(eof_);
+  // Validate rows here so that errors point at the entry that last wrote the row.
+  for (std::size_t a = 0; a < actions_.n; ++a)
+    for (std::size_t s = 0; s < states_.n; ++s) {
+      auto name = [&](const Symbols& sym, std::size_t i) {
+        return sym.names.empty() ? std::to_string(i) : sym.names[i];
+      };
+      const double ts = t_[a].row(s).sum();
+      if (std::abs(ts - 1.0) > Model::kTolerance)
+        fail(tLoc_[a * states_.n + s].line ? tLoc_[a * states_.n + s] : eof_,
+             "transition probabilities of action '" + name(actions_, a) + "' from state '" +
+                 name(states_, s) + "' sum to " + std::to_string(ts) + " (expected 1)");
+      const double zs = z_[a].row(s).sum();
+      if (std::abs(zs - 1.0) > Model::kTolerance)
+        fail(zLoc_[a * states_.n + s].line ? zLoc_[a * states_.n + s] : eof_,
+             "observation probabilities of action '" + name(actions_, a) + "' in state '" +
+                 name(states_, s) + "' sum to " + std::to_string(zs) + " (expected 1)");
+    }
+  const std::size_t S = states_.n, A = actions_.n, O = obs_.n;
+  Eigen::MatrixXd r = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(S), static_cast<Eigen::Index>(A));
+  bool simple = true;
+  for (const auto& e : r_) simple = simple && e.s1 < 0 && e.o < 0;
+  if (simple) {
+    for (const auto& e : r_)
+      for (std::size_t a : range(e.a, A))
+        for (std::size_t s : range(e.s, S)) r(s, a) = e.v;
+  } else {
+    const double cells = static_cast<double>(A) * S * S * O;
+    if (cells > 5e7) fail(eof_, "model too large for next-state/observation dependent rewards");
+    std::vector<double> full(static_cast<std::size_t>(cells), 0.0);
+    auto at = [&](std::size_t a, std::size_t s, std::size_t s1, std::size_t o) -> double& {
+      return full[((a * S + s) * S + s1) * O + o];
+    };
+    for (const auto& e : r_)
+      for (std::size_t a : range(e.a, A))
+        for (std::size_t s : range(e.s, S))
+          for (std::size_t s1 : range(e.s1, S))
+            for (std::size_t o : range(e.o, O)) at(a, s, s1, o) = e.v;
+    for (std::size_t a = 0; a < A; ++a)
+      for (std::size_t s = 0; s < S; ++s) {
+        double v = 0.0;
+        for (std::size_t s1 = 0; s1 < S; ++s1) {
+          if (t_[a](s, s1) == 0.0) continue;
+          double w = 0.0;
+          for (std::size_t o = 0; o < O; ++o) w += z_[a](s1, o) * at(a, s, s1, o);
+          v += t_[a](s, s1) * w;
+        }
+        r(s, a) = v;
+      }
+  }
+  if (cost_) r = -r;
+  auto names = [](const Symbols& sym, const char* prefix) {
+    if (!sym.names.empty()) return sym.names;
+    std::vector<std::string> out;
+    for (std::size_t i = 0; i < sym.n; ++i) out.push_back(prefix + std::to_string(i));
+    return out;
+  };
+  try {
+    Model m(t_, z_, r, discount_);
+    m.setNames(names(states_, "s"), names(actions_, "a"), names(obs_, "o"));
+    if (haveStart_) m.setInitialBelief(start_);
+    return m;
+  } catch (const ConfigError& e) {
+    fail(eof_, std::string("invalid model: ") + e.what());
+  }
+}
+
+bool validName(const std::string& n) {
+  if (n.empty() || !std::isalpha(static_cast<unsigned char>(n[0]))) return false;
+  for (char c : n)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '_' && c != '-') return false;
+  for (const char* kw : kKeywords)
+    if (n == kw) return false;
+  return true;
+}
+
+std::string fmt(double v) {
+  std::ostringstream ss;
+  ss.precision(17);
+  ss << v;
+  return ss.str();
+}
+
+}  // namespace
+
+Model readCassandra(const std::string& text, const std::string& file) {
+  return Parser(text, file).parse();
+}
+
+Model loadCassandra(const std::string& path) { return readCassandra(readFile(path), path); }
+
+std::string writeCassandra(const Model& m) {
+  auto check = [](const std::vector<std::string>& v, const char* kind) {
+    for (const auto& n : v)
+      if (!validName(n))
+        throw ConfigError(std::string("writeCassandra: ") + kind + " name '" + n +
+                          "' is not a .pomdp identifier ([A-Za-z][A-Za-z0-9_-]*)");
+  };
+  check(m.stateNames(), "state");
+  check(m.actionNames(), "action");
+  check(m.observationNames(), "observation");
+  const auto& sn = m.stateNames();
+  const auto& an = m.actionNames();
+  const auto& on = m.observationNames();
+  std::ostringstream ss;
+  ss << "# POMDP written by krr_core (krr::pomdp::writeCassandra)\n";
+  ss << "discount: " << fmt(m.getDiscount()) << "\nvalues: reward\nstates:";
+  for (const auto& n : sn) ss << ' ' << n;
+  ss << "\nactions:";
+  for (const auto& n : an) ss << ' ' << n;
+  ss << "\nobservations:";
+  for (const auto& n : on) ss << ' ' << n;
+  ss << "\nstart:";
+  for (Eigen::Index i = 0; i < m.initialBelief().size(); ++i) ss << ' ' << fmt(m.initialBelief()(i));
+  ss << "\n\n";
+  for (std::size_t a = 0; a < m.getA(); ++a) {
+    if (m.isIdentityTransition(a)) {
+      ss << "T: " << an[a] << "\nidentity\n";
+      continue;
+    }
+    for (std::size_t s = 0; s < m.getS(); ++s)
+      for (const auto& e : m.successors(s, a))
+        ss << "T: " << an[a] << " : " << sn[s] << " : " << sn[e.first] << ' ' << fmt(e.second) << '\n';
+  }
+  ss << '\n';
+  for (std::size_t a = 0; a < m.getA(); ++a)
+    for (std::size_t s = 0; s < m.getS(); ++s)
+      for (const auto& e : m.observationRow(s, a))
+        ss << "O: " << an[a] << " : " << sn[s] << " : " << on[e.first] << ' ' << fmt(e.second) << '\n';
+  ss << '\n';
+  for (std::size_t a = 0; a < m.getA(); ++a)
+    for (std::size_t s = 0; s < m.getS(); ++s) {
+      const double v = m.getExpectedReward(s, a);
+      if (v != 0.0) ss << "R: " << an[a] << " : " << sn[s] << " : * : * " << fmt(v) << '\n';
+    }
+  return ss.str();
+}
+
+void saveCassandra(const std::string& path, const Model& model) {
+  writeFileAtomic(path, writeCassandra(model));
+}
+
+}  // namespace pomdp
+}  // namespace krr

@@ -1,0 +1,552 @@
+#include "krr_core/pomdp/point_based_solver.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/common/random.h"
+#include "krr_core/common/resources.h"
+
+namespace krr {
+namespace pomdp {
+
+namespace {
+constexpr double kInf = std::numeric_limits<double>::infinity();
+}
+
+PointBasedSolver::PointBasedSolver(const Model& model, const Belief& b0, SolverOptions options)
+    : m_(model), options_(options), s_(model.getS()), a_(model.getA()),
+      gamma_(model.getDiscount()), b0_(b0) {
+  if (!(gamma_ < 1.0))
+    throw ConfigError("point-based solver: discount " + std::to_string(gamma_) +
+                      " must be below 1 for infinite-horizon bounds");
+  if (static_cast<std::size_t>(b0.size()) != s_)
+    throw ConfigError("point-based solver: initial belief has " + std::to_string(b0.size()) +
+                      " entries, model has " + std::to_string(s_) + " states");
+  if (std::abs(b0.sum() - 1.0) > Model::kTolerance || b0.minCoeff() < 0.0)
+    throw ConfigError("point-based solver: initial belief is not a distribution (sum " +
+                      std::to_string(b0.sum()) + ")");
+  if (!(options_.precision > 0.0))
+    throw ConfigError("point-based solver: precision must be positive");
+  obsCol_.resize(a_);
+  obsOffset_.assign(1, 0);
+  for (std::size_t a = 0; a < a_; ++a) {
+    for (std::size_t o : m_.possibleObservations(a))
+      obsCol_[a].push_back(m_.observationMatrix(a).col(static_cast<Eigen::Index>(o)));
+    obsOffset_.push_back(obsOffset_.back() + obsCol_[a].size());
+    // Does a always lead to terminal (absorbing, zero-reward) states, like serve?
+    bool allTerminal = true;
+    for (std::size_t s = 0; s < s_ && allTerminal; ++s)
+      for (const auto& e : m_.successors(s, a)) allTerminal = allTerminal && m_.isTerminal(e.first);
+    toTerminal_.push_back(allTerminal ? 1 : 0);
+  }
+  const auto n = static_cast<Eigen::Index>(s_);
+  pred_.resize(n);
+  child_.resize(n);
+  acc_.resize(n);
+  bestAlpha_.resize(n);
+  Stopwatch sw;
+  initLower();
+  initUpper();
+  rootLower_ = lowerRaw(b0_.data());
+  rootUpper_ = upperRaw(b0_.data());
+  elapsed_ = sw.seconds();
+  candidate_.resize(n);
+}
+
+void PointBasedSolver::initLower() {
+  // Blind policy "always a": alpha_a = (I - gamma T_a)^{-1} R_a, the exact value of a plan.
+  const auto& r = m_.rewardMatrix();
+  const auto S = static_cast<Eigen::Index>(s_);
+  for (std::size_t a = 0; a < a_; ++a) {
+    Eigen::MatrixXd lhs = Eigen::MatrixXd::Identity(S, S) - gamma_ * m_.transitionMatrix(a);
+    Eigen::VectorXd alpha = lhs.partialPivLu().solve(r.col(static_cast<Eigen::Index>(a)));
+    // Rounding safety: shift down by a relative epsilon so the vector stays a lower bound.
+    alpha.array() -= 1e-9 * (1.0 + alpha.cwiseAbs().maxCoeff());
+    addAlpha(alpha, a);
+  }
+  pruneAlphas();
+}
+
+void PointBasedSolver::initUpper() {
+  // 1. Exact MDP values by policy iteration; Q_MDP is an upper bound (QMDP).
+  // 2. Fast informed bound Q(s,a) = R(s,a) + gamma sum_o max_a' sum_s' T O Q(s',a'),
+  //    iterated downwards from Q_MDP: each iterate is an upper bound, so stopping early is
+  //    safe; the FIB operator is below the QMDP operator, hence the sequence is monotone.
+  const auto& r = m_.rewardMatrix();
+  const auto S = static_cast<Eigen::Index>(s_), A = static_cast<Eigen::Index>(a_);
+  std::vector<std::size_t> pol(s_, 0);
+  for (std::size_t s = 0; s < s_; ++s) {
+    Eigen::Index best = 0;
+    r.row(static_cast<Eigen::Index>(s)).maxCoeff(&best);
+    pol[s] = static_cast<std::size_t>(best);
+  }
+  Eigen::VectorXd v = Eigen::VectorXd::Zero(S);
+  Eigen::MatrixXd q(S, A);
+  for (int it = 0; it < 1000; ++it) {
+    Eigen::MatrixXd lhs = Eigen::MatrixXd::Identity(S, S);
+    Eigen::VectorXd rhs(S);
+    for (std::size_t s = 0; s < s_; ++s) {
+      lhs.row(static_cast<Eigen::Index>(s)) -=
+          gamma_ * m_.transitionMatrix(pol[s]).row(static_cast<Eigen::Index>(s));
+      rhs(s) = r(s, pol[s]);
+    }
+    v = lhs.partialPivLu().solve(rhs);
+    bool changed = false;
+    for (std::size_t a = 0; a < a_; ++a)
+      q.col(static_cast<Eigen::Index>(a)) =
+          r.col(static_cast<Eigen::Index>(a)) + gamma_ * (m_.transitionMatrix(a) * v);
+    for (std::size_t s = 0; s < s_; ++s) {
+      Eigen::Index best = 0;
+      const double bv = q.row(static_cast<Eigen::Index>(s)).maxCoeff(&best);
+      if (bv > q(s, pol[s]) + 1e-12) {
+        pol[s] = static_cast<std::size_t>(best);
+        changed = true;
+      }
+    }
+    if (!changed) break;
+  }
+  // Rounding safety margin, and a Bellman check: if the policy-iteration values are not a
+  // fixed point (e.g. ill-conditioned), fall back to the trivial bound Rmax / (1 - gamma).
+  q.array() += 1e-9 * (1.0 + q.cwiseAbs().maxCoeff());
+  {
+    double worst = 0.0;
+    for (std::size_t a = 0; a < a_; ++a)
+      for (std::size_t s = 0; s < s_; ++s) {
+        double back = r(s, a);
+        for (const auto& e : m_.successors(s, a))
+          back += gamma_ * e.second * q.row(static_cast<Eigen::Index>(e.first)).maxCoeff();
+        worst = std::max(worst, back - q(s, a));
+      }
+    if (worst > 0.0) q.setConstant(r.maxCoeff() / (1.0 - gamma_) + 1e-9);
+  }
+  Eigen::MatrixXd next = q;
+  Stopwatch sw;
+  for (std::size_t it = 0; it < options_.initIterations; ++it) {
+    double delta = 0.0;
+    for (std::size_t a = 0; a < a_; ++a) {
+      const auto& z = m_.observationMatrix(a);
+      for (std::size_t s = 0; s < s_; ++s) {
+        double val = r(s, a);
+        const auto& succ = m_.successors(s, a);
+        for (std::size_t o : m_.possibleObservations(a)) {
+          double best = -kInf;
+          for (std::size_t a2 = 0; a2 < a_; ++a2) {
+            double sum = 0.0;
+            for (const auto& e : succ) sum += e.second * z(e.first, o) * q(e.first, a2);
+            best = std::max(best, sum);
+          }
+          val += gamma_ * best;
+        }
+        next(s, a) = std::min(val, q(s, a));  // keep the sequence monotone under rounding
+        delta = std::max(delta, q(s, a) - next(s, a));
+      }
+    }
+    q.swap(next);
+    if (delta < 1e-10 || sw.seconds() > options_.initTimeLimit) break;
+  }
+  for (std::size_t s = 0; s < s_; ++s)
+    if (m_.isTerminal(s)) q.row(static_cast<Eigen::Index>(s)).setZero();  // exactly 0
+  corner_ = q.rowwise().maxCoeff();
+  // Keep the FIB action vectors that are not pointwise dominated: max_a Q(., a) . b is an
+  // upper bound at every belief, often much tighter than the corner interpolation.
+  std::vector<char> keep(a_, 1);
+  for (std::size_t a = 0; a < a_; ++a)
+    for (std::size_t a2 = 0; a2 < a_ && keep[a]; ++a2) {
+      if (a2 == a || !keep[a2]) continue;
+      if ((q.col(static_cast<Eigen::Index>(a)).array() <=
+           q.col(static_cast<Eigen::Index>(a2)).array()).all())
+        keep[a] = 0;
+    }
+  std::vector<Eigen::Index> kept;
+  for (std::size_t a = 0; a < a_; ++a)
+    if (keep[a]) kept.push_back(static_cast<Eigen::Index>(a));
+  fibMat_.resize(static_cast<Eigen::Index>(kept.size()), S);
+  for (std::size_t k = 0; k < kept.size(); ++k)
+    fibMat_.row(static_cast<Eigen::Index>(k)) = q.col(kept[k]).transpose();
+  fibBuf_.resize(static_cast<Eigen::Index>(kept.size()));
+}
+
+double PointBasedSolver::lowerRaw(const double* b) const {
+  double best = -kInf;
+  const std::size_t n = alphaAction_.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    const double* al = &alpha_[i * s_];
+    double v = 0.0;
+    for (std::size_t s = 0; s < s_; ++s) v += al[s] * b[s];
+    best = std::max(best, v);
+  }
+  return best;
+}
+
+double PointBasedSolver::upperRaw(const double* b) const {
+  Eigen::Map<const Eigen::VectorXd> bm(b, static_cast<Eigen::Index>(s_));
+  const double base = corner_.dot(bm);
+  // FIB vectors: upper bound max_a Q_FIB(., a) . b (one vectorised matrix-vector product)
+  fibBuf_.noalias() = fibMat_ * bm;
+  const double fib = fibBuf_.maxCoeff();
+  // Sawtooth over the points, relative to the corners; improvements below the FIB value
+  // are what counts.
+  double best = std::min(0.0, fib - base);
+  if (!options_.sawtooth) {
+    // Exact values at stored points only (hash lookup), FIB elsewhere.
+    const std::size_t i = findPoint(b);
+    if (i != kNoPoint) best = std::min(best, improve_[i]);
+    return base + best;
+  }
+  // ratio_i = min over the support of point i of b(s) / b_i(s), computed as
+  // min_s (b(s) * inv_i(s) + pen_i(s)) with inv = 1 / b_i, pen = 0 on the support and
+  // inv = 0, pen = 2 (neutral: the ratio is at most 1) off it, with early exit.
+  // Points are visited by increasing improvement (most negative first); a point contributes
+  // at least its improvement (ratio <= 1), so the scan stops at the first one that cannot
+  // beat the current best.
+  for (std::size_t i : order_) {
+    const double imp = improve_[i];
+    if (imp >= best) break;
+    const double* inv = &inv_[i * s_];
+    const double* pen = &pen_[i * s_];
+    double ratio = 1.0;
+    for (std::size_t s = 0; s < s_; ++s) {
+      const double r = b[s] * inv[s] + pen[s];
+      if (r < ratio) {
+        ratio = r;
+        if (imp * ratio >= best) break;  // this point cannot beat the current best
+      }
+    }
+    best = std::min(best, imp * ratio);
+  }
+  return base + best;
+}
+
+double PointBasedSolver::lowerBound(const Belief& b) const {
+  if (static_cast<std::size_t>(b.size()) != s_)
+    throw ConfigError("lowerBound: belief size " + std::to_string(b.size()));
+  return lowerRaw(b.data());
+}
+
+double PointBasedSolver::upperBound(const Belief& b) const {
+  if (static_cast<std::size_t>(b.size()) != s_)
+    throw ConfigError("upperBound: belief size " + std::to_string(b.size()));
+  return upperRaw(b.data());
+}
+
+void PointBasedSolver::addAlpha(const Eigen::VectorXd& alpha, std::size_t action) {
+  alpha_.insert(alpha_.end(), alpha.data(), alpha.data() + s_);
+  alphaAction_.push_back(action);
+}
+
+std::uint64_t PointBasedSolver::beliefKey(const double* b) const {
+  std::uint64_t h = 0x9e3779b97f4a7c15ULL;
+  for (std::size_t s = 0; s < s_; ++s) {
+    const auto q = static_cast<std::int64_t>(std::llround(b[s] * 1e9));
+    h = splitMix64(h ^ static_cast<std::uint64_t>(q));
+  }
+  return h;
+}
+
+std::size_t PointBasedSolver::findPoint(const double* b) const {
+  auto it = pointIndex_.find(beliefKey(b));
+  if (it == pointIndex_.end()) return kNoPoint;
+  for (std::size_t i : it->second) {
+    const double* p = &point_[i * s_];
+    bool same = true;
+    for (std::size_t s = 0; s < s_ && same; ++s) same = std::abs(p[s] - b[s]) < 1e-12;
+    if (same) return i;
+  }
+  return kNoPoint;
+}
+
+void PointBasedSolver::insertOrdered(std::size_t i) {
+  auto pos = std::lower_bound(order_.begin(), order_.end(), improve_[i],
+                              [this](std::size_t k, double v) { return improve_[k] < v; });
+  order_.insert(pos, i);
+}
+
+void PointBasedSolver::addPoint(const Eigen::VectorXd& b, double v) {
+  const double imp = v - corner_.dot(b);
+  if (!(imp < 0.0)) return;  // the corners already give this value
+  // Replace an identical point rather than duplicating it.
+  const std::size_t found = findPoint(b.data());
+  if (found != kNoPoint) {
+    if (imp < improve_[found]) {
+      order_.erase(std::find(order_.begin(), order_.end(), found));
+      improve_[found] = imp;
+      insertOrdered(found);
+    }
+    return;
+  }
+  pointIndex_[beliefKey(b.data())].push_back(improve_.size());
+  point_.insert(point_.end(), b.data(), b.data() + s_);
+  for (std::size_t s = 0; s < s_; ++s) {
+    inv_.push_back(b(s) > 0.0 ? 1.0 / b(s) : 0.0);
+    pen_.push_back(b(s) > 0.0 ? 0.0 : 2.0);
+  }
+  improve_.push_back(imp);
+  insertOrdered(improve_.size() - 1);
+}
+
+void PointBasedSolver::pruneAlphas() {
+  // 1. Remove pointwise-dominated vectors (never changes max_i alpha_i . b anywhere).
+  // 2. Once there are belief points, keep only vectors that are the best at b0 or at some
+  //    stored point (SARSOP-style pruning): the bound stays valid everywhere and unchanged
+  //    at b0 and at the points, it may only loosen elsewhere.
+  const std::size_t n = alphaAction_.size();
+  std::vector<char> keep(n, 1);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!keep[i]) continue;
+    const double* ai = &alpha_[i * s_];
+    for (std::size_t j = 0; j < n; ++j) {
+      if (i == j || !keep[j]) continue;
+      const double* aj = &alpha_[j * s_];
+      bool dominated = true;  // is j <= i everywhere?
+      for (std::size_t s = 0; s < s_ && dominated; ++s) dominated = aj[s] <= ai[s];
+      if (dominated) keep[j] = 0;
+    }
+  }
+  const std::size_t np = improve_.size();
+  if (np > 0 && options_.witnessPruning) {
+    std::vector<char> witness(n, 0);
+    auto mark = [&](const double* b) {
+      std::size_t best = 0;
+      double bv = -kInf;
+      for (std::size_t i = 0; i < n; ++i) {
+        if (!keep[i]) continue;
+        const double* al = &alpha_[i * s_];
+        double v = 0.0;
+        for (std::size_t s = 0; s < s_; ++s) v += al[s] * b[s];
+        if (v > bv) {
+          bv = v;
+          best = i;
+        }
+      }
+      witness[best] = 1;
+    };
+    mark(b0_.data());
+    for (std::size_t k = 0; k < np; ++k) mark(&point_[k * s_]);
+    for (std::size_t i = 0; i < n; ++i) keep[i] = keep[i] && witness[i];
+  }
+  std::vector<double> na;
+  std::vector<std::size_t> nact;
+  for (std::size_t i = 0; i < n; ++i)
+    if (keep[i]) {
+      na.insert(na.end(), alpha_.begin() + static_cast<long>(i * s_),
+                alpha_.begin() + static_cast<long>((i + 1) * s_));
+      nact.push_back(alphaAction_[i]);
+    }
+  alpha_.swap(na);
+  alphaAction_.swap(nact);
+  prunedAt_ = alphaAction_.size();
+}
+
+double PointBasedSolver::successor(const Eigen::VectorXd& b, std::size_t a, std::size_t k,
+                                   Eigen::VectorXd& out) const {
+  if (m_.isIdentityTransition(a)) {
+    out = obsCol_[a][k].cwiseProduct(b);
+  } else {
+    out.noalias() = m_.transitionMatrixTransposed(a) * b;
+    out = out.cwiseProduct(obsCol_[a][k]);
+  }
+  return out.sum();
+}
+
+void PointBasedSolver::upperBackup(const Eigen::VectorXd& b, NodeCache& c) {
+  // Q_U(b, a) = R(b, a) + gamma sum_o P(o | b, a) U(b_ao), caching P and U per (a, o) so that
+  // the way back up a trial only re-evaluates the child that the trial visited (a cached U
+  // was a valid upper bound when computed and bounds only decrease, so it stays valid).
+  const auto& r = m_.rewardMatrix();
+  c.q.resize(a_);
+  c.p.resize(obsOffset_.back());
+  c.u.resize(obsOffset_.back());
+  for (std::size_t a = 0; a < a_; ++a) {
+    if (m_.isIdentityTransition(a)) {
+      pred_ = b;
+    } else {
+      pred_.noalias() = m_.transitionMatrixTransposed(a) * b;
+    }
+    double qU = r.col(static_cast<Eigen::Index>(a)).dot(b);
+    for (std::size_t k = 0; k < obsCol_[a].size(); ++k) {
+      child_ = obsCol_[a][k].cwiseProduct(pred_);
+      const double p = child_.sum();
+      double u = 0.0;
+      if (p > 0.0 && !toTerminal_[a]) {  // terminal successors are worth exactly 0
+        child_ /= p;
+        u = upperRaw(child_.data());
+        qU += gamma_ * p * u;
+      }
+      c.p[obsOffset_[a] + k] = p;
+      c.u[obsOffset_[a] + k] = u;
+    }
+    c.q[a] = qU;
+  }
+  finishUpper(b, c);
+}
+
+void PointBasedSolver::finishUpper(const Eigen::VectorXd& b, NodeCache& c) {
+  double best = -kInf;
+  for (std::size_t a = 0; a < a_; ++a)
+    if (c.q[a] > best) {
+      best = c.q[a];
+      c.action = a;
+    }
+  if (best < upperRaw(b.data()) - 1e-12) addPoint(b, best);
+}
+
+void PointBasedSolver::refreshUpper(const Eigen::VectorXd& b, NodeCache& c, std::size_t a,
+                                    std::size_t k, const Eigen::VectorXd& child) {
+  const std::size_t idx = obsOffset_[a] + k;
+  if (!toTerminal_[a]) c.u[idx] = std::min(c.u[idx], upperRaw(child.data()));
+  double qU = m_.rewardMatrix().col(static_cast<Eigen::Index>(a)).dot(b);
+  for (std::size_t j = 0; j < obsCol_[a].size(); ++j)
+    qU += gamma_ * c.p[obsOffset_[a] + j] * c.u[obsOffset_[a] + j];
+  c.q[a] = std::min(c.q[a], qU);
+  finishUpper(b, c);
+}
+
+void PointBasedSolver::lowerBackup(const Eigen::VectorXd& b) {
+  // alpha_a = R_a + gamma T_a sum_o (O_ao .* alpha_{k(o)}), alpha_{k(o)} best at b_ao: the
+  // value of the plan "do a, then follow the vector chosen for the observation".
+  const auto& r = m_.rewardMatrix();
+  double bestLower = -kInf;
+  std::size_t bestLowerAction = 0;
+  const std::size_t n = alphaAction_.size();
+  for (std::size_t a = 0; a < a_; ++a) {
+    const bool ident = m_.isIdentityTransition(a);
+    if (ident) {
+      pred_ = b;
+    } else {
+      pred_.noalias() = m_.transitionMatrixTransposed(a) * b;
+    }
+    acc_.setZero();
+    for (std::size_t k = 0; k < obsCol_[a].size(); ++k) {
+      const auto& z = obsCol_[a][k];
+      child_ = z.cwiseProduct(pred_);
+      // A zero-probability observation may take any vector (index 0). Dot products run over
+      // the support only: after a serve the successor is a single terminal state.
+      std::size_t bestI = 0;
+      support_.clear();
+      for (std::size_t s = 0; s < s_; ++s)
+        if (child_(s) != 0.0) support_.push_back(s);
+      if (!support_.empty()) {
+        double bestV = -kInf;
+        for (std::size_t i = 0; i < n; ++i) {
+          const double* al = &alpha_[i * s_];
+          double v = 0.0;
+          for (std::size_t s : support_) v += al[s] * child_(s);
+          if (v > bestV) {
+            bestV = v;
+            bestI = i;
+          }
+        }
+      }
+      const double* al = &alpha_[bestI * s_];
+      for (std::size_t s = 0; s < s_; ++s) acc_(s) += z(s) * al[s];
+    }
+    if (ident) {
+      candidate_ = r.col(static_cast<Eigen::Index>(a)) + gamma_ * acc_;
+    } else {
+      candidate_ = r.col(static_cast<Eigen::Index>(a));
+      candidate_.noalias() += gamma_ * (m_.transitionMatrix(a) * acc_);
+    }
+    const double qL = candidate_.dot(b);
+    if (qL > bestLower) {
+      bestLower = qL;
+      bestLowerAction = a;
+      bestAlpha_.swap(candidate_);
+    }
+  }
+  if (bestLower > lowerRaw(b.data()) + 1e-12) addAlpha(bestAlpha_, bestLowerAction);
+  if (alphaAction_.size() > 2 * prunedAt_ + 32) pruneAlphas();
+}
+
+double PointBasedSolver::now() const { return clockOffset_ + clock_.seconds(); }
+
+void PointBasedSolver::trial() {
+  const double eps =
+      std::max(options_.precision, options_.trialGapFactor * (rootUpper_ - rootLower_));
+  if (path_.empty()) {
+    path_.emplace_back();
+    cache_.emplace_back();
+  }
+  path_[0] = b0_;
+  std::size_t depth = 0;
+  double thr = eps;
+  std::vector<std::size_t>& chosenObs = chosenObs_;
+  chosenObs.clear();
+  while (true) {
+    NodeCache& c = cache_[depth];
+    upperBackup(path_[depth], c);
+    const std::size_t a = c.action;
+    const double* bd = path_[depth].data();
+    const double gap = upperRaw(bd) - lowerRaw(bd);
+    if (gap <= thr || depth + 1 >= options_.maxDepth || now() >= deadline_) break;
+    const double childThr = thr / gamma_;
+    double bestScore = 0.0;
+    std::size_t bestK = obsCol_[a].size();
+    for (std::size_t k = 0; k < obsCol_[a].size(); ++k) {
+      const double p = c.p[obsOffset_[a] + k];
+      if (!(p > 0.0)) continue;
+      successor(path_[depth], a, k, child_);
+      child_ /= p;
+      const double score = p * (c.u[obsOffset_[a] + k] - lowerRaw(child_.data()) - childThr);
+      if (score > bestScore) {
+        bestScore = score;
+        bestK = k;
+      }
+    }
+    if (bestK == obsCol_[a].size()) break;
+    if (path_.size() < depth + 2) {
+      path_.emplace_back();
+      cache_.emplace_back();
+    }
+    const double p = successor(path_[depth], a, bestK, path_[depth + 1]);
+    path_[depth + 1] /= p;
+    chosenObs.push_back(bestK);
+    ++depth;
+    thr = childThr;
+  }
+  lowerBackup(path_[depth]);
+  for (std::size_t d = depth; d-- > 0;) {
+    NodeCache& c = cache_[d];
+    refreshUpper(path_[d], c, c.action, chosenObs[d], path_[d + 1]);
+    lowerBackup(path_[d]);
+  }
+  ++trials_;
+  rootLower_ = std::max(rootLower_, lowerRaw(b0_.data()));
+  rootUpper_ = std::min(rootUpper_, upperRaw(b0_.data()));
+}
+
+bool PointBasedSolver::runUntil(double untilSeconds) {
+  clockOffset_ = elapsed_;
+  clock_.reset();
+  deadline_ = untilSeconds;
+  while (!converged() && now() < deadline_) trial();
+  elapsed_ = now();
+  return converged();
+}
+
+bool PointBasedSolver::converged() const {
+  return rootUpper_ - rootLower_ <= options_.precision;
+}
+
+BoundsReport PointBasedSolver::report() const {
+  BoundsReport r;
+  r.time = elapsed_;
+  r.lower = rootLower_;
+  r.upper = rootUpper_;
+  r.alphas = alphaAction_.size();
+  r.points = improve_.size();
+  r.trials = trials_;
+  return r;
+}
+
+AlphaVectorPolicy PointBasedSolver::policy() const {
+  AlphaVectorPolicy p(s_);
+  for (std::size_t i = 0; i < alphaAction_.size(); ++i)
+    p.add(Eigen::Map<const Eigen::VectorXd>(&alpha_[i * s_], static_cast<Eigen::Index>(s_)),
+          alphaAction_[i]);
+  return p;
+}
+
+}  // namespace pomdp
+}  // namespace krr

@@ -1,0 +1,130 @@
+// Procedure 1 on an 8 x 3 corridor with three places (see test_nav_transfer.cpp for the map).
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/common/files.h"
+#include "krr_core/kb/free_time_learner.h"
+#include "krr_core/nav/grid_astar.h"
+
+namespace {
+
+using namespace krr::kb;
+
+const std::string kNavPlog = std::string(KRR_TEST_DATA_DIR) + "/../../../../config/navigation.plog";
+
+NavDomain corridor() {
+  krr::nav::OccupancyGrid map;
+  map.width = 8;
+  map.height = 3;
+  map.resolution = 1.0;
+  map.data.assign(24, krr::nav::kFree);
+  krr::nav::PlacesFile places;
+  places.places.push_back({"shop", {0.5, 1.5}, false, {}});
+  places.places.push_back({"room1", {7.5, 2.5}, false, {}});
+  places.places.push_back({"room2", {7.5, 0.5}, false, {}});
+  places.areas.push_back({"ba1", {3.0, 0.0, 5.0, 1.0}});
+  krr::nav::NavGridOptions opt;
+  opt.cols = 8;
+  opt.rows = 3;
+  NavDomain d;
+  d.domain.step_limit = 60;
+  d.grid = std::make_shared<krr::nav::NavGrid>(krr::nav::NavGrid::fromMap(map, places, opt));
+  d.space = std::make_shared<NavStateSpace>(*d.grid);
+  d.simulator = std::make_shared<krr::nav::BlockageSimulator>(*d.grid, d.config.simulator);
+  char tmpl[] = "/tmp/krr_ftl_XXXXXX";
+  const std::string geometry = std::string(::mkdtemp(tmpl)) + "/geometry.plog";
+  krr::writeFileAtomic(geometry, d.grid->toPlog("corridor"));
+  d.knowledge_files = {geometry, kNavPlog};
+  return d;
+}
+
+FreeTimeOptions options() {
+  FreeTimeOptions o;
+  o.max_episodes_per_task = 40;
+  o.convergence_episodes = 8;
+  o.rmax.known_threshold = 2;
+  return o;
+}
+
+TEST(LeastKnownSelector, PicksTheRouteTheKnowledgeBaseKnowsLeast) {
+  NavDomain d = corridor();
+  NavigationKnowledge kb(*d.grid, d.knowledge_files);
+  LeastKnownSelector sel({"shop", "room1", "room2"});
+  krr::Rng rng = krr::makeRng(1, "sel");
+  // Teach the KB the whole shop->room1 route (top row): that task now has no unknown pair on
+  // its shortest route, so room2 must be selected.
+  krr::nav::GridAStar astar(*d.grid);
+  auto route = astar.plan(d.grid->placeCell("shop"), d.grid->placeCell("room1"));
+  std::vector<krr::mdp::KnownPair> pairs;
+  for (size_t k = 0; k < route.moves.size(); ++k) {
+    krr::mdp::KnownPair kp;
+    kp.state = d.space->stateOf(route.cells[k]);
+    kp.action = static_cast<krr::mdp::ActionId>(route.moves[k]);
+    kp.distribution = {krr::mdp::Outcome{d.space->stateOf(route.cells[k + 1]), 1.0}};
+    kp.samples = 3;
+    pairs.push_back(kp);
+  }
+  kb.addLearned(pairs, "morning");
+  for (int i = 0; i < 5; ++i)
+    EXPECT_EQ(sel.next(kb.buildModel({"morning"}), *d.space, rng).goal, "room2");
+  EXPECT_THROW(LeastKnownSelector({"shop"}), krr::ConfigError);
+}
+
+TEST(FreeTimeLearner, LearnsTasksAndWritesKnowledgeBack) {
+  NavDomain d = corridor();
+  NavigationKnowledge kb(*d.grid, d.knowledge_files);
+  LeastKnownSelector sel({"room1", "room2"});
+  auto o = options();
+  o.max_tasks = 1;
+  FreeTimeLearner learner(d, kb, sel, o);
+  krr::Rng rng = krr::makeRng(5, "ftl");
+  int persisted = 0;
+  auto first = learner.run(rng, [] { return false; }, [&](const NavTask&) { ++persisted; });
+  ASSERT_EQ(first.tasks.size(), 1u);
+  EXPECT_EQ(persisted, 1);
+  EXPECT_FALSE(first.interrupted);
+  EXPECT_TRUE(first.converged[0]);
+  EXPECT_GT(first.pairs_extracted, 0u);
+  const std::size_t learned1 = kb.buildModel({"morning"}).numLearned();
+  EXPECT_EQ(learned1, first.pairs_extracted);
+  EXPECT_EQ(kb.buildModel({"noon"}).numLearned(), 0u);  // learned in the morning only
+
+  // The next session starts from the knowledge base (Procedure 2 priors): it knows at least as
+  // much afterwards, and converges in fewer episodes than the first task needed.
+  auto second = learner.run(rng, [] { return false; });
+  ASSERT_EQ(second.tasks.size(), 1u);
+  EXPECT_GE(kb.buildModel({"morning"}).numLearned(), learned1);
+  EXPECT_LT(second.episodes[0], first.episodes[0]);
+}
+
+TEST(FreeTimeLearner, InterruptionKeepsWhatWasLearnedSoFar) {
+  NavDomain d = corridor();
+  NavigationKnowledge kb(*d.grid, d.knowledge_files);
+  LeastKnownSelector sel({"room1", "room2"});
+  FreeTimeLearner learner(d, kb, sel, options());
+  krr::Rng rng = krr::makeRng(9, "ftl");
+  int checks = 0;
+  // The interruption is checked once before a task is selected and once before every episode:
+  // returning true on the fifth check lets three episodes of the first task run.
+  auto report = learner.run(rng, [&] { return ++checks > 4; });
+  EXPECT_TRUE(report.interrupted);
+  ASSERT_EQ(report.tasks.size(), 1u);
+  EXPECT_EQ(report.episodes[0], 3u);
+  EXPECT_FALSE(report.converged[0]);
+  EXPECT_GT(kb.buildModel({"morning"}).numLearned(), 0u);
+}
+
+TEST(FreeTimeLearner, InvalidOptionsAreRefused) {
+  NavDomain d = corridor();
+  NavigationKnowledge kb(*d.grid, d.knowledge_files);
+  LeastKnownSelector sel({"room1"});
+  auto o = options();
+  o.max_episodes_per_task = 0;
+  EXPECT_THROW(FreeTimeLearner(d, kb, sel, o), krr::ConfigError);
+  o = options();
+  o.rmax.rmax = -1;
+  EXPECT_THROW(FreeTimeLearner(d, kb, sel, o), krr::ConfigError);
+}
+
+}  // namespace

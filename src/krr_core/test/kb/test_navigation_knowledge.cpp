@@ -1,0 +1,198 @@
+// Procedure 2 (model from the knowledge base) and knowledge extraction on a 3 x 2 grid.
+//
+//   3 4 5        all cells free; cell 4 is blocking area ba1; shop = 0, room1 = 5.
+//   0 1 2
+// Human knowledge (config/navigation.plog): walkers(ba1) with P = 0.3 morning, 0.5 noon,
+// 0.3 afternoon; a move into a BA cell is blocked when walkers are there (stay 0.7, trapped
+// 0.3); otherwise the intended cell gets 0.8 and the other neighbours share the rest evenly.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cstdlib>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/common/files.h"
+#include "krr_core/kb/navigation_knowledge.h"
+
+namespace {
+
+using krr::kb::NavigationKnowledge;
+using krr::mdp::StateId;
+
+const std::string kData = KRR_TEST_DATA_DIR;
+const std::string kNavPlog = kData + "/../../../../config/navigation.plog";
+const std::string kGeometry = kData + "/kb/tiny_geometry.plog";
+
+krr::nav::NavGrid tinyGrid() {
+  krr::nav::OccupancyGrid map;
+  map.width = 3;
+  map.height = 2;
+  map.resolution = 1.0;
+  map.data.assign(6, krr::nav::kFree);
+  krr::nav::PlacesFile places;
+  places.places.push_back({"shop", {0.5, 0.5}, false, {}});
+  places.places.push_back({"room1", {2.5, 1.5}, false, {}});
+  places.areas.push_back({"ba1", {1.0, 1.0, 2.0, 2.0}});
+  krr::nav::NavGridOptions opt;
+  opt.cols = 3;
+  opt.rows = 2;
+  return krr::nav::NavGrid::fromMap(map, places, opt);
+}
+
+double row(const krr::kb::NavModel& m, const NavigationKnowledge& kb, int cell, int move, int to) {
+  const StateId s1 = to < 0 ? kb.space().trappedState() : kb.space().stateOf(to);
+  return m.dynamics.getTransitionProbability(kb.space().stateOf(cell), move, s1);
+}
+
+constexpr int kUp = 0, kRight = 3;
+
+TEST(NavigationKnowledge, BuildsTheModelByReasoningWithTimeObserved) {
+  NavigationKnowledge kb(tinyGrid(), {kGeometry, kNavPlog});
+  auto m = kb.buildModel({"noon"});
+  EXPECT_EQ(m.dynamics.getS(), 7u);  // 6 cells + trapped
+  // 3 -> right (into ba1) at noon: walkers 0.5. Blocked: stay 0.7, trapped 0.3.
+  // Not blocked: 4 gets 0.8, trapped 0 (explicit), 3 and 0 share 0.2 -> 0.1 each.
+  EXPECT_NEAR(row(m, kb, 3, kRight, -1), 0.5 * 0.3, 1e-12);
+  EXPECT_NEAR(row(m, kb, 3, kRight, 4), 0.5 * 0.8, 1e-12);
+  EXPECT_NEAR(row(m, kb, 3, kRight, 3), 0.5 * 0.7 + 0.5 * 0.1, 1e-12);
+  EXPECT_NEAR(row(m, kb, 3, kRight, 0), 0.5 * 0.1, 1e-12);
+  // 0 -> right (free space): 1 gets 0.8; 0 and 3 share 0.2.
+  EXPECT_NEAR(row(m, kb, 0, kRight, 1), 0.8, 1e-12);
+  EXPECT_NEAR(row(m, kb, 0, kRight, 3), 0.1, 1e-12);
+  // 2 -> right (into the wall): stays with 0.9; 1 and 5 share 0.1.
+  EXPECT_NEAR(row(m, kb, 2, kRight, 2), 0.9, 1e-12);
+  EXPECT_NEAR(row(m, kb, 2, kRight, 5), 0.05, 1e-12);
+  EXPECT_TRUE(m.dynamics.isTerminal(kb.space().trappedState()));
+  EXPECT_EQ(m.numLearned(), 0u);
+}
+
+TEST(NavigationKnowledge, MarginalisesUnknownTime) {
+  NavigationKnowledge kb(tinyGrid(), {kGeometry, kNavPlog});
+  // Time unknown: P(walkers) = (0.3 + 0.5 + 0.3) / 3 = 11/30; trapped = 11/30 * 0.3.
+  auto all = kb.buildModel({});
+  EXPECT_NEAR(row(all, kb, 3, kRight, -1), 11.0 / 30 * 0.3, 1e-12);
+  // "Morning or noon": P(walkers) = (0.3 + 0.5) / 2 = 0.4; trapped = 0.12.
+  auto mn = kb.buildModel({"morning", "noon"});
+  EXPECT_NEAR(row(mn, kb, 3, kRight, -1), 0.4 * 0.3, 1e-12);
+  EXPECT_THROW(kb.buildModel({"midnight"}), krr::UnknownSymbolError);
+}
+
+krr::mdp::RMaxModel learnCell3Right(const NavigationKnowledge& kb, const std::vector<int>& outcomes) {
+  const auto& sp = kb.space();
+  krr::mdp::NavigationReward reward;
+  auto task = krr::mdp::makeNavigationRMaxTask(sp.numStates(), 4, {sp.placeState("room1")},
+                                               {sp.trappedState()}, reward);
+  krr::mdp::RMaxModel model(task, 0.95, static_cast<std::uint32_t>(outcomes.size()), 40.0);
+  for (int c : outcomes)
+    model.observe(sp.stateOf(3), kRight, c < 0 ? sp.trappedState() : sp.stateOf(c));
+  return model;
+}
+
+TEST(NavigationKnowledge, LearnedKnowledgeOverridesHumanKnowledgeInItsContextOnly) {
+  NavigationKnowledge kb(tinyGrid(), {kGeometry, kNavPlog});
+  // 4 tries of (3, right) at noon: 4, 4, 3, trapped -> 2/4, 1/4, 1/4.
+  auto rm = learnCell3Right(kb, {4, 4, 3, -1});
+  ASSERT_TRUE(rm.isKnown(kb.space().stateOf(3), kRight));
+  EXPECT_EQ(kb.addLearned(rm.knownPairs(), "noon"), 1u);
+  EXPECT_NE(kb.learnedText().find("pr(next_cell=4 | curr_cell=3, act_move=right, curr_time=noon) = 2/4."),
+            std::string::npos)
+      << kb.learnedText();
+
+  auto noon = kb.buildModel({"noon"});
+  EXPECT_NEAR(row(noon, kb, 3, kRight, 4), 0.5, 1e-12);
+  EXPECT_NEAR(row(noon, kb, 3, kRight, 3), 0.25, 1e-12);
+  EXPECT_NEAR(row(noon, kb, 3, kRight, -1), 0.25, 1e-12);
+  EXPECT_NEAR(row(noon, kb, 3, kRight, 0), 0.0, 1e-12);
+  EXPECT_TRUE(noon.learned[kb.space().stateOf(3) * 4 + kRight]);
+  EXPECT_EQ(noon.numLearned(), 1u);
+  // Other pairs at noon keep human knowledge.
+  EXPECT_NEAR(row(noon, kb, 0, kRight, 1), 0.8, 1e-12);
+
+  // Morning: nothing learned; human knowledge (walkers 0.3): trapped 0.09.
+  auto morning = kb.buildModel({"morning"});
+  EXPECT_NEAR(row(morning, kb, 3, kRight, -1), 0.3 * 0.3, 1e-12);
+  EXPECT_EQ(morning.numLearned(), 0u);
+
+  // Morning or noon (new circumstances): the reasoner mixes the human morning model and the
+  // learned noon model with weights 1/2: trapped = (0.09 + 0.25) / 2; not "learned" overall.
+  auto mixed = kb.buildModel({"morning", "noon"});
+  EXPECT_NEAR(row(mixed, kb, 3, kRight, -1), (0.09 + 0.25) / 2, 1e-12);
+  EXPECT_FALSE(mixed.learned[kb.space().stateOf(3) * 4 + kRight]);
+}
+
+TEST(NavigationKnowledge, RelearningReplacesInsteadOfAccumulating) {
+  NavigationKnowledge kb(tinyGrid(), {kGeometry, kNavPlog});
+  kb.addLearned(learnCell3Right(kb, {4, 3, -1}).knownPairs(), "noon");
+  // Re-learned with a single outcome: the old outcomes 3 and trapped must disappear
+  // (keeping them would make the pr-atoms sum above 1).
+  kb.addLearned(learnCell3Right(kb, {4, 4}).knownPairs(), "noon");
+  auto noon = kb.buildModel({"noon"});
+  EXPECT_NEAR(row(noon, kb, 3, kRight, 4), 1.0, 1e-12);
+  EXPECT_NEAR(row(noon, kb, 3, kRight, -1), 0.0, 1e-12);
+  kb.clearLearned();
+  EXPECT_NEAR(row(kb.buildModel({"noon"}), kb, 3, kRight, -1), 0.15, 1e-12);
+}
+
+std::string tempPath(const std::string& name) {
+  char tmpl[] = "/tmp/krr_kb_XXXXXX";
+  return std::string(::mkdtemp(tmpl)) + "/" + name;
+}
+
+TEST(NavigationKnowledge, LearnedKnowledgeSurvivesSaveAndLoad) {
+  const std::string path = tempPath("learned.plog");
+  {
+    NavigationKnowledge kb(tinyGrid(), {kGeometry, kNavPlog});
+    kb.addLearned(learnCell3Right(kb, {4, 4, 3, -1, 4}).knownPairs(), "morning");
+    kb.saveLearned(path);
+  }
+  NavigationKnowledge kb2(tinyGrid(), {kGeometry, kNavPlog});
+  kb2.loadLearned(path);
+  auto m = kb2.buildModel({"morning"});
+  EXPECT_NEAR(row(m, kb2, 3, kRight, 4), 3.0 / 5, 1e-12);
+  EXPECT_NEAR(row(m, kb2, 3, kRight, -1), 1.0 / 5, 1e-12);
+  EXPECT_EQ(m.numLearned(), 1u);
+  // The same file can also be given as a knowledge file.
+  NavigationKnowledge kb3(tinyGrid(), {kGeometry, kNavPlog, path});
+  EXPECT_NEAR(row(kb3.buildModel({"morning"}), kb3, 3, kRight, 4), 3.0 / 5, 1e-12);
+}
+
+TEST(NavigationKnowledge, MalformedLearnedFileIsRejectedAndNothingIsLost) {
+  NavigationKnowledge kb(tinyGrid(), {kGeometry, kNavPlog});
+  kb.addLearned(learnCell3Right(kb, {4, 4}).knownPairs(), "noon");
+  const std::string path = tempPath("bad.plog");
+  krr::writeFileAtomic(path, "learned(3, right, noon).\npr(next_cell=4 | curr_cell=3) = 1/2.\n");
+  try {
+    kb.loadLearned(path);
+    FAIL() << "expected ParseError";
+  } catch (const krr::ParseError& e) {
+    EXPECT_EQ(e.location().file, path);
+    EXPECT_EQ(e.location().line, 2);
+  }
+  krr::writeFileAtomic(path, "pr(next_cell=4 | curr_cell=3, act_move=up, curr_time=noon) = 1/1.\n");
+  EXPECT_THROW(kb.loadLearned(path), krr::ParseError);  // no learned(...) fact
+  krr::writeFileAtomic(path, "pr(next_cell=4 | curr_cell=3, act_move=up,\n");
+  EXPECT_THROW(kb.loadLearned(path), krr::ParseError);  // truncated
+  // What was learned before is intact.
+  EXPECT_NEAR(row(kb.buildModel({"noon"}), kb, 3, kRight, 4), 1.0, 1e-12);
+  // 3 -> up leaves the grid: human knowledge says stay with 0.9; trapped is explicitly 0
+  // (the move is not blocked), so 4 and 0 share the remaining 0.1.
+  EXPECT_NEAR(row(kb.buildModel({"noon"}), kb, 3, kUp, 3), 0.9, 1e-12);
+  EXPECT_NEAR(row(kb.buildModel({"noon"}), kb, 3, kUp, 0), 0.05, 1e-12);
+}
+
+TEST(NavigationKnowledge, GeometryForAnotherGridIsRejected) {
+  krr::nav::OccupancyGrid map;
+  map.width = 4;
+  map.height = 2;
+  map.resolution = 1.0;
+  map.data.assign(8, krr::nav::kFree);
+  krr::nav::PlacesFile places;
+  places.areas.push_back({"ba1", {1.0, 1.0, 2.0, 2.0}});
+  krr::nav::NavGridOptions opt;
+  opt.cols = 4;
+  opt.rows = 2;
+  auto grid = krr::nav::NavGrid::fromMap(map, places, opt);
+  EXPECT_THROW(NavigationKnowledge(grid, {kGeometry, kNavPlog}), krr::ConfigError);
+}
+
+}  // namespace

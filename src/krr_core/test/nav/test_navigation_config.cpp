@@ -1,0 +1,82 @@
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <string>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/common/files.h"
+#include "krr_core/nav/navigation_config.h"
+
+using namespace krr;
+using namespace krr::nav;
+
+namespace {
+
+const std::string kConfig =
+    std::string(KRR_TEST_DATA_DIR) + "/../../../../config/navigation.yaml";
+
+// The shipped config with `from` replaced by `to`, loaded from a temporary file.
+void expectError(const std::string& from, const std::string& to, const std::string& what) {
+  std::string text = readFile(kConfig);
+  const size_t pos = text.find(from);
+  ASSERT_NE(pos, std::string::npos) << from;
+  text.replace(pos, from.size(), to);
+  const std::string p = ::testing::TempDir() + "/nav_config_err.yaml";
+  writeFileAtomic(p, text);
+  try {
+    loadNavigationConfig(p);
+    ADD_FAILURE() << "no ConfigError for " << to;
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("nav_config_err.yaml"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+  }
+  std::remove(p.c_str());
+}
+
+}  // namespace
+
+TEST(NavigationConfig, LoadsShippedConfig) {
+  NavigationConfig c = loadNavigationConfig(kConfig);
+  ASSERT_EQ(c.domains.size(), 2u);
+  EXPECT_EQ(c.domain("office_30x30").cols, 30);
+  EXPECT_EQ(c.domain("office_30x30").step_limit, 200);  // paper: 200 steps in the small domain
+  EXPECT_EQ(c.domain("office_50x50").rows, 50);
+  EXPECT_EQ(c.domain("office_50x50").step_limit, 300);  // and 300 in the large one
+  EXPECT_THROW(c.domain("office_10x10"), UnknownSymbolError);
+  EXPECT_DOUBLE_EQ(c.simulator.blocking_rate, 0.3);      // paper's default br
+  EXPECT_NEAR(c.simulator.move_success + c.simulator.slip_stay + c.simulator.slip_lateral, 1.0,
+              1e-12);
+  ASSERT_EQ(c.simulator.times_of_day.size(), 3u);
+  EXPECT_EQ(c.simulator.times_of_day[1], "noon");
+  EXPECT_EQ(c.planner.algorithm, "rrtconnect");
+  EXPECT_TRUE(c.simulator.blocking_mode == BlockingMode::kPerCell);
+  EXPECT_NE(c.map.find("maps/office.yaml"), std::string::npos);
+}
+
+TEST(NavigationConfig, Errors) {
+  expectError("blocking_rate: 0.3", "blocking_rate: 1.5", "'simulator.blocking_rate': value 1.5");
+  expectError("blocking_rate: 0.3", "blocking_rate: lots", "'simulator.blocking_rate': value 'lots'");
+  expectError("move_success: 0.92", "move_success: 0.95", "slip_lateral");
+  expectError("trap_probability: 0.155", "trap_probabilty: 0.155", "unknown field 'simulator.trap_probabilty'");
+  expectError("algorithm: rrtconnect", "algorithm: astar", "'planner.algorithm': unknown value 'astar'");
+  expectError("timeout: 0.05", "timeout: 0", "'planner.timeout': value 0");
+  expectError("robot_radius: 0.2", "robot_radius: -1", "'planner.robot_radius': value -1");
+  expectError("{cols: 30, rows: 30, step_limit: 200}", "{cols: 30, rows: 30}",
+              "missing field 'domains.office_30x30.step_limit'");
+  expectError("{cols: 30, rows: 30, step_limit: 200}", "{cols: 0, rows: 30, step_limit: 200}",
+              "'domains.office_30x30.cols': value 0");
+  expectError("max_blocked_fraction: 0.25", "max_blocked_fraction: 0", "'grid.max_blocked_fraction'");
+  expectError("areas: {}", "areas: {ba2: {rate: 2}}", "'simulator.areas.ba2.rate': value 2");
+  expectError("areas: {}", "areas: {ba2: {time_of_day: {night: 2}}}",
+              "'simulator.areas.ba2.time_of_day.night': unknown time of day");
+  expectError("areas: {}", "areas: {ba2: {speed: 2}}", "unknown field 'simulator.areas.ba2.speed'");
+  expectError("    noon: 1.0", "    noon: -1", "'simulator.time_of_day.noon': value -1");
+  expectError("map: ../maps/office.yaml", "mapp: ../maps/office.yaml", "unknown field 'mapp'");
+  expectError("simulator:", "simulator: [", "broken YAML");
+  expectError("blocking_rate: 0.3", "blocking_rate: 0.3\n  blocking_mode: sometimes",
+              "'simulator.blocking_mode': unknown value 'sometimes'");
+}
+
+TEST(NavigationConfig, MissingFile) {
+  EXPECT_THROW(loadNavigationConfig("/nonexistent/navigation.yaml"), ConfigError);
+}
