@@ -38,6 +38,27 @@ def unittest_to_junit(log_path, rc):
           "</testsuite></testsuites>" % (ran, fails, skipped, cases))
 
 
+def rostest_to_junit(log_path, name, rc):
+    """One testcase per test of a `rostest --text` run, from its summary block and exit code."""
+    text = open(log_path, encoding="utf-8", errors="replace").read()
+    text = re.sub(r"\x1b\[[0-9;]*m", "", text)
+
+    def count(key):
+        m = re.findall(r"^ \* %s: (\d+)" % key, text, re.M)
+        return int(m[-1]) if m else 0
+    tests, errors, failures = count("TESTS"), count("ERRORS"), count("FAILURES")
+    bad = errors + failures
+    if rc != 0 and bad == 0:
+        bad = 1
+    tests = max(tests, bad, 1)
+    esc = name.replace('"', "'")
+    cases = "".join('<testcase name="%s#%d"/>' % (esc, i) for i in range(tests - bad))
+    cases += "".join('<testcase name="%s#fail%d"><failure message="see rostest log"/></testcase>'
+                     % (esc, i) for i in range(bad))
+    print('<testsuites><testsuite name="%s" tests="%d" failures="%d">%s</testsuite></testsuites>'
+          % (esc, tests, bad, cases))
+
+
 def summarize(results_dir):
     passed = failed = skipped = 0
     for path in sorted(glob.glob(os.path.join(results_dir, "*.xml"))):
@@ -66,8 +87,13 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("results_dir", nargs="?")
     ap.add_argument("--unittest-log")
+    ap.add_argument("--rostest-log")
+    ap.add_argument("--name", default="rostest")
     ap.add_argument("--rc", type=int, default=0)
     a = ap.parse_args()
+    if a.rostest_log:
+        rostest_to_junit(a.rostest_log, a.name, a.rc)
+        return 0
     if a.unittest_log:
         unittest_to_junit(a.unittest_log, a.rc)
         return 0

@@ -8,6 +8,8 @@ import csv
 import os
 import subprocess
 
+import numpy as np
+
 from . import paths
 
 DOMAINS = {
@@ -56,6 +58,77 @@ def run_domain(domain, out_dir, trials, seed, threads, target_episodes=100, extr
     return read_table(csv_path), res.stdout.strip()
 
 
+def condition_of(label):
+    """'with' or 'without' extraction from a CLI condition label (with/without, extraction/
+    baseline, 1/0, ...); ValueError otherwise."""
+    v = label.strip().lower()
+    if v in ("without", "without_extraction", "no_extraction", "scratch", "baseline", "0",
+             "false", "no"):
+        return "without"
+    if v in ("with", "with_extraction", "extraction", "transfer", "1", "true", "yes"):
+        return "with"
+    raise ValueError("unknown navigation condition '%s' (expected with/without)" % label)
+
+
+def trial_matrices(trials):
+    """Per-trial learning curves from the CLI's per-trial rows (a krr_eval.trials.TrialTable).
+
+    Long format: columns trial, episode, condition, reward[, success], one row per (trial,
+    episode, condition); wide format: trial, episode, reward_with, reward_without[,
+    success_with, success_without]. Returns (episodes, {"with": R, "without": R},
+    {"with": S, "without": S} or None) with R, S arrays of shape trials x episodes, rows in
+    trial order."""
+    tcol = trials.trial_column()
+    idx, ep = trials.ints(tcol), trials.ints("episode")
+    t_ids, e_ids = sorted(set(idx)), sorted(set(ep))
+    ti = {t: k for k, t in enumerate(t_ids)}
+    ei = {e: k for k, e in enumerate(e_ids)}
+    shape = (len(t_ids), len(e_ids))
+    conds = ([condition_of(c) for c in trials.strings("condition")]
+             if trials.has("condition") else None)
+    rewards, succ = {}, {}
+    for kind, out in (("reward", rewards), ("success", succ)):
+        for c in ("with", "without"):
+            out[c] = np.full(shape, np.nan)
+        if conds is not None:
+            if not trials.has(kind):
+                continue
+            vals = trials.floats(kind)
+            for t, e, c, v in zip(idx, ep, conds, vals):
+                out[c][ti[t], ei[e]] = v
+        else:
+            for c in ("with", "without"):
+                col = "%s_%s" % (kind, c)
+                if not trials.has(col):
+                    if kind == "reward":
+                        trials.floats(col)  # raises: names the missing column
+                    continue
+                for t, e, v in zip(idx, ep, trials.floats(col)):
+                    out[c][ti[t], ei[e]] = v
+    for c in ("with", "without"):
+        missing = np.argwhere(np.isnan(rewards[c]))
+        if missing.size:
+            t, e = missing[0]
+            raise ValueError("%s: no reward for trial %d, episode %d, condition %s (%d cells "
+                             "missing)" % (trials.source, t_ids[t], e_ids[e], c, len(missing)))
+    if any(np.isnan(succ[c]).all() for c in succ):
+        succ = None
+    return e_ids, rewards, succ
+
+
+def curve_table(episodes, rewards, success=None):
+    """Per-episode means and 95% t-CI half-widths over trials in read_table's layout."""
+    from . import stats
+    t = {"episode": [float(e) for e in episodes]}
+    for c in ("with", "without"):
+        est = [stats.mean_ci(rewards[c][:, k]) for k in range(len(episodes))]
+        t["mean_" + c] = [e.mean for e in est]
+        t["ci95_" + c] = [e.half for e in est]
+        if success is not None:
+            t["success_" + c] = [float(np.mean(success[c][:, k])) for k in range(len(episodes))]
+    return t
+
+
 def advantage(table, first=None):
     """Mean reward gain of extraction over the first `first` episodes (all if None)."""
     w, wo = table["mean_with"], table["mean_without"]
@@ -74,8 +147,15 @@ def plot(tables, png_path, window=10):
     for ax, d in zip(axes[0], names):
         t = tables[d]
         ep = t["episode"]
-        ax.plot(ep, smooth(t["mean_without"], window), "-", label="without extraction")
-        ax.plot(ep, smooth(t["mean_with"], window), "--", label="with extraction")
+        for cond, style, label in (("without", "-", "without extraction"),
+                                   ("with", "--", "with extraction")):
+            m = smooth(t["mean_" + cond], window)
+            line, = ax.plot(ep, m, style, label=label)
+            ci = t.get("ci95_" + cond)
+            if ci is not None and all(c == c for c in ci):  # skip bands with NaN (1 trial)
+                h = smooth(ci, window)
+                ax.fill_between(ep, [a - b for a, b in zip(m, h)], [a + b for a, b in zip(m, h)],
+                                color=line.get_color(), alpha=0.15, linewidth=0)
         grid, limit = DOMAINS[d]
         ax.set_title("%s (%s, %d steps)" % (d, grid.split("_")[1], limit))
         ax.set_xlabel("episode")

@@ -1,5 +1,9 @@
 // nav_transfer: the paper's navigation experiment (learn shop-room1, apply to shop-room2),
-// headless. Prints a summary and writes per-episode means as CSV for tools/plot_nav_transfer.py.
+// headless. Prints a summary and writes per-episode means as CSV (--out) and, optionally, one
+// row per (trial, episode, condition) (--trials-out) for an evaluator that splits trial ranges
+// over processes (--trial-begin) and concatenates them: trial i depends only on (seed, i).
+#include <sys/stat.h>
+
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
@@ -15,19 +19,30 @@
 namespace {
 
 const char* kUsage =
-    "usage: nav_transfer --config config/navigation.yaml --domain office_30x30\n"
-    "         --geometry maps/office_30x30_geometry.plog --knowledge config/navigation.plog\n"
-    "         [--trials 1000] [--threads N] [--seed 1] [--target-episodes 100]\n"
-    "         [--source-episodes 300] [--br 0.3] [--time morning] [--source room1]\n"
-    "         [--target room2] [--rmax 40] [--step-cost 1] [--known 5] [--replan 10]\n"
-    "         [--discount 0.95] [--out results.csv]\n";
+    "usage: nav_transfer [--domain office_30x30] [--trials 1000] [--trial-begin 0] [--threads N]\n"
+    "         [--seed 1] [--out means.csv] [--trials-out trials.csv]\n"
+    "         [--options config/nav_transfer.yaml] [--config config/navigation.yaml]\n"
+    "         [--geometry maps/<domain>_geometry.plog] [--knowledge config/navigation.plog]\n"
+    "         [--target-episodes N] [--source-episodes N] [--convergence-episodes N] [--br 0.3]\n"
+    "         [--time morning] [--source room1] [--target room2] [--rmax 40] [--step-cost 1]\n"
+    "         [--known M] [--replan E] [--discount 0.95] [--repo DIR]\n"
+    "Experiment defaults come from the options file (default DIR/config/nav_transfer.yaml when\n"
+    "it exists); flags override them. Relative default paths are under DIR (the current\n"
+    "directory if it holds config/navigation.yaml, else the source tree).\n"
+    "--out: episode, mean and 95% CI of the reward with/without extraction, success rates.\n"
+    "--trials-out: trial, episode, condition (with/without), reward, success.\n";
 
-struct Args {
-  std::string config, domain, geometry, knowledge, out;
-  std::size_t trials = 1000, threads = std::thread::hardware_concurrency();
-  std::uint64_t seed = 1;
-  krr::kb::NavTransferOptions options;
-};
+std::string sourceRepo() {
+  const std::string f = __FILE__, tail = "/src/krr_core/apps/nav_transfer.cpp";
+  if (f.size() > tail.size() && f.compare(f.size() - tail.size(), tail.size(), tail) == 0)
+    return f.substr(0, f.size() - tail.size());
+  return ".";
+}
+
+bool exists(const std::string& p) {
+  struct stat st;
+  return ::stat(p.c_str(), &st) == 0;
+}
 
 double toNumber(const std::string& flag, const std::string& v) {
   char* end = nullptr;
@@ -43,6 +58,13 @@ std::size_t toCount(const std::string& flag, const std::string& v) {
   return static_cast<std::size_t>(d);
 }
 
+struct Args {
+  std::string repo, options, config, domain = "office_30x30", geometry, knowledge, out, trials_out;
+  std::size_t trials = 1000, begin = 0, threads = std::max(1u, std::thread::hardware_concurrency());
+  std::uint64_t seed = 1;
+  std::vector<std::pair<std::string, std::string>> overrides;  // applied after the options file
+};
+
 Args parse(int argc, char** argv) {
   Args a;
   for (int i = 1; i < argc; ++i) {
@@ -53,31 +75,42 @@ Args parse(int argc, char** argv) {
     }
     if (i + 1 >= argc) throw krr::ConfigError("option " + f + " needs a value");
     const std::string v = argv[++i];
-    auto& o = a.options;
-    if (f == "--config") a.config = v;
+    if (f == "--repo") a.repo = v;
+    else if (f == "--options") a.options = v;
+    else if (f == "--config") a.config = v;
     else if (f == "--domain") a.domain = v;
     else if (f == "--geometry") a.geometry = v;
     else if (f == "--knowledge") a.knowledge = v;
     else if (f == "--out") a.out = v;
+    else if (f == "--trials-out") a.trials_out = v;
     else if (f == "--trials") a.trials = toCount(f, v);
-    else if (f == "--threads") a.threads = toCount(f, v);
+    else if (f == "--trial-begin") a.begin = toCount(f, v);
+    else if (f == "--threads") a.threads = std::max<std::size_t>(1, toCount(f, v));
     else if (f == "--seed") a.seed = toCount(f, v);
-    else if (f == "--target-episodes") o.target_episodes = toCount(f, v);
-    else if (f == "--source-episodes") o.source_episodes = toCount(f, v);
-    else if (f == "--br") o.blocking_rate = toNumber(f, v);
-    else if (f == "--time") o.time = v;
-    else if (f == "--source") o.source = v;
-    else if (f == "--target") o.target = v;
-    else if (f == "--rmax") o.rmax.rmax = toNumber(f, v);
-    else if (f == "--step-cost") o.rmax.step_cost = toNumber(f, v);
-    else if (f == "--known") o.rmax.known_threshold = static_cast<std::uint32_t>(toCount(f, v));
-    else if (f == "--replan") o.rmax.replan_every = static_cast<std::uint32_t>(toCount(f, v));
-    else if (f == "--discount") o.rmax.discount = toNumber(f, v);
+    else if (f == "--target-episodes" || f == "--source-episodes" ||
+             f == "--convergence-episodes" || f == "--br" || f == "--time" || f == "--source" ||
+             f == "--target" || f == "--rmax" || f == "--step-cost" || f == "--known" ||
+             f == "--replan" || f == "--discount")
+      a.overrides.emplace_back(f, v);
     else throw krr::ConfigError("unknown option " + f);
   }
-  if (a.config.empty() || a.domain.empty() || a.geometry.empty() || a.knowledge.empty())
-    throw krr::ConfigError("--config, --domain, --geometry and --knowledge are required");
+  if (a.trials == 0) throw krr::ConfigError("--trials must be at least 1");
   return a;
+}
+
+void applyOverride(krr::kb::NavTransferOptions& o, const std::string& f, const std::string& v) {
+  if (f == "--target-episodes") o.target_episodes = toCount(f, v);
+  else if (f == "--source-episodes") o.source_episodes = toCount(f, v);
+  else if (f == "--convergence-episodes") o.convergence_episodes = toCount(f, v);
+  else if (f == "--br") o.blocking_rate = toNumber(f, v);
+  else if (f == "--time") o.time = v;
+  else if (f == "--source") o.source = v;
+  else if (f == "--target") o.target = v;
+  else if (f == "--rmax") o.rmax.rmax = toNumber(f, v);
+  else if (f == "--step-cost") o.rmax.step_cost = toNumber(f, v);
+  else if (f == "--known") o.rmax.known_threshold = static_cast<std::uint32_t>(toCount(f, v));
+  else if (f == "--replan") o.rmax.replan_every = static_cast<std::uint32_t>(toCount(f, v));
+  else if (f == "--discount") o.rmax.discount = toNumber(f, v);
 }
 
 }  // namespace
@@ -91,18 +124,49 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    std::cerr << "nav_transfer: seed " << a.seed << ", " << a.trials << " trials, " << a.threads
-              << " threads, domain " << a.domain << "\n";
+    if (a.repo.empty()) a.repo = exists("config/navigation.yaml") ? "." : sourceRepo();
+    krr::kb::NavTransferOptions o;
+    const std::string default_options = a.repo + "/config/nav_transfer.yaml";
+    if (!a.options.empty()) o = krr::kb::loadNavTransferOptions(a.options);
+    else if (exists(default_options)) o = krr::kb::loadNavTransferOptions(default_options);
+    for (const auto& [f, v] : a.overrides) applyOverride(o, f, v);
+    o.validate();
+    if (a.config.empty()) a.config = a.repo + "/config/navigation.yaml";
+    if (a.geometry.empty()) a.geometry = a.repo + "/maps/" + a.domain + "_geometry.plog";
+    if (a.knowledge.empty()) a.knowledge = a.repo + "/config/navigation.plog";
+
+    std::cerr << "nav_transfer: seed " << a.seed << ", trials [" << a.begin << ", "
+              << a.begin + a.trials << "), " << a.threads << " threads, domain " << a.domain
+              << ", M " << o.rmax.known_threshold << ", Rmax " << o.rmax.rmax << ", step cost "
+              << o.rmax.step_cost << ", " << o.target_episodes << " target episodes\n";
     krr::Stopwatch clock;
     auto dom = krr::kb::NavDomain::load(a.config, a.domain, a.geometry, a.knowledge);
-    auto s = krr::kb::runNavTransfer(dom, a.options, a.seed, a.trials, a.threads);
-    std::ostringstream csv;
-    csv << "episode,mean_with,ci95_with,mean_without,ci95_without,success_with,success_without\n";
-    for (std::size_t e = 0; e < s.mean_with.size(); ++e)
-      csv << e + 1 << "," << s.mean_with[e] << "," << s.ci_with[e] << "," << s.mean_without[e]
-          << "," << s.ci_without[e] << "," << s.success_with[e] << "," << s.success_without[e]
-          << "\n";
-    if (!a.out.empty()) krr::writeFileAtomic(a.out, csv.str());
+    const auto trials = krr::kb::runNavTransferTrials(dom, o, a.seed, a.begin, a.trials, a.threads);
+    const auto s = krr::kb::summarizeNavTransfer(trials);
+    if (!a.out.empty()) {
+      std::ostringstream csv;
+      csv << "episode,mean_with,ci95_with,mean_without,ci95_without,success_with,success_without\n";
+      for (std::size_t e = 0; e < s.mean_with.size(); ++e)
+        csv << e + 1 << "," << s.mean_with[e] << "," << s.ci_with[e] << "," << s.mean_without[e]
+            << "," << s.ci_without[e] << "," << s.success_with[e] << "," << s.success_without[e]
+            << "\n";
+      krr::writeFileAtomic(a.out, csv.str());
+    }
+    if (!a.trials_out.empty()) {
+      std::string csv = "trial,episode,condition,reward,success\n";
+      char buf[96];
+      for (const auto& t : trials) {
+        for (std::size_t e = 0; e < t.reward_with.size(); ++e) {
+          std::snprintf(buf, sizeof(buf), "%zu,%zu,with,%.10g,%d\n", t.index, e + 1,
+                        t.reward_with[e], t.success_with[e] ? 1 : 0);
+          csv += buf;
+          std::snprintf(buf, sizeof(buf), "%zu,%zu,without,%.10g,%d\n", t.index, e + 1,
+                        t.reward_without[e], t.success_without[e] ? 1 : 0);
+          csv += buf;
+        }
+      }
+      krr::writeFileAtomic(a.trials_out, csv);
+    }
     double w = 0, wo = 0;
     for (std::size_t e = 0; e < s.mean_with.size(); ++e) {
       w += s.mean_with[e];

@@ -1,11 +1,20 @@
 /**
  * @file plog.cpp
- * @brief `plog FILE... [--query "..."]... [--json] [--dialect classic|plog2]`: answer the
- * queries contained in P-log files and given on the command line, one line per query.
+ * @brief `plog FILE... [--query "..."]... [--json] [--backend native|asp] [--dialect d]
+ * [--clingo PATH]`: answer the queries contained in P-log files and given on the command
+ * line, one line per query, with the native exact engine (default) or through clingo.
  *
- * Exit codes: 0 success, 1 input error (parse, unknown symbol, incoherent program, I/O),
- * 2 usage error. Errors go to stderr as `file:line:col: message`.
+ * Output: `QUERY : PROBABILITY` per query, or with --json one object per line
+ * {"query": ..., "probability": ..., "backend": ...}. The files form one program (later files
+ * add statements to the first); their queries are answered first, in order, then the
+ * --query ones.
+ *
+ * Exit codes: 0 success, 1 input error (parse, unknown symbol, incoherent program, missing or
+ * unreadable file, clingo failure), 2 usage error. Errors go to stderr as
+ * `file:line:col: message` (the query's position for errors met while answering it;
+ * `FILE: message` when the file itself cannot be read).
  */
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <string>
@@ -14,15 +23,18 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/json.h"
+#include "krr_core/plog/asp_backend.h"
 #include "krr_core/plog/parser.h"
 #include "krr_core/plog/reasoner.h"
 
 namespace {
 
 void usage(std::ostream& os) {
-  os << "usage: plog FILE... [--query \"?{a=y} | obs(..), do(..)\"]... [--json] "
-        "[--dialect classic|plog2]\n"
-        "  Answers the queries in the files and on the command line, one line per query.\n";
+  os << "usage: plog FILE... [--query \"?{a=y} | obs(..), do(..)\"]... [--json]\n"
+        "            [--backend native|asp] [--dialect classic|plog2] [--clingo PATH]\n"
+        "  Answers the queries in the files and on the command line, one line per query.\n"
+        "  --backend asp translates the program to ASP and enumerates its possible worlds\n"
+        "  with clingo (also programs outside the native engine, e.g. even loops).\n";
 }
 
 std::string fmt(double p) {
@@ -31,29 +43,50 @@ std::string fmt(double p) {
   return buf;
 }
 
+/// `loc: message` unless the message already starts with a location (a ParseError).
+std::string located(const krr::SourceLocation& loc, const std::string& what) {
+  if (loc.file.empty() || what.rfind(loc.file + ":", 0) == 0) return what;
+  return loc.str() + ": " + what;
+}
+
+struct Job {
+  krr::plog::Query query;
+  std::string text;  ///< as printed
+};
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::vector<std::string> files, queries;
-  bool json = false;
+  std::vector<std::string> files, cli_queries;
+  bool json = false, asp = false;
+  std::string clingo = "clingo";
   krr::plog::Dialect dialect = krr::plog::Dialect::Auto;
   for (int i = 1; i < argc; ++i) {
-    std::string a = argv[i];
+    const std::string a = argv[i];
+    auto value = [&](const char* what) -> const char* {
+      if (i + 1 >= argc) {
+        std::cerr << "plog: " << a << " needs " << what << "\n";
+        usage(std::cerr);
+        std::exit(2);
+      }
+      return argv[++i];
+    };
     if (a == "--json") {
       json = true;
     } else if (a == "--query" || a == "-q") {
-      if (i + 1 >= argc) {
-        std::cerr << "plog: --query needs an argument\n";
-        usage(std::cerr);
+      cli_queries.push_back(value("a query"));
+    } else if (a == "--backend") {
+      const std::string b = value("native or asp");
+      if (b == "native") asp = false;
+      else if (b == "asp") asp = true;
+      else {
+        std::cerr << "plog: unknown backend '" << b << "' (expected native or asp)\n";
         return 2;
       }
-      queries.push_back(argv[++i]);
+    } else if (a == "--clingo") {
+      clingo = value("a path");
     } else if (a == "--dialect") {
-      if (i + 1 >= argc) {
-        std::cerr << "plog: --dialect needs an argument\n";
-        return 2;
-      }
-      std::string d = argv[++i];
+      const std::string d = value("classic or plog2");
       if (d == "classic") dialect = krr::plog::Dialect::Classic;
       else if (d == "plog2") dialect = krr::plog::Dialect::Plog2;
       else {
@@ -82,28 +115,50 @@ int main(int argc, char** argv) {
     r.loadFile(files[0], dialect);
     for (size_t i = 1; i < files.size(); ++i)
       r.addStatements(krr::readFile(files[i]), "", files[i]);
-    auto print = [&](const std::string& q, double p) {
-      if (json)
-        std::cout << "{\"query\": " << krr::jsonString(q)
-                  << ", \"probability\": " << krr::jsonNumber(p) << "}\n";
-      else
-        std::cout << q << " : " << fmt(p) << "\n";
-    };
+    std::vector<Job> jobs;
+    for (const auto& q : r.program().queries) jobs.push_back({q, q.text});
     int rc = 0;
-    for (const auto& q : r.program().queries) {
+    for (const auto& text : cli_queries) {
       try {
-        print(q.text, r.probability(q));
+        jobs.push_back({krr::plog::parseQuery(r.program(), text, "<command line>"), text});
       } catch (const krr::Error& e) {
         std::cerr << e.what() << "\n";
         rc = 1;
       }
     }
-    for (const auto& q : queries) {
-      try {
-        print(q, r.probability(krr::plog::parseQuery(r.program(), q, "<command line>")));
-      } catch (const krr::Error& e) {
-        std::cerr << e.what() << "\n";
-        rc = 1;
+    auto print = [&](const std::string& q, double p) {
+      if (json)
+        std::cout << "{\"query\": " << krr::jsonString(q)
+                  << ", \"probability\": " << krr::jsonNumber(p)
+                  << ", \"backend\": " << (asp ? "\"asp\"" : "\"native\"") << "}\n";
+      else
+        std::cout << q << " : " << fmt(p) << "\n";
+    };
+    if (asp) {
+      // One clingo process answers every query (a multi-shot run per intervention set).
+      krr::plog::AspOptions opt;
+      opt.clingo_path = clingo;
+      krr::plog::AspBackend backend(opt);
+      std::vector<krr::plog::Query> queries;
+      for (const auto& j : jobs) queries.push_back(j.query);
+      std::vector<std::string> errors;
+      const std::vector<double> p = backend.probabilities(r.program(), queries, &errors);
+      for (size_t i = 0; i < jobs.size(); ++i) {
+        if (!errors[i].empty() || std::isnan(p[i])) {
+          std::cerr << located(jobs[i].query.loc, errors[i]) << "\n";
+          rc = 1;
+        } else {
+          print(jobs[i].text, p[i]);
+        }
+      }
+    } else {
+      for (const auto& j : jobs) {
+        try {
+          print(j.text, r.probability(j.query));
+        } catch (const krr::Error& e) {
+          std::cerr << located(j.query.loc, e.what()) << "\n";
+          rc = 1;
+        }
       }
     }
     return rc;
@@ -114,5 +169,4 @@ int main(int argc, char** argv) {
     std::cerr << "plog: internal error: " << e.what() << "\n";
     return 1;
   }
-  return 0;
 }

@@ -1,15 +1,25 @@
 /**
  * @file bench_value_iteration.cpp
  * @brief State-action updates per second (one thread) of value iteration on random navigation
- * grids, for the general SparseModel layout and the grid layouts (double and float storage),
- * and time to converge (gamma 0.95, epsilon 1e-6) on 50x50 and 500x500.
+ * grids, and time to converge (gamma 0.95, epsilon 1e-6), for every model layout:
+ *  - sparse        valueIteration(SparseModel): CSR input, sweep layout built on each call
+ *  - sweep<double> valueIteration(SweepModel) on a prebuilt layout, double storage
+ *  - sweep<float>  the same with float storage
+ *  - grid<double>, grid<float>  the grid-specialised layout
+ * Each figure is measured `repeats` times; the best and the median are printed (the machine is
+ * shared, so the best is the closest to the code's own speed). Rates use this thread's CPU
+ * time (wall time is printed too). Convergence is timed on 50x50 and 500x500 (and any size
+ * given with --converge). Ends with the peak resident set size.
  *
- * Usage: bench_value_iteration [max_side=1000] [seed=1]
+ * Usage: bench_value_iteration [--max-side N=1000] [--seed S=1] [--repeats R=3]
+ *                              [--sizes 30,50,200,500,1000] [--converge 50,500]
+ * KRR_MDP_ISA=generic in the environment selects the portable kernels.
  */
 #include <algorithm>
-#include <ctime>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -30,6 +40,26 @@ double cpuSeconds() {
   return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
+struct Stats {
+  double best = 0.0, median = 0.0;
+};
+
+/// Best (lowest) and median of a set of times.
+Stats stats(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return Stats{v.front(), v[v.size() / 2]};
+}
+
+std::vector<std::uint32_t> parseList(const std::string& text) {
+  std::vector<std::uint32_t> out;
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    if (!item.empty()) out.push_back(static_cast<std::uint32_t>(std::stoul(item)));
+  }
+  return out;
+}
+
 struct Instance {
   GridDynamics dyn;
   StateId goal;
@@ -46,79 +76,130 @@ Instance makeInstance(std::uint32_t side, std::uint64_t seed) {
   return in;
 }
 
-/// Runs exactly `sweeps` sweeps and returns seconds. Solves restart from zeros every 100 sweeps,
-/// long before the values reach their floating-point fixed point (which would stop early).
+/// Runs exactly `sweeps` sweeps (in solves of at most 100 sweeps, restarted from the cold
+/// start long before the values reach their floating-point fixed point) and returns
+/// {cpu seconds, wall seconds}.
 template <class M>
-double timeSweeps(const M& m, std::size_t sweeps, Solution* out, double* cpu) {
+std::pair<double, double> timeSweeps(const M& m, std::size_t sweeps) {
   SolverOptions o;
   o.epsilon = 1e-300;
   const double c0 = cpuSeconds();
   Stopwatch sw;
   for (std::size_t done = 0; done < sweeps; done += o.max_iterations) {
     o.max_iterations = std::min<std::size_t>(100, sweeps - done);
-    *out = valueIteration(m, o);
-    if (out->iterations != o.max_iterations) std::printf("# warning: stopped early\n");
+    Solution s = valueIteration(m, o);
+    if (s.iterations != o.max_iterations) std::printf("# warning: stopped early\n");
   }
-  *cpu = cpuSeconds() - c0;
-  return sw.seconds();
+  return {cpuSeconds() - c0, sw.seconds()};
 }
 
 template <class M>
-void reportRate(const char* layout, std::uint32_t side, const M& m, std::size_t pairs) {
-  // About 3e8 updates per measurement (at least 3 sweeps), after one warm-up sweep.
-  const std::size_t sweeps = std::max<std::size_t>(3, 300000000 / pairs);
-  Solution sol;
-  double cpu = 0.0;
-  timeSweeps(m, 1, &sol, &cpu);
-  const double t = timeSweeps(m, sweeps, &sol, &cpu);
-  const double n = static_cast<double>(pairs) * static_cast<double>(sweeps);
-  std::printf("%-12s %5ux%-5u sweeps %5zu  wall %7.3f s %6.2f e9/s   cpu %7.3f s %6.2f e9 "
-              "state-action updates/s\n",
-              layout, side, side, sweeps, t, n / t / 1e9, cpu, n / cpu / 1e9);
+void reportRate(const char* layout, std::uint32_t side, const M& m, std::size_t pairs,
+                int repeats) {
+  // About 3e8 updates per measurement (at least 8 sweeps), after one warm-up solve.
+  const std::size_t sweeps = std::max<std::size_t>(8, 300000000 / pairs);
+  timeSweeps(m, std::min<std::size_t>(sweeps, 8));
+  std::vector<double> cpu, wall;
+  for (int r = 0; r < repeats; ++r) {
+    auto t = timeSweeps(m, sweeps);
+    cpu.push_back(t.first);
+    wall.push_back(t.second);
+  }
+  const double n = static_cast<double>(pairs) * static_cast<double>(sweeps) / 1e9;
+  const Stats c = stats(cpu), w = stats(wall);
+  std::printf("rate     %-14s %5ux%-5u sweeps %6zu  cpu best %6.2f median %6.2f e9 updates/s"
+              "  (wall best %6.2f median %6.2f)\n",
+              layout, side, side, sweeps, n / c.best, n / c.median, n / w.best, n / w.median);
+  std::fflush(stdout);
 }
 
 template <class M>
-void reportConvergence(const char* layout, std::uint32_t side, const M& m, StateId start) {
+void reportConvergence(const char* layout, std::uint32_t side, const M& m, int repeats) {
   SolverOptions o;
   o.epsilon = 1e-6;
-  Solution sol;
-  valueIteration(m, o);  // warm caches
-  const int reps = side <= 100 ? 20 : 1;
-  const double c0 = cpuSeconds();
-  Stopwatch sw;
-  for (int r = 0; r < reps; ++r) sol = valueIteration(m, o);
-  const double t = sw.seconds() / reps, cpu = (cpuSeconds() - c0) / reps;
-  std::printf("%-12s %5ux%-5u converged=%d sweeps %4zu residual %.2e  wall %9.3f ms  cpu %9.3f "
-              "ms  V(start)=%.6f\n",
-              layout, side, side, sol.converged ? 1 : 0, sol.iterations, sol.residual, t * 1e3,
-              cpu * 1e3, sol.values[start]);
+  Solution sol = valueIteration(m, o);  // warm the caches
+  const int inner = side <= 100 ? 20 : 1;
+  std::vector<double> cpu, wall;
+  for (int r = 0; r < repeats; ++r) {
+    const double c0 = cpuSeconds();
+    Stopwatch sw;
+    for (int i = 0; i < inner; ++i) sol = valueIteration(m, o);
+    cpu.push_back((cpuSeconds() - c0) / inner);
+    wall.push_back(sw.seconds() / inner);
+  }
+  const Stats c = stats(cpu), w = stats(wall);
+  std::printf("converge %-14s %5ux%-5u converged=%d sweeps %4zu  cpu best %9.3f median %9.3f ms"
+              "  (wall best %9.3f median %9.3f ms)  V(start)=%.6f\n",
+              layout, side, side, sol.converged ? 1 : 0, sol.iterations, c.best * 1e3,
+              c.median * 1e3, w.best * 1e3, w.median * 1e3, sol.values[0]);
+  std::fflush(stdout);
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  const std::uint32_t max_side = argc > 1 ? static_cast<std::uint32_t>(std::atoi(argv[1])) : 1000;
-  const std::uint64_t seed = argc > 2 ? std::strtoull(argv[2], nullptr, 10) : 1;
+  std::uint32_t max_side = 1000;
+  std::uint64_t seed = 1;
+  int repeats = 3;
+  std::vector<std::uint32_t> sizes = {30, 50, 200, 500, 1000}, converge = {50, 500};
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (i + 1 >= argc) {
+      std::fprintf(stderr, "usage: bench_value_iteration [--max-side N] [--seed S] "
+                           "[--repeats R] [--sizes a,b,..] [--converge a,b,..]\n");
+      return 2;
+    }
+    const std::string v = argv[++i];
+    if (a == "--max-side") max_side = static_cast<std::uint32_t>(std::stoul(v));
+    else if (a == "--seed") seed = std::stoull(v);
+    else if (a == "--repeats") repeats = std::max(1, std::stoi(v));
+    else if (a == "--sizes") sizes = parseList(v);
+    else if (a == "--converge") converge = parseList(v);
+    else {
+      std::fprintf(stderr, "bench_value_iteration: unknown option %s\n", a.c_str());
+      return 2;
+    }
+  }
   const NavigationReward reward;
-  std::printf("# value iteration throughput, one thread; 4 actions, <= 6 outcomes per action\n");
-  std::printf("# updates counted over non-terminal (cell, action) pairs\n");
-  for (std::uint32_t side : {30u, 50u, 200u, 500u, 1000u}) {
-    if (side > max_side) break;
+  const char* isa = std::getenv("KRR_MDP_ISA");
+  std::printf("# value iteration, one thread; 4 actions, <= 6 outcomes per action; kernels: %s\n",
+              isa != nullptr ? isa : "default (AVX2+FMA when available)");
+  std::printf("# updates counted over non-terminal (cell, action) pairs; %d repeats\n", repeats);
+  for (std::uint32_t side : sizes) {
+    if (side > max_side) continue;
     Instance in = makeInstance(side, seed);
     GridModel g = makeNavigationGridModel(in.dyn, {in.goal}, reward, 0.95);
     GridModelF gf = makeNavigationGridModelF(in.dyn, {in.goal}, reward, 0.95);
     std::size_t pairs = 0;
     for (StateId c = 0; c < g.numCells(); ++c) pairs += g.isTerminal(c) ? 0 : 4;
-    reportRate("grid<double>", side, g, pairs);
-    reportRate("grid<float>", side, gf, pairs);
+    const bool conv = std::find(converge.begin(), converge.end(), side) != converge.end();
+    reportRate("grid<double>", side, g, pairs, repeats);
+    reportRate("grid<float>", side, gf, pairs, repeats);
+    if (conv) {
+      reportConvergence("grid<double>", side, g, repeats);
+      reportConvergence("grid<float>", side, gf, repeats);
+    }
     {
       SparseModel s = g.toSparse();
-      std::printf("# sparse nnz %zu\n", s.numTransitions());
-      reportRate("sparse", side, s, pairs);
-      if (side == 50 || side == 500) {
-        reportConvergence("sparse", side, s, 0);
-        reportConvergence("grid<double>", side, g, 0);
-        reportConvergence("grid<float>", side, gf, 0);
+      Stopwatch sw;
+      SweepModel sd(s);
+      const double build_d = sw.seconds();
+      sw.reset();
+      SweepModelF sf(s);
+      const double build_f = sw.seconds();
+      std::printf("# %ux%u: CSR nnz %zu (%.1f MiB); sweep layout K=%zu bandwidth %zu, "
+                  "%.1f MiB double (built in %.1f ms) / %.1f MiB float (%.1f ms)\n",
+                  side, side, s.numTransitions(),
+                  s.numTransitions() * (sizeof(double) + sizeof(StateId)) / 1048576.0,
+                  sd.successorsPerState(), sd.bandwidth(), sd.bytes() / 1048576.0,
+                  build_d * 1e3, sf.bytes() / 1048576.0, build_f * 1e3);
+      reportRate("sparse", side, s, pairs, repeats);
+      reportRate("sweep<double>", side, sd, pairs, repeats);
+      reportRate("sweep<float>", side, sf, pairs, repeats);
+      if (conv) {
+        reportConvergence("sparse", side, s, repeats);
+        reportConvergence("sweep<double>", side, sd, repeats);
+        reportConvergence("sweep<float>", side, sf, repeats);
       }
     }
   }

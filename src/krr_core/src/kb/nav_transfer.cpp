@@ -6,6 +6,7 @@
 #include <mutex>
 #include <thread>
 
+#include "experiment_yaml.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/random.h"
 #include "krr_core/kb/simulated_navigation.h"
@@ -41,6 +42,31 @@ void NavTransferOptions::validate() const {
   if (convergence_episodes == 0) bad("convergence_episodes", "0");
   if (source == target) bad("target", target + " (same as source)");
   rmax.validate();
+}
+
+NavTransferOptions loadNavTransferOptions(const std::string& path,
+                                          const NavTransferOptions& defaults) {
+  using detail::YamlSection;
+  const YAML::Node root = detail::loadYamlFile(path);
+  YamlSection s(root, path, "",
+                {"start", "source", "target", "time", "blocking_rate", "source_episodes",
+                 "convergence_episodes", "target_episodes", "rmax"});
+  NavTransferOptions o = defaults;
+  o.start = s.string("start", o.start);
+  o.source = s.string("source", o.source);
+  o.target = s.string("target", o.target);
+  o.time = s.string("time", o.time);
+  o.blocking_rate = s.number("blocking_rate", o.blocking_rate, 0.0, 1.0);
+  o.source_episodes = s.count("source_episodes", o.source_episodes, 1, 100000000);
+  o.convergence_episodes = s.count("convergence_episodes", o.convergence_episodes, 1, 100000000);
+  o.target_episodes = s.count("target_episodes", o.target_episodes, 1, 100000000);
+  detail::readRMax(s, "rmax", o.rmax);
+  try {
+    o.validate();
+  } catch (const ConfigError& e) {
+    throw ConfigError(path + ": " + e.what());
+  }
+  return o;
 }
 
 mdp::RMaxAgent makeNavigationAgent(const NavDomain& dom, const SimulatedNavigation& env,
@@ -95,6 +121,7 @@ NavTransferTrial runNavTransferTrial(const NavDomain& dom, NavigationKnowledge& 
   const NavStateSpace& sp = *dom.space;
   const int start = dom.grid->placeCell(o.start);
   NavTransferTrial t;
+  t.index = index;
 
   // 1. Procedure 1 on the source task (from scratch), then extraction into the KB.
   knowledge.clearLearned();
@@ -129,34 +156,44 @@ NavTransferTrial runNavTransferTrial(const NavDomain& dom, NavigationKnowledge& 
   return t;
 }
 
-NavTransferSummary runNavTransfer(const NavDomain& dom, const NavTransferOptions& o,
-                                  std::uint64_t seed, std::size_t trials, std::size_t threads) {
+std::vector<NavTransferTrial> runNavTransferTrials(const NavDomain& dom,
+                                                   const NavTransferOptions& o,
+                                                   std::uint64_t seed, std::size_t begin,
+                                                   std::size_t count, std::size_t threads) {
   o.validate();
-  if (trials == 0) throw ConfigError("nav transfer: trials must be at least 1");
-  threads = std::max<std::size_t>(1, std::min(threads, trials));
-  std::vector<NavTransferTrial> results(trials);
+  if (count == 0) throw ConfigError("nav transfer: trials must be at least 1");
+  threads = std::max<std::size_t>(1, std::min(threads, count));
+  std::vector<NavTransferTrial> results(count);
   std::atomic<std::size_t> next{0};
   std::exception_ptr failure;
   std::mutex failure_mutex;
   auto worker = [&]() {
     try {
       NavigationKnowledge kb(*dom.grid, dom.knowledge_files);
-      for (std::size_t i = next++; i < trials; i = next++)
-        results[i] = runNavTransferTrial(dom, kb, o, seed, i);
+      for (std::size_t i = next++; i < count; i = next++)
+        results[i] = runNavTransferTrial(dom, kb, o, seed, begin + i);
     } catch (...) {
       std::lock_guard<std::mutex> lock(failure_mutex);
       if (!failure) failure = std::current_exception();
-      next = trials;
+      next = count;
     }
   };
   std::vector<std::thread> pool;
   for (std::size_t k = 0; k < threads; ++k) pool.emplace_back(worker);
   for (auto& th : pool) th.join();
   if (failure) std::rethrow_exception(failure);
+  return results;
+}
 
+NavTransferSummary summarizeNavTransfer(const std::vector<NavTransferTrial>& results) {
   NavTransferSummary s;
+  const std::size_t trials = results.size();
   s.trials = trials;
-  const std::size_t E = o.target_episodes;
+  if (trials == 0) return s;
+  const std::size_t E = results.front().reward_with.size();
+  for (const auto& r : results)
+    if (r.reward_with.size() != E || r.reward_without.size() != E)
+      throw ConfigError("nav transfer: trials with different numbers of episodes");
   auto meanCi = [&](auto get, std::vector<double>& mean, std::vector<double>& ci) {
     mean.assign(E, 0.0);
     ci.assign(E, 0.0);
@@ -184,6 +221,11 @@ NavTransferSummary runNavTransfer(const NavDomain& dom, const NavTransferOptions
     s.mean_source_episodes += static_cast<double>(r.source_episodes_run) / static_cast<double>(trials);
   }
   return s;
+}
+
+NavTransferSummary runNavTransfer(const NavDomain& dom, const NavTransferOptions& o,
+                                  std::uint64_t seed, std::size_t trials, std::size_t threads) {
+  return summarizeNavTransfer(runNavTransferTrials(dom, o, seed, 0, trials, threads));
 }
 
 }  // namespace kb

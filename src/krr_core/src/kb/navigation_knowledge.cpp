@@ -117,6 +117,97 @@ NavigationKnowledge::NavigationKnowledge(const nav::NavGrid& grid,
   for (const std::string& m : moves)
     if (moveIndex(m) < 0) throw ConfigError("navigation knowledge: unknown move '" + m + "'");
   times_ = reasoner_.sortValues("time");
+
+  // Prototypes of the learned statements, parsed once against the program's declarations;
+  // extraction copies them with other ground values instead of parsing text every time.
+  for (const char* sort : {"loc", "move", "time"}) {
+    const plog::SortDecl* sd = prog.findSort(sort);
+    if (!sd) throw ConfigError(std::string("navigation knowledge: the program does not declare sort '") +
+                               sort + "'");
+    for (const plog::Term& t : sd->values) terms_.emplace(plog::toString(t), t);
+  }
+  if (!cells.empty() && !moves.empty() && !times_.empty()) {
+    plog::Program decls;
+    decls.dialect = prog.dialect;
+    decls.sorts = prog.sorts;
+    decls.attributes = prog.attributes;
+    decls.domains = prog.domains;
+    const std::string c = cells.front(), m = moves.front(), t = times_.front();
+    plog::parseInto(decls,
+                    "pr(next_cell=" + c + " | curr_cell=" + c + ", act_move=" + m +
+                        ", curr_time=" + t + ") = 1/2.\nlearned(" + c + ", " + m + ", " + t + ").\n",
+                    "<learned>");
+    bool ok = decls.pr_atoms.size() == 1 && decls.rules.size() == 1 &&
+              decls.pr_atoms[0].body.size() == 3 && decls.rules[0].head &&
+              decls.rules[0].head->attr.args.size() == 3 && decls.rules[0].body.empty();
+    for (size_t i = 0; ok && i < 3; ++i) ok = decls.pr_atoms[0].body[i].kind == plog::Literal::Kind::Atom;
+    if (!ok)
+      throw ConfigError("navigation knowledge: learned statements do not parse into the expected "
+                        "shape (check the declarations of next_cell and learned)");
+    pr_proto_ = decls.pr_atoms[0];
+    fact_proto_ = decls.rules[0];
+  }
+}
+
+const plog::Term& NavigationKnowledge::valueTerm(const std::string& value) {
+  auto it = terms_.find(value);
+  if (it != terms_.end()) return it->second;
+  // Not a declared value (the reasoner will ignore the statement, as it would the text).
+  const bool integer = !value.empty() && value.find_first_not_of("0123456789") == std::string::npos;
+  plog::Term t = integer ? plog::Term::integer(std::stoll(value)) : plog::Term::symbol(value);
+  return terms_.emplace(value, t).first->second;
+}
+
+void NavigationKnowledge::appendPrAtoms(const std::tuple<int, int, std::string>& key,
+                                        const LearnedDistribution& d,
+                                        std::vector<plog::PrAtom>& out) {
+  const auto& [cell, move, time] = key;
+  const std::string cell_text = std::to_string(cell);
+  for (const auto& [value, k] : d.outcomes) {
+    plog::PrAtom p = pr_proto_;
+    p.atom.value = valueTerm(value);
+    for (plog::Literal& l : p.body) {
+      const std::string& n = l.atom.attr.name;
+      if (n == "curr_cell") l.atom.value = valueTerm(cell_text);
+      else if (n == "act_move") l.atom.value = valueTerm(kMoveNames[move]);
+      else if (n == "curr_time") l.atom.value = valueTerm(time);
+    }
+    p.probability = static_cast<double>(k) / static_cast<double>(d.denominator);
+    p.probability_text = std::to_string(k) + "/" + std::to_string(d.denominator);
+    p.loc = {"<learned>", static_cast<int>(++learned_line_), 1};
+    out.push_back(std::move(p));
+  }
+}
+
+plog::Rule NavigationKnowledge::learnedFact(const std::tuple<int, int, std::string>& key) {
+  const auto& [cell, move, time] = key;
+  plog::Rule r = fact_proto_;
+  r.head->attr.args[0] = valueTerm(std::to_string(cell));
+  r.head->attr.args[1] = valueTerm(kMoveNames[move]);
+  r.head->attr.args[2] = valueTerm(time);
+  r.loc = {"<learned>", static_cast<int>(++learned_line_), 1};
+  return r;
+}
+
+void NavigationKnowledge::updateLearned(const LearnedMap& updates) {
+  std::vector<plog::PrAtom> old_prs, new_prs;
+  std::vector<plog::Rule> facts;
+  for (const auto& [key, d] : updates) {
+    auto it = learned_.find(key);
+    if (it != learned_.end()) {
+      if (it->second == d) continue;  // nothing new
+      appendPrAtoms(key, it->second, old_prs);
+      it->second = d;
+    } else {
+      learned_.emplace(key, d);
+      facts.push_back(learnedFact(key));
+    }
+    appendPrAtoms(key, d, new_prs);
+  }
+  // Re-learned pairs: their old outcomes go (keeping one would make the sum exceed 1).
+  if (!old_prs.empty()) reasoner_.removeStatements({}, old_prs);
+  if (!new_prs.empty() || !facts.empty())
+    reasoner_.addStatements(std::move(facts), std::move(new_prs), kLearnedTag);
 }
 
 std::string NavigationKnowledge::evidenceFor(const std::vector<std::string>& times) const {
@@ -185,6 +276,7 @@ std::size_t NavigationKnowledge::addLearned(const std::vector<mdp::KnownPair>& p
   if (std::find(times_.begin(), times_.end(), time) == times_.end())
     throw UnknownSymbolError("time '" + time + "' is not a value of sort time");
   std::size_t written = 0;
+  LearnedMap updates;
   for (const mdp::KnownPair& kp : pairs) {
     if (kp.from_prior || kp.distribution.empty()) continue;
     const int cell = space_.cellOf(kp.state);
@@ -204,16 +296,24 @@ std::size_t NavigationKnowledge::addLearned(const std::vector<mdp::KnownPair>& p
                           " of cell " + std::to_string(cell) + " is outside the state space");
       d.outcomes.emplace_back(c1 < 0 ? "trapped" : std::to_string(c1), k[i]);
     }
-    learned_[std::make_tuple(cell, static_cast<int>(kp.action), time)] = std::move(d);
+    updates[std::make_tuple(cell, static_cast<int>(kp.action), time)] = std::move(d);
     ++written;
   }
-  syncLearned();
+  updateLearned(updates);
   return written;
+}
+
+std::vector<NavigationKnowledge::LearnedEntry> NavigationKnowledge::learnedEntries() const {
+  std::vector<LearnedEntry> out;
+  out.reserve(learned_.size());
+  for (const auto& [key, d] : learned_)
+    out.push_back({std::get<0>(key), std::get<1>(key), std::get<2>(key), d.outcomes, d.denominator});
+  return out;
 }
 
 void NavigationKnowledge::clearLearned() {
   learned_.clear();
-  syncLearned();
+  reasoner_.removeStatementsWithTag(kLearnedTag);
 }
 
 std::string NavigationKnowledge::learnedText() const {
@@ -233,11 +333,6 @@ std::string NavigationKnowledge::learnedText() const {
   return o.str();
 }
 
-void NavigationKnowledge::syncLearned() {
-  reasoner_.removeStatementsWithTag(kLearnedTag);
-  if (!learned_.empty()) reasoner_.addStatements(learnedText(), kLearnedTag, "<learned>");
-}
-
 void NavigationKnowledge::saveLearned(const std::string& path) const {
   writeFileAtomic(path, learnedText());
 }
@@ -254,7 +349,7 @@ void NavigationKnowledge::loadLearned(const std::string& path) {
       scratch.attributes.size() != reasoner_.program().attributes.size())
     throw ParseError({path, 1, 1}, "a learned-knowledge file may only contain pr-atoms for "
                                    "next_cell and learned(C, M, T) facts");
-  LearnedMap loaded = learned_;
+  LearnedMap loaded;
   std::set<std::tuple<int, int, std::string>> flagged;
   for (size_t i = rule0; i < scratch.rules.size(); ++i) {
     const plog::Rule& r = scratch.rules[i];
@@ -303,8 +398,7 @@ void NavigationKnowledge::loadLearned(const std::string& path) {
     space_.stateOf(std::get<0>(key));  // must be a free cell of this grid
     loaded[key] = std::move(d);
   }
-  learned_ = std::move(loaded);
-  syncLearned();
+  updateLearned(loaded);
 }
 
 }  // namespace kb

@@ -38,6 +38,7 @@ BasicGridModel<P>::BasicGridModel(std::uint32_t width, std::uint32_t height, dou
   }
   wb_ = (w_ + kLanes - 1) / kLanes;
   prob_.assign(static_cast<std::size_t>(h_) * wb_ * kBlockSize, P(0));
+  fail_.assign(numCells() * kNumActions, P(0));
   reward_.assign(static_cast<std::size_t>(h_) * wb_ * kNumActions * kLanes, P(0));
   live_.assign(static_cast<std::size_t>(h_) * paddedWidth(), P(0));  // padding: inert
   for (StateId c = 0; c < numCells(); ++c) {
@@ -75,7 +76,8 @@ void BasicGridModel<P>::setOutcomes(StateId cell, ActionId a, const Probabilitie
       q[k] = 0.0;
     }
   }
-  for (unsigned k = 0; k < kNumOutcomes; ++k) prob_[probIndex(cell, a, k)] = static_cast<P>(q[k]);
+  for (unsigned k = 0; k < kSweepOutcomes; ++k) prob_[probIndex(cell, a, k)] = static_cast<P>(q[k]);
+  fail_[static_cast<std::size_t>(cell) * kNumActions + a] = static_cast<P>(q[kFail]);
   reward_[rewardIndex(cell, a)] = static_cast<P>(reward);
 }
 
@@ -90,7 +92,8 @@ void BasicGridModel<P>::setTerminal(StateId cell, bool terminal) {
 
 template <class P>
 double BasicGridModel<P>::outcomeProbability(StateId cell, ActionId a, unsigned k) const {
-  if (cell >= numCells()) return 0.0;
+  if (cell >= numCells() || a >= kNumActions || k >= kNumOutcomes) return 0.0;
+  if (k == kFail) return static_cast<double>(fail_[static_cast<std::size_t>(cell) * kNumActions + a]);
   return static_cast<double>(prob_[probIndex(cell, a, k)]);
 }
 
@@ -111,7 +114,7 @@ double BasicGridModel<P>::getTransitionProbability(StateId s, ActionId a, StateI
   if (isTerminal(s)) return s1 == s ? 1.0 : 0.0;
   double p = 0.0;
   for (unsigned k = 0; k < kNumOutcomes; ++k) {
-    if (outcomeState(s, k) == s1) p += static_cast<double>(prob_[probIndex(s, a, k)]);
+    if (outcomeState(s, k) == s1) p += outcomeProbability(s, a, k);
   }
   return p;
 }
@@ -128,7 +131,7 @@ std::pair<StateId, double> BasicGridModel<P>::sampleSR(StateId s, ActionId a, Rn
   double u = uniform01(rng);
   unsigned last = kStay;
   for (unsigned k = 0; k < kNumOutcomes; ++k) {
-    const double p = static_cast<double>(prob_[probIndex(s, a, k)]);
+    const double p = outcomeProbability(s, a, k);
     if (p <= 0.0) continue;
     last = k;
     u -= p;

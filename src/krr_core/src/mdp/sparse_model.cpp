@@ -226,5 +226,119 @@ SparseModel SparseModelBuilder::build() const {
                      reward_, terminal_);
 }
 
+namespace {
+
+/// Sorted union of the non-terminal successors of s over all actions, by insertion into
+/// out[0..cap); returns its size, or cap + 1 as soon as it has more than cap entries.
+std::size_t successorUnion(const SparseModel& m, StateId s, StateId* out, std::size_t cap) {
+  std::size_t n = 0;
+  if (m.isTerminal(s)) return 0;
+  const std::uint32_t* rs = m.rowStart();
+  const StateId* nx = m.nextStates();
+  const std::vector<std::uint8_t>& term = m.terminalFlags();
+  const std::size_t i0 = static_cast<std::size_t>(s) * m.getA();
+  for (std::size_t i = i0; i < i0 + m.getA(); ++i) {
+    for (std::uint32_t k = rs[i]; k < rs[i + 1]; ++k) {
+      const StateId x = nx[k];
+      if (term[x]) continue;
+      std::size_t pos = n;
+      while (pos > 0 && out[pos - 1] > x) --pos;
+      if (pos > 0 && out[pos - 1] == x) continue;
+      if (n == cap) return cap + 1;
+      for (std::size_t j = n; j > pos; --j) out[j] = out[j - 1];
+      out[pos] = x;
+      ++n;
+    }
+  }
+  return n;
+}
+
+}  // namespace
+
+template <class P>
+bool BasicSweepModel<P>::suitable(const SparseModel& m) {
+  return tryBuild(m) != nullptr;
+}
+
+template <class P>
+std::unique_ptr<BasicSweepModel<P>> BasicSweepModel<P>::tryBuild(const SparseModel& m) {
+  std::unique_ptr<BasicSweepModel<P>> out(new BasicSweepModel<P>());
+  return out->build(m, false) ? std::move(out) : nullptr;
+}
+
+template <class P>
+BasicSweepModel<P>::BasicSweepModel(const SparseModel& m) {
+  build(m, true);
+}
+
+template <class P>
+bool BasicSweepModel<P>::build(const SparseModel& m, bool strict) {
+  s_ = m.getS();
+  a_ = m.getA();
+  discount_ = m.getDiscount();
+  if (a_ > kMaxActions) {
+    if (!strict) return false;
+    throw ConfigError("SweepModel: " + std::to_string(a_) + " actions, at most " +
+                      std::to_string(kMaxActions) + " supported (use the CSR solver)");
+  }
+  lanes_ = a_ <= 4 ? 4 : 8;
+  // One pass computes every state's successor union (kMaxSuccessors slots per state).
+  std::vector<StateId> uni(s_ * kMaxSuccessors);
+  std::vector<std::uint8_t> count(s_);
+  k_ = 1;
+  for (StateId s = 0; s < s_; ++s) {
+    const std::size_t n = successorUnion(m, s, &uni[s * kMaxSuccessors], kMaxSuccessors);
+    if (n > kMaxSuccessors) {
+      if (!strict) return false;
+      throw ConfigError("SweepModel: state " + std::to_string(s) + " has more than " +
+                        std::to_string(kMaxSuccessors) +
+                        " distinct non-terminal successors (use the CSR solver)");
+    }
+    count[s] = static_cast<std::uint8_t>(n);
+    k_ = std::max(k_, n);
+  }
+  // Padded to a count the solver has a kernel for.
+  k_ = k_ <= 2 ? 2 : k_ == 3 ? 4 : k_ == 7 ? 8 : k_;
+  if (!strict && s_ * k_ * lanes_ > 3 * std::max<std::size_t>(m.numTransitions(), s_)) {
+    return false;  // actions reach different states: the CSR rows are more compact
+  }
+  terminal_ = m.terminalFlags();
+  succ_.assign(s_ * k_, 0);
+  prob_.assign(s_ * k_ * lanes_, P(0));
+  reward_.assign(s_ * lanes_, P(0));
+  const std::uint32_t* rs = m.rowStart();
+  const StateId* nx = m.nextStates();
+  const double* pr = m.probabilities();
+  const double* rw = m.rewards();
+  bandwidth_ = 0;
+  for (StateId s = 0; s < s_; ++s) {
+    const StateId* u = &uni[s * kMaxSuccessors];
+    const std::size_t nu = count[s];
+    for (std::size_t k = 0; k < k_; ++k) {
+      const StateId n = k < nu ? u[k] : s;
+      succ_[s * k_ + k] = n;
+      bandwidth_ = std::max<std::size_t>(bandwidth_, n > s ? n - s : s - n);
+    }
+    P* rrow = &reward_[s * lanes_];
+    for (std::size_t a = a_; a < lanes_; ++a) rrow[a] = -std::numeric_limits<P>::infinity();
+    if (terminal_[s]) continue;  // all-zero row: the backup is 0
+    P* block = &prob_[s * k_ * lanes_];
+    for (std::size_t a = 0; a < a_; ++a) {
+      const std::size_t i = static_cast<std::size_t>(s) * a_ + a;
+      rrow[a] = static_cast<P>(rw[i]);
+      for (std::uint32_t j = rs[i]; j < rs[i + 1]; ++j) {
+        if (terminal_[nx[j]]) continue;
+        std::size_t k = 0;
+        while (u[k] != nx[j]) ++k;
+        block[k * lanes_ + a] = static_cast<P>(discount_ * pr[j]);
+      }
+    }
+  }
+  return true;
+}
+
+template class BasicSweepModel<double>;
+template class BasicSweepModel<float>;
+
 }  // namespace mdp
 }  // namespace krr

@@ -31,6 +31,8 @@ ExactEngine::ExactEngine(const GroundProgram& g) : g_(g) {
   cond_pos_.assign(n, -1);
   states_.resize(n);
   live_rules_.resize(n);
+  live_stamp_.assign(n, 0);
+  live_cache_.resize(n);
   buildAtomSccs();
   for (size_t i = 0; i < n; ++i) {
     const GInstance& gi = g.instances[i];
@@ -56,8 +58,7 @@ void ExactEngine::computeStates(int inst) {
   const int D = static_cast<int>(gi.domain.size());
   std::vector<int>& st = states_[static_cast<size_t>(inst)];
   st.clear();
-  std::vector<Item> items;
-  liveItems(inst, items);
+  const std::vector<Item>& items = liveItemsCached(inst);
   bool full = false;
   for (const auto& it : items) {
     if (it.kind != 0) continue;
@@ -379,8 +380,20 @@ void ExactEngine::indexBy(const std::vector<int>& conditioning) {
     };
     for (size_t s = 0; s < gi.selections.size(); ++s)
       place(gi.selections[s].body, Item{0, static_cast<int>(s)});
-    for (size_t p = 0; p < gi.prs.size(); ++p) place(gi.prs[p].body, Item{1, static_cast<int>(p)});
+    for (size_t p = 0; p < gi.prs.size(); ++p)
+      if (gi.prs[p].inactive == 0) place(gi.prs[p].body, Item{1, static_cast<int>(p)});
   }
+}
+
+const std::vector<ExactEngine::Item>& ExactEngine::liveItemsCached(int inst) {
+  // The live items of an instance depend only on the do()-fixed values, which do not change
+  // during one inference (epoch rel_counter_).
+  const size_t i = static_cast<size_t>(inst);
+  if (live_stamp_[i] != rel_counter_) {
+    liveItems(inst, live_cache_[i]);
+    live_stamp_[i] = rel_counter_;
+  }
+  return live_cache_[i];
 }
 
 void ExactEngine::liveItems(int inst, std::vector<Item>& out) const {
@@ -411,7 +424,8 @@ void ExactEngine::liveItems(int inst, std::vector<Item>& out) const {
     return;
   }
   for (size_t s = 0; s < gi.selections.size(); ++s) consider(Item{0, static_cast<int>(s)});
-  for (size_t p = 0; p < gi.prs.size(); ++p) consider(Item{1, static_cast<int>(p)});
+  for (size_t p = 0; p < gi.prs.size(); ++p)
+    if (gi.prs[p].inactive == 0) consider(Item{1, static_cast<int>(p)});
 }
 
 void ExactEngine::scopeOfLit(const GLit& l, std::vector<int>& out) {
@@ -471,8 +485,7 @@ void ExactEngine::scopeOfInstance(int inst, std::vector<int>& out) {
 
 void ExactEngine::buildCpt(int inst, Factor& f) {
   const GInstance& gi = g_.instances[static_cast<size_t>(inst)];
-  std::vector<Item> items;
-  liveItems(inst, items);
+  const std::vector<Item>& items = liveItemsCached(inst);
   std::vector<int> parents;
   for (const auto& it : items) {
     if (it.kind == 0) {
@@ -825,13 +838,12 @@ void ExactEngine::buildFactors(const std::vector<const std::vector<GCondition>*>
         scopeOfLit(l, s);
         addScope(s);
       }
-  std::vector<Item> items;
   auto drain = [&]() {
     while (!queue.empty()) {
       int x = queue.back();
       queue.pop_back();
       const GInstance& gi = g_.instances[static_cast<size_t>(x)];
-      liveItems(x, items);
+      const std::vector<Item>& items = liveItemsCached(x);
       s.clear();
       for (const auto& it : items) {
         if (it.kind == 0) {

@@ -4,6 +4,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <unordered_set>
 
 namespace krr {
 namespace plog {
@@ -108,6 +109,7 @@ struct CLit {
   int origin = 0;  // 0 = body, 1 = range body
   SourceLocation loc;
   std::vector<int> vars;  // slots
+  bool guard = false;     // default-negated guard-attribute literal of a pr-atom (deferred)
 };
 
 struct VecHash {
@@ -141,6 +143,11 @@ struct FactSet {
   }
 };
 
+// Thrown inside an incremental update that needs a full grounding.
+struct NeedFullGrounding {};
+
+constexpr int kRemovedStatement = 1 << 20;  // GPr::inactive of a removed statement's atoms
+
 class Grounder {
  public:
   Grounder(const Program& p, GroundProgram& g) : prog_(p), g_(g) {
@@ -156,6 +163,77 @@ class Grounder {
     true_ = syms_->intern("true");
     false_ = syms_->intern("false");
     facts_.resize(p.attributes.size());
+    // symbol -> position in each sort (membership and value indices in O(1))
+    sort_pos_.resize(sort_vals_.size());
+    for (size_t i = 0; i < sort_vals_.size(); ++i) {
+      sort_pos_[i].assign(syms_->size(), -1);
+      for (size_t k = 0; k < sort_vals_[i].size(); ++k)
+        if (sort_pos_[i][static_cast<size_t>(sort_vals_[i][k])] < 0)
+          sort_pos_[i][static_cast<size_t>(sort_vals_[i][k])] = static_cast<int>(k);
+    }
+    attr_range_sort_.assign(p.attributes.size(), -1);
+    attr_arg_sorts_.resize(p.attributes.size());
+    for (size_t a = 0; a < p.attributes.size(); ++a) {
+      const AttributeDecl& d = p.attributes[a];
+      auto it = sort_index_.find(d.range_sort);
+      if (it != sort_index_.end()) attr_range_sort_[a] = it->second;
+      for (const auto& s : d.arg_sorts) {
+        if (s.empty()) {
+          attr_arg_sorts_[a].push_back(-1);
+        } else {
+          auto jt = sort_index_.find(s);
+          attr_arg_sorts_[a].push_back(jt == sort_index_.end() ? -2 : jt->second);
+        }
+      }
+    }
+  }
+
+  // ---- incremental interface (IncrementalGrounder) ----
+  void setPrIds(const std::vector<std::uint64_t>* ids) { pr_ids_ = ids; }
+  bool isGuard(int attr) const {
+    return attr >= 0 && static_cast<size_t>(attr) < guard_attr_.size() && guard_attr_[static_cast<size_t>(attr)];
+  }
+  int attrIndexOf(const std::string& n) const {
+    auto it = attr_index_.find(n);
+    return it == attr_index_.end() ? -1 : it->second;
+  }
+  const Program& program() const { return prog_; }
+
+  bool applyDelta(const IncrementalGrounder::Delta& d, std::vector<std::pair<int, int>>* changed) {
+    changed_ = changed;
+    frozen_ = true;
+    struct Reset {
+      Grounder* gr;
+      ~Reset() {
+        gr->frozen_ = false;
+        gr->changed_ = nullptr;
+      }
+    } reset{this};
+    try {
+      for (std::uint64_t id : d.removed_prs) {
+        auto it = src_refs_.find(id);
+        if (it == src_refs_.end()) continue;  // produced no ground pr-atom
+        for (const auto& ref : it->second) {
+          g_.instances[static_cast<size_t>(ref.first)].prs[static_cast<size_t>(ref.second)].inactive +=
+              kRemovedStatement;
+          ++removed_atoms_;
+          if (changed_) changed_->push_back(ref);
+        }
+        src_refs_.erase(it);
+      }
+      for (const Rule* r : d.removed_facts)
+        if (!changeFact(*r, -1)) return false;
+      for (const Rule* r : d.added_facts)
+        if (!changeFact(*r, +1)) return false;
+      for (const auto& ap : d.added_prs) {
+        const int a = attrId(ap.first->atom.attr.name, ap.first->loc);
+        if (!g_.attr_in_cone[static_cast<size_t>(a)]) continue;  // outside the grounding
+        groundPrAtom(*ap.first, ap.second);
+      }
+    } catch (const NeedFullGrounding&) {
+      return false;
+    }
+    return true;
   }
 
   void run(const std::set<std::string>& cone_names) {
@@ -188,7 +266,9 @@ class Grounder {
       auto it = attr_index_.find(n);
       if (it != attr_index_.end()) g_.attr_in_cone[it->second] = true;
     }
+    computeGuardAttributes();
     evaluateStatic();
+    countGuardFacts();
     groundDynamic();
     g_.static_atoms.assign(na, {});
     for (size_t a = 0; a < na; ++a) {
@@ -298,6 +378,7 @@ class Grounder {
       c.value = compile(s, l.atom.value);
       for (const auto& a : c.args) termVars(a, c.vars);
       termVars(c.value, c.vars);
+      c.guard = compiling_pr_ && c.naf && !c.neg && isGuard(c.attr);
     } else {
       c.is_atom = false;
       c.op = l.op;
@@ -407,9 +488,18 @@ class Grounder {
   }
 
   int instanceFor(int attr, const std::vector<int>& args) {
+    inst_key_.clear();
+    inst_key_.push_back(attr);
+    inst_key_.insert(inst_key_.end(), args.begin(), args.end());
+    auto kt = inst_by_key_.find(inst_key_);
+    if (kt != inst_by_key_.end()) return kt->second;
+    if (frozen_) throw NeedFullGrounding{};  // an update may not create instances
     std::string name = instanceName(attr, args);
     auto it = g_.instance_ids.find(name);
-    if (it != g_.instance_ids.end()) return it->second;
+    if (it != g_.instance_ids.end()) {
+      inst_by_key_.emplace(inst_key_, it->second);
+      return it->second;
+    }
     const AttributeDecl& d = prog_.attributes[static_cast<size_t>(attr)];
     GInstance inst;
     inst.attr = attr;
@@ -420,7 +510,20 @@ class Grounder {
     int id = static_cast<int>(g_.instances.size());
     g_.instances.push_back(std::move(inst));
     g_.instance_ids.emplace(name, id);
+    inst_by_key_.emplace(inst_key_, id);
     return id;
+  }
+
+  // Position of a symbol in a sort (-1: not a value of the sort).
+  int posInSort(int sort, int sym) const {
+    const std::vector<int>& v = sort_pos_[static_cast<size_t>(sort)];
+    return sym >= 0 && static_cast<size_t>(sym) < v.size() ? v[static_cast<size_t>(sym)] : -1;
+  }
+  // Index of a value in an instance's domain (its attribute's range sort), -1 if absent.
+  int valueIdx(int inst, int sym) const {
+    const int s = attr_range_sort_[static_cast<size_t>(g_.instances[static_cast<size_t>(inst)].attr)];
+    if (s < 0) return g_.instances[static_cast<size_t>(inst)].valueIndex(sym);
+    return posInSort(s, sym);
   }
 
   // Join: enumerate bindings satisfying the literals; dynamic literals are collected as GLits.
@@ -572,12 +675,7 @@ class Grounder {
         args.push_back(v);
       }
       if (ok) {
-        const AttributeDecl& d = prog_.attributes[static_cast<size_t>(l.attr)];
-        for (size_t i = 0; i < args.size() && ok; ++i) {
-          if (d.arg_sorts[i].empty()) continue;
-          const auto& sv = sortValues(d.arg_sorts[i], d.loc);
-          if (std::find(sv.begin(), sv.end(), args[i]) == sv.end()) ok = false;
-        }
+        ok = argsInSorts(l.attr, args);
         if (!ok) {
           // instance outside its sorts: the atom is false
           if (l.naf) recurse();
@@ -585,7 +683,7 @@ class Grounder {
           int inst = instanceFor(l.attr, args);
           if (bound(l.value, b)) {
             int v = evalTerm(l.value, b);
-            int vi = v < 0 ? -1 : g_.instances[static_cast<size_t>(inst)].valueIndex(v);
+            int vi = v < 0 ? -1 : valueIdx(inst, v);
             if (vi < 0 && !l.naf && !l.neg) {
               // impossible value: literal false
             } else if (vi < 0 && l.naf && !l.neg) {
@@ -598,7 +696,7 @@ class Grounder {
               acc_origin.pop_back();
             }
           } else {
-            std::vector<int> dom = g_.instances[static_cast<size_t>(inst)].domain;
+            const std::vector<int> dom = g_.instances[static_cast<size_t>(inst)].domain;
             for (size_t vi = 0; vi < dom.size(); ++vi) {
               b[static_cast<size_t>(l.value.slot)] = dom[vi];
               acc.push_back(GLit{inst, static_cast<int>(vi), false, false});
@@ -624,6 +722,19 @@ class Grounder {
           if (args.back() < 0) ok = false;
         }
         int v = evalTerm(l.value, b);
+        if (l.guard && ok && v >= 0) {
+          // deferred: the ground statement is in force while the fact does not hold
+          std::vector<int> key;
+          key.reserve(args.size() + 2);
+          key.push_back(l.attr);
+          key.insert(key.end(), args.begin(), args.end());
+          key.push_back(v);
+          guard_acc_.push_back(std::move(key));
+          recurse();
+          guard_acc_.pop_back();
+          done[static_cast<size_t>(best)] = 0;
+          return;
+        }
         bool holds = ok && v >= 0 && staticAtom(l.attr, args, v, l.neg);
         if (l.naf) holds = !holds;
         if (holds) recurse();
@@ -643,7 +754,7 @@ class Grounder {
         }
         std::vector<int> set_slots;
         for (int ti : cand) {
-          const std::vector<int> tuple = f.tuples[static_cast<size_t>(ti)];
+          const std::vector<int>& tuple = f.tuples[static_cast<size_t>(ti)];
           if (tuple.size() != l.args.size() + 1) continue;
           bool ok = true;
           set_slots.clear();
@@ -856,53 +967,17 @@ class Grounder {
                                                             const std::vector<GLit>& cond,
                                                             const std::vector<int>&) {
           GInstance& gi = g_.instances[static_cast<size_t>(inst)];
-          int vi = gi.valueIndex(b3[static_cast<size_t>(range_slot)]);
+          int vi = valueIdx(inst, b3[static_cast<size_t>(range_slot)]);
           if (vi >= 0) gi.selections[static_cast<size_t>(sel_index)].range.push_back({vi, cond});
         });
       });
     }
     // pr-atoms
-    for (const auto& p : prog_.pr_atoms) {
+    for (size_t i = 0; i < prog_.pr_atoms.size(); ++i) {
+      const PrAtom& p = prog_.pr_atoms[i];
       int a = attrId(p.atom.attr.name, p.loc);
       if (!g_.attr_in_cone[a]) continue;
-      if (!g_.attr_random[a]) {
-        throw UnknownSymbolError(p.loc.str() + ": pr-atom for attribute '" + p.atom.attr.name +
-                                 "' which has no random selection rule");
-      }
-      Stmt s;
-      s.loc = p.loc;
-      for (const auto& l : p.body) s.lits.push_back(compileLit(s, l, 0));
-      std::vector<CTerm> hargs;
-      for (const auto& t : p.atom.attr.args) hargs.push_back(compile(s, t));
-      CTerm hval = compile(s, p.atom.value);
-      typeSlots(s, p.variable_sorts);
-      std::vector<int> required;
-      for (const auto& t : hargs) termVars(t, required);
-      termVars(hval, required);
-      runJoin(s, required, [&](const std::vector<int>& b, const std::vector<GLit>& acc,
-                               const std::vector<int>&) {
-        std::vector<int> args;
-        for (const auto& t : hargs) {
-          int v = evalTerm(t, b);
-          if (v < 0) return;
-          args.push_back(v);
-        }
-        if (!argsInSorts(a, args)) return;
-        int inst = instanceFor(a, args);
-        GInstance& gi = g_.instances[static_cast<size_t>(inst)];
-        int v = evalTerm(hval, b);
-        int vi = v < 0 ? -1 : gi.valueIndex(v);
-        if (vi < 0) return;
-        GPr pr;
-        pr.value = vi;
-        pr.probability = p.probability;
-        pr.label = p.label;
-        pr.body = acc;
-        pr.loc = p.loc;
-        pr.priority = p.priority;
-        gi.prs.push_back(std::move(pr));
-        ++g_.ground_statements;
-      });
+      groundPrAtom(p, pr_ids_ ? (*pr_ids_)[i] : static_cast<std::uint64_t>(i + 1));
     }
     // dynamic derived rules and constraints
     for (const auto& r : prog_.rules) {
@@ -950,7 +1025,7 @@ class Grounder {
         int inst = instanceFor(h, args);
         GInstance& gi = g_.instances[static_cast<size_t>(inst)];
         int v = evalTerm(hval, b);
-        int vi = v < 0 ? -1 : gi.valueIndex(v);
+        int vi = v < 0 ? -1 : valueIdx(inst, v);
         if (vi < 0)
           throw UnknownSymbolError(r.loc.str() + ": value '" + (v < 0 ? "?" : syms_->text(v)) +
                                    "' is not in the range of " + gi.name);
@@ -962,10 +1037,168 @@ class Grounder {
 
   bool argsInSorts(int attr, const std::vector<int>& args) const {
     const AttributeDecl& d = prog_.attributes[static_cast<size_t>(attr)];
-    for (size_t i = 0; i < args.size() && i < d.arg_sorts.size(); ++i) {
-      if (d.arg_sorts[i].empty()) continue;
-      const auto& sv = sortValues(d.arg_sorts[i], d.loc);
-      if (std::find(sv.begin(), sv.end(), args[i]) == sv.end()) return false;
+    const std::vector<int>& sorts = attr_arg_sorts_[static_cast<size_t>(attr)];
+    for (size_t i = 0; i < args.size() && i < sorts.size(); ++i) {
+      if (sorts[i] == -1) continue;
+      if (sorts[i] == -2) sortValues(d.arg_sorts[i], d.loc);  // throws: unknown sort
+      if (posInSort(sorts[i], args[i]) < 0) return false;
+    }
+    return true;
+  }
+
+  // One pr-atom statement: its ground instances are appended to their instances' lists.
+  void groundPrAtom(const PrAtom& p, std::uint64_t id) {
+    int a = attrId(p.atom.attr.name, p.loc);
+    if (!g_.attr_random[a]) {
+      throw UnknownSymbolError(p.loc.str() + ": pr-atom for attribute '" + p.atom.attr.name +
+                               "' which has no random selection rule");
+    }
+    Stmt s;
+    s.loc = p.loc;
+    compiling_pr_ = true;
+    for (const auto& l : p.body) s.lits.push_back(compileLit(s, l, 0));
+    compiling_pr_ = false;
+    std::vector<CTerm> hargs;
+    for (const auto& t : p.atom.attr.args) hargs.push_back(compile(s, t));
+    CTerm hval = compile(s, p.atom.value);
+    typeSlots(s, p.variable_sorts);
+    std::vector<int> required;
+    for (const auto& t : hargs) termVars(t, required);
+    termVars(hval, required);
+    guard_acc_.clear();
+    runJoin(s, required, [&](const std::vector<int>& b, const std::vector<GLit>& acc,
+                             const std::vector<int>&) {
+      std::vector<int> args;
+      for (const auto& t : hargs) {
+        int v = evalTerm(t, b);
+        if (v < 0) return;
+        args.push_back(v);
+      }
+      if (!argsInSorts(a, args)) return;
+      int inst = instanceFor(a, args);
+      GInstance& gi = g_.instances[static_cast<size_t>(inst)];
+      int v = evalTerm(hval, b);
+      int vi = v < 0 ? -1 : valueIdx(inst, v);
+      if (vi < 0) return;
+      GPr pr;
+      pr.value = vi;
+      pr.probability = p.probability;
+      pr.label = p.label;
+      pr.body = acc;
+      pr.loc = p.loc;
+      pr.priority = p.priority;
+      pr.src = id;
+      const std::pair<int, int> ref{inst, static_cast<int>(gi.prs.size())};
+      for (const auto& key : guard_acc_) {
+        guard_refs_[key].push_back(ref);
+        if (guardHolds(key)) ++pr.inactive;
+      }
+      gi.prs.push_back(std::move(pr));
+      ++atoms_;
+      src_refs_[id].push_back(ref);
+      if (changed_) changed_->push_back(ref);
+      ++g_.ground_statements;
+    });
+  }
+
+  bool guardHolds(const std::vector<int>& key) const {
+    const std::vector<int> args(key.begin() + 1, key.end() - 1);
+    return staticAtom(key.front(), args, key.back(), false);
+  }
+
+  // Guard attributes: static, defined by ground facts only, and used only as `not f(t)=y`
+  // in pr-atom bodies. Their literals are deferred (see IncrementalGrounder).
+  void computeGuardAttributes() {
+    const size_t na = prog_.attributes.size();
+    guard_attr_.assign(na, 0);
+    for (size_t a = 0; a < na; ++a) guard_attr_[a] = g_.attr_dynamic[a] ? 0 : 1;
+    auto off = [&](const std::string& n) {
+      auto it = attr_index_.find(n);
+      if (it != attr_index_.end()) guard_attr_[static_cast<size_t>(it->second)] = 0;
+    };
+    auto offBody = [&](const std::vector<Literal>& body) {
+      for (const auto& l : body)
+        if (l.kind == Literal::Kind::Atom) off(l.atom.attr.name);
+    };
+    for (const auto& r : prog_.rules) {
+      if (r.head) {
+        bool ground = r.head->value.isGround();
+        for (const auto& t : r.head->attr.args) ground = ground && t.isGround();
+        if (!r.body.empty() || !ground) off(r.head->attr.name);
+      }
+      offBody(r.body);
+    }
+    for (const auto& r : prog_.random_rules) {
+      offBody(r.body);
+      offBody(r.range_body);
+    }
+    for (const auto& p : prog_.pr_atoms)
+      for (const auto& l : p.body)
+        if (l.kind == Literal::Kind::Atom && !(l.naf && !l.negated)) off(l.atom.attr.name);
+  }
+
+  // Multiplicity of each guard fact (the same fact may be stated twice).
+  void countGuardFacts() {
+    for (const auto& r : prog_.rules) {
+      if (!r.head || !r.body.empty()) continue;
+      const int a = attrIndexOf(r.head->attr.name);
+      if (!isGuard(a)) continue;
+      ++fact_count_[factKey(a, *r.head)];
+    }
+  }
+
+  std::vector<int> factKey(int attr, const Atom& head) {
+    std::vector<int> key{attr};
+    for (const auto& t : head.attr.args) key.push_back(syms_->intern(toString(t)));
+    key.push_back(syms_->intern(toString(head.value)));
+    return key;
+  }
+
+  // A guard fact added (+1) or removed (-1); false when outside the incremental path.
+  bool changeFact(const Rule& r, int delta) {
+    if (!r.head || !r.body.empty()) return false;
+    const int a = attrIndexOf(r.head->attr.name);
+    if (!isGuard(a)) return false;
+    bool ground = r.head->value.isGround();
+    for (const auto& t : r.head->attr.args) ground = ground && t.isGround();
+    if (!ground) return false;
+    const std::vector<int> key = factKey(a, *r.head);
+    int& count = fact_count_[key];
+    const int before = count;
+    count += delta;
+    if (count < 0) return false;  // removing a fact that was never counted
+    if ((before > 0) == (count > 0)) return true;  // truth unchanged
+    const std::vector<int> args(key.begin() + 1, key.end() - 1);
+    const int value = key.back();
+    FactSet& f = facts_[static_cast<size_t>(a)];
+    if (delta > 0) {
+      auto it = f.by_args.find(args);
+      if (it != f.by_args.end() && !it->second.empty() && it->second[0] != value) {
+        count = before;
+        throw IncoherentError(r.loc.str() + ": attribute " + instanceName(a, args) +
+                              " gets two values (" + syms_->text(it->second[0]) + " and " +
+                              syms_->text(value) + ")");
+      }
+      f.add(args, value);
+    } else {
+      auto it = f.by_args.find(args);
+      if (it != f.by_args.end()) {
+        it->second.erase(std::remove(it->second.begin(), it->second.end(), value), it->second.end());
+        if (it->second.empty()) f.by_args.erase(it);
+      }
+    }
+    if (g_.attr_in_cone[static_cast<size_t>(a)] && static_cast<size_t>(a) < g_.static_atoms.size()) {
+      std::string printable = instanceName(a, args) + "=" + syms_->text(value);
+      if (delta > 0) g_.static_atoms[static_cast<size_t>(a)].insert(printable);
+      else g_.static_atoms[static_cast<size_t>(a)].erase(printable);
+    }
+    auto rt = guard_refs_.find(key);
+    if (rt != guard_refs_.end()) {
+      for (const auto& ref : rt->second) {
+        g_.instances[static_cast<size_t>(ref.first)].prs[static_cast<size_t>(ref.second)].inactive +=
+            delta > 0 ? 1 : -1;
+        if (changed_) changed_->push_back(ref);
+      }
     }
     return true;
   }
@@ -987,6 +1220,25 @@ class Grounder {
   std::vector<FactSet> facts_;
   int true_ = 0, false_ = 0;
   int anon_ = 0;
+  // fast lookups
+  std::vector<std::vector<int>> sort_pos_;        // sort -> symbol id -> position (-1)
+  std::vector<int> attr_range_sort_;              // attribute -> range sort (-1 unknown)
+  std::vector<std::vector<int>> attr_arg_sorts_;  // attribute -> argument sorts (-1 untyped, -2 unknown)
+  std::unordered_map<std::vector<int>, int, VecHash> inst_by_key_;  // [attr, args...] -> instance
+  std::vector<int> inst_key_;
+  // guards and incremental updates
+  const std::vector<std::uint64_t>* pr_ids_ = nullptr;
+  std::vector<char> guard_attr_;
+  bool compiling_pr_ = false;
+  std::vector<std::vector<int>> guard_acc_;  // guard facts of the binding being joined
+  bool frozen_ = false;                      // updating: no new instances
+  std::vector<std::pair<int, int>>* changed_ = nullptr;
+  std::unordered_map<std::vector<int>, std::vector<std::pair<int, int>>, VecHash> guard_refs_;
+  std::unordered_map<std::uint64_t, std::vector<std::pair<int, int>>> src_refs_;
+  std::unordered_map<std::vector<int>, int, VecHash> fact_count_;
+
+ public:
+  std::size_t atoms_ = 0, removed_atoms_ = 0;  // ground pr-atoms / tombstones among them
 };
 
 }  // namespace
@@ -1051,6 +1303,37 @@ GroundProgram groundProgram(const Program& program, const std::set<std::string>&
   Grounder gr(program, g);
   gr.run(relevanceCone(program, cone_attributes));
   return g;
+}
+
+class IncrementalGrounder::Impl {
+ public:
+  Impl(const Program& p, GroundProgram& g) : grounder(p, g) {}
+  Grounder grounder;
+};
+
+IncrementalGrounder::IncrementalGrounder(const Program& program,
+                                         const std::set<std::string>& cone_attributes,
+                                         const std::vector<std::uint64_t>* pr_ids)
+    : ground_(std::make_shared<GroundProgram>()) {
+  impl_ = std::make_unique<Impl>(program, *ground_);
+  impl_->grounder.setPrIds(pr_ids);
+  impl_->grounder.run(relevanceCone(program, cone_attributes));
+  impl_->grounder.setPrIds(nullptr);
+}
+
+IncrementalGrounder::~IncrementalGrounder() = default;
+
+bool IncrementalGrounder::apply(const Program& program, const Delta& delta,
+                                std::vector<std::pair<int, int>>* changed) {
+  if (&program != &impl_->grounder.program()) return false;
+  return impl_->grounder.applyDelta(delta, changed);
+}
+
+std::size_t IncrementalGrounder::atoms() const { return impl_->grounder.atoms_; }
+std::size_t IncrementalGrounder::removedAtoms() const { return impl_->grounder.removed_atoms_; }
+
+bool IncrementalGrounder::isGuardAttribute(const std::string& attribute) const {
+  return impl_->grounder.isGuard(impl_->grounder.attrIndexOf(attribute));
 }
 
 }  // namespace plog

@@ -1,7 +1,9 @@
 #include "krr_core/plog/reasoner.h"
 
 #include <algorithm>
+#include <iterator>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "krr_core/common/files.h"
 #include "krr_core/common/resources.h"
@@ -97,10 +99,156 @@ std::string prKey(const PrAtom& p) {
 
 }  // namespace
 
-Reasoner::Reasoner() { program_ = parseProgram("", "<empty>"); }
+// ---------------------------------------------------------------------------------------------
+// Incremental bookkeeping
+// ---------------------------------------------------------------------------------------------
+
+struct Reasoner::GroundEntry {
+  std::unique_ptr<IncrementalGrounder> grounder;
+  std::shared_ptr<GroundProgram> g;
+  std::uint64_t structure = 0;  // structure_version_ it was built under
+  std::uint64_t seq = 0;        // change_seq_ it reflects
+  std::uint64_t serial = 0;     // unique, for the table cache
+  std::uint64_t changes_from = 0;  // `changes` lists every change with seq > changes_from
+  std::vector<std::pair<std::uint64_t, std::pair<int, int>>> changes;  // (seq, (inst, pr))
+  std::size_t dead = 0, total = 0;  // removed / all ground pr-atoms (compaction)
+};
+
+struct Reasoner::TableCache {
+  std::uint64_t entry_serial = 0, seq = 0;
+  int target = -1;
+  std::vector<int> conditioning;
+  Table table;
+};
+
+namespace {
+
+std::string ruleKey(const Rule& r) { return toString(r); }
+
+// Attribute names of the atom literals of a body.
+template <class F>
+void forBodyAttrs(const std::vector<Literal>& body, F f) {
+  for (const auto& l : body)
+    if (l.kind == Literal::Kind::Atom) f(l.atom.attr.name);
+}
+
+}  // namespace
+
+Reasoner::Reasoner() {
+  program_ = parseProgram("", "<empty>");
+  structuralChange();
+}
 Reasoner::~Reasoner() = default;
 
-void Reasoner::invalidate() { ground_cache_.clear(); }
+void Reasoner::rebuildPrIndex() {
+  pr_index_.clear();
+  pr_index_.reserve(pr_keys_.size());
+  for (size_t i = 0; i < pr_keys_.size(); ++i) pr_index_[pr_keys_[i]] = i;
+  pr_index_valid_ = true;
+}
+
+void Reasoner::structuralChange() {
+  // ids and keys of statements that have none yet (a freshly loaded program)
+  if (rule_ids_.size() != program_.rules.size()) {
+    rule_ids_.clear();
+    rule_keys_.clear();
+    rule_key_count_.clear();
+    for (const auto& r : program_.rules) {
+      rule_ids_.push_back(next_id_++);
+      rule_keys_.push_back(ruleKey(r));
+      ++rule_key_count_[rule_keys_.back()];
+    }
+  }
+  if (pr_ids_.size() != program_.pr_atoms.size()) {
+    pr_ids_.clear();
+    pr_keys_.clear();
+    for (const auto& p : program_.pr_atoms) {
+      pr_ids_.push_back(next_id_++);
+      pr_keys_.push_back(prKey(p));
+    }
+    pr_index_valid_ = false;
+  }
+  attr_idx_.clear();
+  for (size_t i = 0; i < program_.attributes.size(); ++i)
+    attr_idx_[program_.attributes[i].name] = static_cast<int>(i);
+  attr_random_.assign(program_.attributes.size(), 0);
+  for (const auto& r : program_.random_rules) {
+    auto it = attr_idx_.find(r.attr.name);
+    if (it != attr_idx_.end()) attr_random_[static_cast<size_t>(it->second)] = 1;
+  }
+  edge_count_.clear();
+  head_value_count_.clear();
+  head_values_.assign(program_.attributes.size(), 0);
+  head_var_.assign(program_.attributes.size(), 0);
+  for (const auto& r : program_.rules) countRule(r, +1);
+  for (const auto& p : program_.pr_atoms) countPr(p, +1);
+  for (const auto& r : program_.random_rules) {
+    auto it = attr_idx_.find(r.attr.name);
+    if (it == attr_idx_.end()) continue;
+    auto edge = [&](const std::string& n) {
+      auto jt = attr_idx_.find(n);
+      if (jt != attr_idx_.end())
+        ++edge_count_[(static_cast<std::uint64_t>(it->second) << 32) | static_cast<std::uint32_t>(jt->second)];
+    };
+    forBodyAttrs(r.body, edge);
+    forBodyAttrs(r.range_body, edge);
+  }
+  ++structure_version_;
+  log_.clear();
+  cone_cache_.clear();
+  ground_cache_.clear();
+  table_cache_.clear();
+}
+
+bool Reasoner::countPr(const PrAtom& p, int delta) {
+  auto it = attr_idx_.find(p.atom.attr.name);
+  if (it == attr_idx_.end()) return true;  // unknown attribute: let grounding report it
+  const std::uint64_t child = static_cast<std::uint64_t>(it->second) << 32;
+  bool changed = false;
+  int seen[8];
+  int nseen = 0;
+  for (const auto& l : p.body) {
+    if (l.kind != Literal::Kind::Atom) continue;
+    auto jt = attr_idx_.find(l.atom.attr.name);
+    if (jt == attr_idx_.end()) return true;
+    bool dup = false;
+    for (int k = 0; k < nseen; ++k) dup = dup || seen[k] == jt->second;
+    if (dup) continue;
+    if (nseen < 8) seen[nseen++] = jt->second;
+    int& c = edge_count_[child | static_cast<std::uint32_t>(jt->second)];
+    const int before = c;
+    c += delta;
+    if ((before > 0) != (c > 0)) changed = true;
+  }
+  return changed;
+}
+
+bool Reasoner::countRule(const Rule& r, int delta) {
+  if (!r.head) return true;  // constraints always enter cones
+  auto it = attr_idx_.find(r.head->attr.name);
+  if (it == attr_idx_.end()) return true;
+  bool changed = !r.body.empty();  // rules with bodies: relations between attributes
+  const int a = it->second;
+  const std::uint64_t child = static_cast<std::uint64_t>(a) << 32;
+  forBodyAttrs(r.body, [&](const std::string& n) {
+    auto jt = attr_idx_.find(n);
+    if (jt != attr_idx_.end()) edge_count_[child | static_cast<std::uint32_t>(jt->second)] += delta;
+  });
+  if (attr_random_[static_cast<size_t>(a)]) return changed;
+  // Derived attributes that may take two values in a world enter every cone (relevanceCone).
+  const bool var = r.head->value.kind == Term::Kind::Variable;
+  const std::string value = var ? "_var" : toString(r.head->value);
+  auto multi = [&]() {
+    return head_values_[static_cast<size_t>(a)] >= 2 || head_var_[static_cast<size_t>(a)] > 0;
+  };
+  const bool before = multi();
+  int& c = head_value_count_[r.head->attr.name + "|" + value];
+  if (c == 0 && delta > 0) ++head_values_[static_cast<size_t>(a)];
+  c += delta;
+  if (c == 0 && delta < 0) --head_values_[static_cast<size_t>(a)];
+  if (var) head_var_[static_cast<size_t>(a)] += delta;
+  return changed || before != multi();
+}
 
 void Reasoner::loadFile(const std::string& path, Dialect dialect) {
   loadString(readFile(path), path, dialect);
@@ -108,94 +256,308 @@ void Reasoner::loadFile(const std::string& path, Dialect dialect) {
 
 void Reasoner::loadString(const std::string& text, const std::string& name, Dialect dialect) {
   program_ = parseProgram(text, name, dialect);
-  invalidate();
+  rule_ids_.clear();
+  pr_ids_.clear();
+  structuralChange();
 }
 
 size_t Reasoner::addStatements(const std::string& text, const std::string& tag,
                                const std::string& name) {
-  Program tmp = program_;
-  const size_t nr = tmp.rules.size(), np = tmp.pr_atoms.size();
-  parseInto(tmp, text, name, Dialect::Auto);
+  // Parse against the declarations only (copying every statement of a large knowledge base
+  // for each addition would cost more than the parse); the statement vectors are sized like
+  // the program's so that fresh variable names are the ones a full copy would get.
+  Program work;
+  work.dialect = program_.dialect;
+  work.sorts = program_.sorts;
+  work.attributes = program_.attributes;
+  work.domains = program_.domains;
+  work.rules.resize(program_.rules.size());
+  work.random_rules.resize(program_.random_rules.size());
+  work.pr_atoms.resize(program_.pr_atoms.size());
+  work.queries.resize(program_.queries.size());
+  const size_t nr = work.rules.size(), nrr = work.random_rules.size(),
+               np = work.pr_atoms.size(), nq = work.queries.size();
+  parseInto(work, text, name, Dialect::Auto);
+  // Declarations, selection rules and program-level evidence change the structure.
+  const bool structural =
+      work.sorts.size() != program_.sorts.size() ||
+      work.attributes.size() != program_.attributes.size() ||
+      work.domains.size() != program_.domains.size() || work.random_rules.size() != nrr ||
+      !work.observations.empty() || !work.interventions.empty() ||
+      work.dialect != program_.dialect;
+  if (structural) {
+    program_.dialect = work.dialect;
+    program_.sorts = std::move(work.sorts);
+    program_.attributes = std::move(work.attributes);
+    program_.domains = std::move(work.domains);
+    for (size_t i = nrr; i < work.random_rules.size(); ++i)
+      program_.random_rules.push_back(std::move(work.random_rules[i]));
+    for (auto& o : work.observations) program_.observations.push_back(std::move(o));
+    for (auto& d : work.interventions) program_.interventions.push_back(std::move(d));
+  } else if (work.sorts.size() == program_.sorts.size()) {
+    // a sort may have been redefined in place
+    for (size_t i = 0; i < work.sorts.size(); ++i)
+      if (work.sorts[i].values.size() != program_.sorts[i].values.size()) {
+        program_.sorts = std::move(work.sorts);
+        structuralChange();
+        break;
+      }
+  }
+  for (size_t i = nq; i < work.queries.size(); ++i) program_.queries.push_back(std::move(work.queries[i]));
+  std::vector<Rule> rules(std::make_move_iterator(work.rules.begin() + static_cast<long>(nr)),
+                          std::make_move_iterator(work.rules.end()));
+  std::vector<PrAtom> prs(std::make_move_iterator(work.pr_atoms.begin() + static_cast<long>(np)),
+                          std::make_move_iterator(work.pr_atoms.end()));
+  const size_t changed = addParsed(std::move(rules), std::move(prs), tag);
+  if (structural) structuralChange();
+  return changed;
+}
+
+size_t Reasoner::addStatements(std::vector<Rule> rules, std::vector<PrAtom> pr_atoms,
+                               const std::string& tag) {
+  return addParsed(std::move(rules), std::move(pr_atoms), tag);
+}
+
+size_t Reasoner::addParsed(std::vector<Rule> rules, std::vector<PrAtom> prs, const std::string& tag) {
   size_t changed = 0;
-  // pr-atoms: replace the probability of an existing pr-atom with the same label/atom/body
-  std::unordered_map<std::string, size_t> existing;
-  for (size_t i = 0; i < np; ++i) existing.emplace(prKey(tmp.pr_atoms[i]), i);
-  std::vector<PrAtom> fresh;
+  bool structural = false;
   int generation = 0;
-  for (size_t i = 0; i < np; ++i) generation = std::max(generation, tmp.pr_atoms[i].priority);
+  for (const auto& p : program_.pr_atoms) generation = std::max(generation, p.priority);
   ++generation;
-  for (size_t i = np; i < tmp.pr_atoms.size(); ++i) {
-    PrAtom& p = tmp.pr_atoms[i];
+  if (!pr_index_valid_) rebuildPrIndex();
+  const std::uint64_t seq = ++change_seq_;
+  for (auto& p : prs) {
     p.tag = tag;
     p.priority = generation;
-    std::string k = prKey(p);
-    auto it = existing.find(k);
-    if (it != existing.end()) {
-      PrAtom& old = tmp.pr_atoms[it->second];
+    std::string key = prKey(p);
+    auto it = pr_index_.find(key);
+    if (it != pr_index_.end()) {
+      // Same label, atom and body: the new probability replaces the old one.
+      PrAtom& old = program_.pr_atoms[it->second];
+      log_.push_back({Change::kRemovePr, seq, pr_ids_[it->second], nullptr});
       old.probability = p.probability;
       old.probability_text = p.probability_text;
       old.tag = tag;
       old.loc = p.loc;
       old.priority = generation;
+      pr_ids_[it->second] = next_id_++;
+      log_.push_back({Change::kAddPr, seq, pr_ids_[it->second], nullptr});
     } else {
-      existing.emplace(k, np + fresh.size());
-      fresh.push_back(p);
+      structural = countPr(p, +1) || structural;
+      pr_index_.emplace(key, program_.pr_atoms.size());
+      pr_keys_.push_back(std::move(key));
+      pr_ids_.push_back(next_id_++);
+      log_.push_back({Change::kAddPr, seq, pr_ids_.back(), nullptr});
+      program_.pr_atoms.push_back(std::move(p));
     }
     ++changed;
   }
-  tmp.pr_atoms.resize(np);
-  for (auto& p : fresh) tmp.pr_atoms.push_back(std::move(p));
-  // rules: no duplicates
-  std::set<std::string> seen;
-  for (size_t i = 0; i < nr; ++i) seen.insert(toString(tmp.rules[i]));
-  std::vector<Rule> new_rules;
-  for (size_t i = nr; i < tmp.rules.size(); ++i) {
-    std::string k = toString(tmp.rules[i]);
-    if (!seen.insert(k).second) continue;
-    tmp.rules[i].tag = tag;
-    new_rules.push_back(tmp.rules[i]);
+  for (auto& r : rules) {
+    std::string key = ruleKey(r);
+    int& count = rule_key_count_[key];
+    if (count > 0) continue;  // identical rule already there
+    ++count;
+    r.tag = tag;
+    structural = countRule(r, +1) || structural;
+    rule_keys_.push_back(std::move(key));
+    rule_ids_.push_back(next_id_++);
+    log_.push_back({Change::kAddRule, seq, rule_ids_.back(), nullptr});
+    program_.rules.push_back(std::move(r));
     ++changed;
   }
-  tmp.rules.resize(nr);
-  for (auto& r : new_rules) tmp.rules.push_back(std::move(r));
-  program_ = std::move(tmp);
-  invalidate();
+  if (structural) structuralChange();
   return changed;
 }
 
-size_t Reasoner::removeStatementsWithTag(const std::string& tag) {
-  size_t before = program_.rules.size() + program_.pr_atoms.size();
-  program_.rules.erase(std::remove_if(program_.rules.begin(), program_.rules.end(),
-                                      [&](const Rule& r) { return r.tag == tag; }),
-                       program_.rules.end());
-  program_.pr_atoms.erase(std::remove_if(program_.pr_atoms.begin(), program_.pr_atoms.end(),
-                                         [&](const PrAtom& r) { return r.tag == tag; }),
-                          program_.pr_atoms.end());
-  invalidate();
-  return before - program_.rules.size() - program_.pr_atoms.size();
+void Reasoner::eraseMarked(const std::vector<char>& rule_gone, const std::vector<char>& pr_gone) {
+  bool structural = false;
+  const std::uint64_t seq = ++change_seq_;
+  size_t w = 0;
+  for (size_t i = 0; i < program_.rules.size(); ++i) {
+    if (rule_gone[i]) {
+      structural = countRule(program_.rules[i], -1) || structural;
+      if (--rule_key_count_[rule_keys_[i]] <= 0) rule_key_count_.erase(rule_keys_[i]);
+      log_.push_back({Change::kRemoveRule, seq, rule_ids_[i],
+                      std::make_shared<const Rule>(std::move(program_.rules[i]))});
+      continue;
+    }
+    if (w != i) {
+      program_.rules[w] = std::move(program_.rules[i]);
+      rule_ids_[w] = rule_ids_[i];
+      rule_keys_[w] = std::move(rule_keys_[i]);
+    }
+    ++w;
+  }
+  program_.rules.resize(w);
+  rule_ids_.resize(w);
+  rule_keys_.resize(w);
+  w = 0;
+  for (size_t i = 0; i < program_.pr_atoms.size(); ++i) {
+    if (pr_gone[i]) {
+      structural = countPr(program_.pr_atoms[i], -1) || structural;
+      log_.push_back({Change::kRemovePr, seq, pr_ids_[i], nullptr});
+      continue;
+    }
+    if (w != i) {
+      program_.pr_atoms[w] = std::move(program_.pr_atoms[i]);
+      pr_ids_[w] = pr_ids_[i];
+      pr_keys_[w] = std::move(pr_keys_[i]);
+    }
+    ++w;
+  }
+  program_.pr_atoms.resize(w);
+  pr_ids_.resize(w);
+  pr_keys_.resize(w);
+  pr_index_valid_ = false;
+  if (structural) structuralChange();
 }
 
-std::shared_ptr<const GroundProgram> Reasoner::groundFor(const std::set<std::string>& attrs) {
+size_t Reasoner::removeStatementsWithTag(const std::string& tag) {
+  std::vector<char> rg(program_.rules.size(), 0), pg(program_.pr_atoms.size(), 0);
+  size_t n = 0;
+  for (size_t i = 0; i < rg.size(); ++i)
+    if (program_.rules[i].tag == tag) rg[i] = 1, ++n;
+  for (size_t i = 0; i < pg.size(); ++i)
+    if (program_.pr_atoms[i].tag == tag) pg[i] = 1, ++n;
+  if (n) eraseMarked(rg, pg);
+  return n;
+}
+
+size_t Reasoner::removeStatements(const std::vector<Rule>& rules, const std::vector<PrAtom>& prs) {
+  std::vector<char> rg(program_.rules.size(), 0), pg(program_.pr_atoms.size(), 0);
+  size_t n = 0;
+  if (!prs.empty()) {
+    if (!pr_index_valid_) rebuildPrIndex();
+    for (const auto& p : prs) {
+      auto it = pr_index_.find(prKey(p));
+      if (it != pr_index_.end() && !pg[it->second]) pg[it->second] = 1, ++n;
+    }
+  }
+  if (!rules.empty()) {
+    std::unordered_map<std::string, int> wanted;
+    for (const auto& r : rules) ++wanted[ruleKey(r)];
+    for (size_t i = 0; i < rule_keys_.size(); ++i) {
+      auto it = wanted.find(rule_keys_[i]);
+      if (it != wanted.end()) rg[i] = 1, ++n;
+    }
+  }
+  if (n) eraseMarked(rg, pg);
+  return n;
+}
+
+void Reasoner::trimLog() {
+  std::uint64_t oldest = change_seq_;
+  for (const auto& kv : ground_cache_) oldest = std::min(oldest, kv.second->seq);
+  size_t k = 0;
+  while (k < log_.size() && log_[k].seq <= oldest) ++k;
+  if (k) log_.erase(log_.begin(), log_.begin() + static_cast<long>(k));
+}
+
+std::shared_ptr<Reasoner::GroundEntry> Reasoner::groundEntryFor(const std::set<std::string>& attrs) {
   std::set<std::string> all = attrs;
   for (const auto& o : program_.observations) all.insert(o.literal.atom.attr.name);
   for (const auto& d : program_.interventions) all.insert(d.atom.attr.name);
   for (const auto& a : all)
-    if (attrIndex(program_, a) < 0) throw UnknownSymbolError("unknown attribute '" + a + "'");
-  std::set<std::string> cone = relevanceCone(program_, all);
-  std::string key = setKey(cone);
-  auto it = ground_cache_.find(key);
-  if (it != ground_cache_.end()) return it->second;
+    if (attr_idx_.find(a) == attr_idx_.end()) throw UnknownSymbolError("unknown attribute '" + a + "'");
+  const std::string all_key = setKey(all);
+  auto ct = cone_cache_.find(all_key);
+  if (ct == cone_cache_.end() || ct->second.first != structure_version_)
+    ct = cone_cache_.insert_or_assign(all_key, std::make_pair(structure_version_,
+                                                               relevanceCone(program_, all))).first;
+  const std::string key = setKey(ct->second.second);
+  std::shared_ptr<GroundEntry>& e = ground_cache_[key];
+  if (e && e->structure == structure_version_ && e->seq == change_seq_) return e;
+  if (e && e->structure == structure_version_) {
+    // Patch the grounding with the net changes since it was made.
+    Stopwatch sw;
+    IncrementalGrounder::Delta delta;
+    std::unordered_set<std::uint64_t> added, removed;
+    for (const auto& c : log_) {
+      if (c.seq <= e->seq) continue;
+      if (c.kind == Change::kAddRule || c.kind == Change::kAddPr) added.insert(c.id);
+      else removed.insert(c.id);
+    }
+    for (const auto& c : log_) {
+      if (c.seq <= e->seq || added.count(c.id)) continue;  // added and removed since: unseen
+      if (c.kind == Change::kRemovePr) delta.removed_prs.push_back(c.id);
+      else if (c.kind == Change::kRemoveRule) delta.removed_facts.push_back(c.rule.get());
+    }
+    for (size_t i = 0; i < rule_ids_.size(); ++i)
+      if (added.count(rule_ids_[i]) && !removed.count(rule_ids_[i]))
+        delta.added_facts.push_back(&program_.rules[i]);
+    for (size_t i = 0; i < pr_ids_.size(); ++i)
+      if (added.count(pr_ids_[i]) && !removed.count(pr_ids_[i]))
+        delta.added_prs.push_back({&program_.pr_atoms[i], pr_ids_[i]});
+    std::vector<std::pair<int, int>> changed;
+    bool ok = false;
+    try {
+      ok = e->grounder->apply(program_, delta, &changed);
+    } catch (...) {
+      e.reset();
+      throw;
+    }
+    if (ok) {
+      e->dead = e->grounder->removedAtoms();
+      e->total = e->grounder->atoms();
+      e->seq = change_seq_;
+      if (e->changes.size() + changed.size() > 2000000) {
+        e->changes.clear();
+        e->changes_from = change_seq_;
+      } else {
+        for (const auto& ref : changed) e->changes.push_back({change_seq_, ref});
+      }
+      stats_.ground_seconds = sw.seconds();
+      stats_.ground_instances = e->g->instances.size();
+      stats_.ground_statements = e->g->ground_statements;
+      stats_.ground_incremental = true;
+      ++stats_.incremental_groundings;
+      // Too many removed statements kept as tombstones: ground afresh (compaction).
+      if (e->dead > 50000 && e->dead * 2 > e->total) {
+        e.reset();
+      } else {
+        trimLog();
+        return e;
+      }
+    } else {
+      e.reset();
+    }
+  }
   Stopwatch sw;
-  auto g = std::make_shared<GroundProgram>(groundProgram(program_, cone));
+  auto fresh = std::make_shared<GroundEntry>();
+  fresh->grounder = std::make_unique<IncrementalGrounder>(program_, ct->second.second, &pr_ids_);
+  fresh->g = fresh->grounder->ground();
+  fresh->structure = structure_version_;
+  fresh->seq = fresh->changes_from = change_seq_;
+  fresh->serial = ++entry_serial_;
+  fresh->total = fresh->grounder->atoms();
   stats_.ground_seconds = sw.seconds();
-  stats_.ground_instances = g->instances.size();
-  stats_.ground_statements = g->ground_statements;
-  ground_cache_[key] = g;
-  return g;
+  stats_.ground_instances = fresh->g->instances.size();
+  stats_.ground_statements = fresh->g->ground_statements;
+  stats_.ground_incremental = false;
+  ++stats_.full_groundings;
+  e = fresh;
+  trimLog();
+  return e;
+}
+
+std::shared_ptr<const GroundProgram> Reasoner::groundFor(const std::set<std::string>& attrs) {
+  return groundEntryFor(attrs)->g;
+}
+
+const Program& Reasoner::declarations() {
+  if (decls_version_ != structure_version_) {
+    decls_ = Program();
+    decls_.dialect = program_.dialect;
+    decls_.sorts = program_.sorts;
+    decls_.attributes = program_.attributes;
+    decls_.domains = program_.domains;
+    decls_version_ = structure_version_;
+  }
+  return decls_;
 }
 
 double Reasoner::probability(const std::string& query) {
-  return probability(parseQuery(program_, query));
+  return probability(parseQuery(declarations(), query));
 }
 
 double Reasoner::probability(const Query& q) {
@@ -224,9 +586,9 @@ double Reasoner::probability(const Query& q) {
 
 std::vector<ValueProb> Reasoner::distribution(const std::string& attribute_term,
                                               const std::string& evidence) {
-  AttributeTerm at = parseAttributeTerm(program_, attribute_term);
+  AttributeTerm at = parseAttributeTerm(declarations(), attribute_term);
   Query ev;
-  if (!evidence.empty()) ev = parseQuery(program_, "| " + evidence, "<evidence>");
+  if (!evidence.empty()) ev = parseQuery(declarations(), "| " + evidence, "<evidence>");
   std::set<std::string> attrs{at.name};
   collectAttrs(ev, attrs);
   auto g = groundFor(attrs);
@@ -268,19 +630,21 @@ std::vector<ValueProb> Reasoner::distribution(const std::string& attribute_term,
 Table Reasoner::tableQuery(const std::string& target, const std::vector<std::string>& conditioning,
                            const std::string& evidence, bool conditioning_as_do) {
   Table t;
-  AttributeTerm tat = parseAttributeTerm(program_, target);
+  const Program& decls = declarations();
+  AttributeTerm tat = parseAttributeTerm(decls, target);
   t.target = toString(tat);
   std::vector<AttributeTerm> cats;
   std::set<std::string> attrs{tat.name};
   for (const auto& c : conditioning) {
-    cats.push_back(parseAttributeTerm(program_, c));
+    cats.push_back(parseAttributeTerm(decls, c));
     t.conditioning.push_back(toString(cats.back()));
     attrs.insert(cats.back().name);
   }
   Query ev;
-  if (!evidence.empty()) ev = parseQuery(program_, "| " + evidence, "<evidence>");
+  if (!evidence.empty()) ev = parseQuery(decls, "| " + evidence, "<evidence>");
   collectAttrs(ev, attrs);
-  auto g = groundFor(attrs);
+  auto entry = groundEntryFor(attrs);
+  const GroundProgram* g = entry->g.get();
   int ti = g->findInstance(t.target);
   if (ti < 0)
     throw UnknownSymbolError("table query: target " + t.target +
@@ -307,44 +671,111 @@ Table Reasoner::tableQuery(const std::string& target, const std::vector<std::str
     }
   if (conditioning_as_do) e.indexBy(ci);
   const GInstance& tg = g->instances[static_cast<size_t>(ti)];
-  std::vector<int> cur(ci.size(), 0);
   size_t total = 1;
-  for (int c : ci) total *= g->instances[static_cast<size_t>(c)].domain.size();
+  std::vector<size_t> stride(ci.size(), 1);
+  for (size_t k = 0; k < ci.size(); ++k) {
+    stride[k] = total;
+    total *= g->instances[static_cast<size_t>(ci[k])].domain.size();
+  }
+
+  // Rows to compute: all, unless the same table was computed on this grounding before and only
+  // ground pr-atoms changed since; then only the rows whose do()-values a changed pr-atom's
+  // body requires (a pr-atom with a literal c=v on a do()-fixed conditioning attribute is dead
+  // in every row where c has another value, so it cannot change those rows).
+  std::string cache_key = t.target + "|";
+  for (const auto& c : t.conditioning) cache_key += c + ",";
+  cache_key += "|" + evidence + (conditioning_as_do ? "|do" : "|obs");
+  std::shared_ptr<TableCache>& cache = table_cache_[cache_key];
+  std::vector<char> todo(total, 1);
+  bool reuse = conditioning_as_do && cache && cache->entry_serial == entry->serial &&
+               cache->seq >= entry->changes_from && cache->target == ti &&
+               cache->conditioning == ci && cache->table.rows.size() == total;
+  if (reuse) {
+    std::fill(todo.begin(), todo.end(), 0);
+    std::vector<int> fixed(ci.size());
+    for (const auto& ch : entry->changes) {
+      if (ch.first <= cache->seq) continue;
+      const GPr& pr = g->instances[static_cast<size_t>(ch.second.first)].prs[static_cast<size_t>(ch.second.second)];
+      std::fill(fixed.begin(), fixed.end(), -1);
+      for (const auto& l : pr.body) {
+        if (l.naf || l.neg || l.value < 0) continue;
+        for (size_t k = 0; k < ci.size(); ++k)
+          if (l.inst == ci[k]) fixed[k] = fixed[k] < 0 || fixed[k] == l.value ? l.value : -2;
+      }
+      bool dead = false;
+      for (int f : fixed) dead = dead || f == -2;  // two values for one attribute: never fires
+      if (dead) continue;
+      // enumerate the rows matching the fixed positions
+      std::vector<size_t> cur(ci.size(), 0);
+      for (;;) {
+        size_t row = 0;
+        for (size_t k = 0; k < ci.size(); ++k)
+          row += (fixed[k] >= 0 ? static_cast<size_t>(fixed[k]) : cur[k]) * stride[k];
+        todo[row] = 1;
+        size_t k = 0;
+        for (; k < ci.size(); ++k) {
+          if (fixed[k] >= 0) continue;
+          if (++cur[k] < g->instances[static_cast<size_t>(ci[k])].domain.size()) break;
+          cur[k] = 0;
+        }
+        if (k == ci.size()) break;
+      }
+    }
+  }
+
+  std::vector<int> cur(ci.size(), 0);
   t.rows.reserve(total);
+  size_t computed = 0;
   for (size_t row = 0; row < total; ++row) {
-    TableRow r;
-    std::vector<GCondition> evr = evs;
-    for (size_t k = 0; k < ci.size(); ++k) {
-      const GInstance& cg = g->instances[static_cast<size_t>(ci[k])];
-      r.conditioning_values.push_back(g->symbols->text(cg.domain[static_cast<size_t>(cur[k])]));
-      if (conditioning_as_do) {
-        e.setFixed(ci[k], cur[k]);
-      } else {
-        GCondition c;
-        c.lits.push_back(GLit{ci[k], cur[k], false, false});
-        evr.push_back(c);
-      }
-    }
-    std::vector<std::pair<int, double>> m = e.marginalSparse(ti, evr);
-    double z = 0;
-    for (const auto& x : m) z += x.second;
-    if (z > 0) {
-      for (const auto& x : m) {
-        if (!(x.second > 0)) continue;
-        if (x.first == static_cast<int>(tg.domain.size()))
-          r.undefined_probability = x.second / z;
-        else
-          r.distribution.push_back(
-              {g->symbols->text(tg.domain[static_cast<size_t>(x.first)]), x.second / z});
-      }
+    if (!todo[row]) {
+      t.rows.push_back(cache->table.rows[row]);
     } else {
-      r.consistent = false;
+      ++computed;
+      TableRow r;
+      std::vector<GCondition> evr = evs;
+      for (size_t k = 0; k < ci.size(); ++k) {
+        const GInstance& cg = g->instances[static_cast<size_t>(ci[k])];
+        r.conditioning_values.push_back(g->symbols->text(cg.domain[static_cast<size_t>(cur[k])]));
+        if (conditioning_as_do) {
+          e.setFixed(ci[k], cur[k]);
+        } else {
+          GCondition c;
+          c.lits.push_back(GLit{ci[k], cur[k], false, false});
+          evr.push_back(c);
+        }
+      }
+      std::vector<std::pair<int, double>> m = e.marginalSparse(ti, evr);
+      double z = 0;
+      for (const auto& x : m) z += x.second;
+      if (z > 0) {
+        for (const auto& x : m) {
+          if (!(x.second > 0)) continue;
+          if (x.first == static_cast<int>(tg.domain.size()))
+            r.undefined_probability = x.second / z;
+          else
+            r.distribution.push_back(
+                {g->symbols->text(tg.domain[static_cast<size_t>(x.first)]), x.second / z});
+        }
+      } else {
+        r.consistent = false;
+      }
+      t.rows.push_back(std::move(r));
     }
-    t.rows.push_back(std::move(r));
     for (size_t k = 0; k < cur.size(); ++k) {
       if (++cur[k] < static_cast<int>(g->instances[static_cast<size_t>(ci[k])].domain.size())) break;
       cur[k] = 0;
     }
+  }
+  stats_.table_rows_computed = computed;
+  if (conditioning_as_do) {
+    if (!cache) cache = std::make_shared<TableCache>();
+    cache->entry_serial = entry->serial;
+    cache->seq = entry->seq;
+    cache->target = ti;
+    cache->conditioning = ci;
+    cache->table = t;
+  } else {
+    table_cache_.erase(cache_key);
   }
   return t;
 }

@@ -110,6 +110,14 @@ Model DialogPomdp::build() {
     for (Eigen::Index a = 0; a < n; ++a)
       checkProb(spec_.delivery(s, a),
                 "delivery(" + std::to_string(s) + ", " + std::to_string(a) + ")");
+  if (spec_.serveCost.size() != 0) {
+    if (spec_.serveCost.rows() != n || spec_.serveCost.cols() != n)
+      throw ConfigError("dialog POMDP: serveCost is " + std::to_string(spec_.serveCost.rows()) +
+                        "x" + std::to_string(spec_.serveCost.cols()) + ", expected " +
+                        std::to_string(nReq_) + "x" + std::to_string(nReq_));
+    if (!spec_.serveCost.allFinite())
+      throw ConfigError("dialog POMDP: serveCost has a non-finite entry");
+  }
   for (std::size_t s = 0; s < nReq_; ++s) {
     personOf_.push_back(static_cast<int>(s % nP_));
     roomOf_.push_back(static_cast<int>((s / nP_) % nR_));
@@ -143,6 +151,9 @@ Model DialogPomdp::build() {
       if (a >= firstServe_) {
         const double td = spec_.delivery(s, a - firstServe_);
         r(s, a) = td * spec_.successReward + (1.0 - td) * spec_.failureReward;
+        if (spec_.serveCost.size() != 0)
+          r(s, a) -= spec_.serveCost(static_cast<Eigen::Index>(s),
+                                     static_cast<Eigen::Index>(a - firstServe_));
         z[a](s, obsNone()) = 1.0;  // unreachable (successor is terminal) but a valid row
         continue;
       }
@@ -297,6 +308,8 @@ DialogStats simulateDialogs(const DialogPomdp& dialog, const AlphaVectorPolicy& 
         const std::size_t req = dialog.requestOfServe(a);
         const bool ok = uniform01(rng) < spec.delivery(s, req);
         ret += disc * (ok ? spec.successReward : spec.failureReward);
+        if (spec.serveCost.size() != 0)
+          ret -= disc * spec.serveCost(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(req));
         fulfilled += ok;
         correct += req == s;
         forced += limit;

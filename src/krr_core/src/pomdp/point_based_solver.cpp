@@ -4,6 +4,10 @@
 #include <cmath>
 #include <limits>
 
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#endif
+
 #include "krr_core/common/errors.h"
 #include "krr_core/common/random.h"
 #include "krr_core/common/resources.h"
@@ -13,7 +17,66 @@ namespace pomdp {
 
 namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
+
+/*
+ * Sawtooth scan: best = min(best, min over points i (in `order`, by increasing improvement)
+ * of improve[i] * ratio_i), ratio_i = min_s (b(s) inv_i(s) + pen_i(s)) over sp (padded)
+ * entries. Points are visited most negative improvement first; a point contributes at least
+ * its improvement (ratio <= 1), so the scan stops at the first one that cannot beat `best`.
+ */
+double sawtoothGeneric(const double* b, const double* inv, const double* pen, std::size_t sp,
+                       const std::size_t* order, std::size_t n, const double* improve,
+                       double best) {
+  for (std::size_t j = 0; j < n; ++j) {
+    const std::size_t i = order[j];
+    const double imp = improve[i];
+    if (imp >= best) break;
+    const double* iv = inv + i * sp;
+    const double* pe = pen + i * sp;
+    double m0 = 1.0, m1 = 1.0, m2 = 1.0, m3 = 1.0;
+    for (std::size_t s = 0; s < sp; s += 4) {
+      const double r0 = b[s] * iv[s] + pe[s], r1 = b[s + 1] * iv[s + 1] + pe[s + 1];
+      const double r2 = b[s + 2] * iv[s + 2] + pe[s + 2], r3 = b[s + 3] * iv[s + 3] + pe[s + 3];
+      m0 = r0 < m0 ? r0 : m0;
+      m1 = r1 < m1 ? r1 : m1;
+      m2 = r2 < m2 ? r2 : m2;
+      m3 = r3 < m3 ? r3 : m3;
+    }
+    const double ratio = std::min(std::min(m0, m1), std::min(m2, m3));
+    best = std::min(best, imp * ratio);
+  }
+  return best;
 }
+
+#if defined(__x86_64__) && defined(__GNUC__)
+#define KRR_POMDP_X86_DISPATCH 1
+__attribute__((target("avx2,fma"))) double sawtoothAvx2(
+    const double* b, const double* inv, const double* pen, std::size_t sp,
+    const std::size_t* order, std::size_t n, const double* improve, double best) {
+  for (std::size_t j = 0; j < n; ++j) {
+    const std::size_t i = order[j];
+    const double imp = improve[i];
+    if (imp >= best) break;
+    const double* iv = inv + i * sp;
+    const double* pe = pen + i * sp;
+    __m256d m = _mm256_set1_pd(1.0);
+    for (std::size_t s = 0; s < sp; s += 4) {
+      m = _mm256_min_pd(m, _mm256_fmadd_pd(_mm256_loadu_pd(b + s), _mm256_loadu_pd(iv + s),
+                                           _mm256_loadu_pd(pe + s)));
+    }
+    __m128d h = _mm_min_pd(_mm256_castpd256_pd128(m), _mm256_extractf128_pd(m, 1));
+    const double ratio = _mm_cvtsd_f64(_mm_min_sd(h, _mm_unpackhi_pd(h, h)));
+    best = std::min(best, imp * ratio);
+  }
+  return best;
+}
+
+bool cpuHasAvx2Fma() {
+  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  return has;
+}
+#endif
+}  // namespace
 
 PointBasedSolver::PointBasedSolver(const Model& model, const Belief& b0, SolverOptions options)
     : m_(model), options_(options), s_(model.getS()), a_(model.getA()),
@@ -41,6 +104,8 @@ PointBasedSolver::PointBasedSolver(const Model& model, const Belief& b0, SolverO
       for (const auto& e : m_.successors(s, a)) allTerminal = allTerminal && m_.isTerminal(e.first);
     toTerminal_.push_back(allTerminal ? 1 : 0);
   }
+  sp_ = (s_ + 3) / 4 * 4;
+  bpad_.assign(sp_, 0.0);
   const auto n = static_cast<Eigen::Index>(s_);
   pred_.resize(n);
   child_.resize(n);
@@ -197,25 +262,17 @@ double PointBasedSolver::upperRaw(const double* b) const {
   }
   // ratio_i = min over the support of point i of b(s) / b_i(s), computed as
   // min_s (b(s) * inv_i(s) + pen_i(s)) with inv = 1 / b_i, pen = 0 on the support and
-  // inv = 0, pen = 2 (neutral: the ratio is at most 1) off it, with early exit.
-  // Points are visited by increasing improvement (most negative first); a point contributes
-  // at least its improvement (ratio <= 1), so the scan stops at the first one that cannot
-  // beat the current best.
-  for (std::size_t i : order_) {
-    const double imp = improve_[i];
-    if (imp >= best) break;
-    const double* inv = &inv_[i * s_];
-    const double* pen = &pen_[i * s_];
-    double ratio = 1.0;
-    for (std::size_t s = 0; s < s_; ++s) {
-      const double r = b[s] * inv[s] + pen[s];
-      if (r < ratio) {
-        ratio = r;
-        if (imp * ratio >= best) break;  // this point cannot beat the current best
-      }
-    }
-    best = std::min(best, imp * ratio);
+  // inv = 0, pen = 2 (neutral: the ratio is at most 1) off it and on the padding.
+  std::copy(b, b + s_, bpad_.begin());
+#ifdef KRR_POMDP_X86_DISPATCH
+  if (cpuHasAvx2Fma()) {
+    best = sawtoothAvx2(bpad_.data(), inv_.data(), pen_.data(), sp_, order_.data(),
+                        order_.size(), improve_.data(), best);
+    return base + best;
   }
+#endif
+  best = sawtoothGeneric(bpad_.data(), inv_.data(), pen_.data(), sp_, order_.data(),
+                         order_.size(), improve_.data(), best);
   return base + best;
 }
 
@@ -278,9 +335,10 @@ void PointBasedSolver::addPoint(const Eigen::VectorXd& b, double v) {
   }
   pointIndex_[beliefKey(b.data())].push_back(improve_.size());
   point_.insert(point_.end(), b.data(), b.data() + s_);
-  for (std::size_t s = 0; s < s_; ++s) {
-    inv_.push_back(b(s) > 0.0 ? 1.0 / b(s) : 0.0);
-    pen_.push_back(b(s) > 0.0 ? 0.0 : 2.0);
+  for (std::size_t s = 0; s < sp_; ++s) {
+    const bool on = s < s_ && b(static_cast<Eigen::Index>(s)) > 0.0;
+    inv_.push_back(on ? 1.0 / b(static_cast<Eigen::Index>(s)) : 0.0);
+    pen_.push_back(on ? 0.0 : 2.0);
   }
   improve_.push_back(imp);
   insertOrdered(improve_.size() - 1);
@@ -405,42 +463,40 @@ void PointBasedSolver::refreshUpper(const Eigen::VectorXd& b, NodeCache& c, std:
 
 void PointBasedSolver::lowerBackup(const Eigen::VectorXd& b) {
   // alpha_a = R_a + gamma T_a sum_o (O_ao .* alpha_{k(o)}), alpha_{k(o)} best at b_ao: the
-  // value of the plan "do a, then follow the vector chosen for the observation".
+  // value of the plan "do a, then follow the vector chosen for the observation". The best
+  // vectors of all (action, observation) children come from one matrix product
+  // (alphas x children), which vectorises; dot products with the unnormalised child give the
+  // same argmax as with the normalised one.
   const auto& r = m_.rewardMatrix();
-  double bestLower = -kInf;
-  std::size_t bestLowerAction = 0;
+  const auto S = static_cast<Eigen::Index>(s_);
   const std::size_t n = alphaAction_.size();
+  const std::size_t slots = obsOffset_.back();
+  children_.resize(S, static_cast<Eigen::Index>(slots));
   for (std::size_t a = 0; a < a_; ++a) {
-    const bool ident = m_.isIdentityTransition(a);
-    if (ident) {
+    if (m_.isIdentityTransition(a)) {
       pred_ = b;
     } else {
       pred_.noalias() = m_.transitionMatrixTransposed(a) * b;
     }
+    for (std::size_t k = 0; k < obsCol_[a].size(); ++k)
+      children_.col(static_cast<Eigen::Index>(obsOffset_[a] + k)) =
+          obsCol_[a][k].cwiseProduct(pred_);
+  }
+  Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
+      alphas(alpha_.data(), static_cast<Eigen::Index>(n), S);
+  scores_.noalias() = alphas * children_;
+  double bestLower = -kInf;
+  std::size_t bestLowerAction = 0;
+  for (std::size_t a = 0; a < a_; ++a) {
+    const bool ident = m_.isIdentityTransition(a);
     acc_.setZero();
     for (std::size_t k = 0; k < obsCol_[a].size(); ++k) {
-      const auto& z = obsCol_[a][k];
-      child_ = z.cwiseProduct(pred_);
-      // A zero-probability observation may take any vector (index 0). Dot products run over
-      // the support only: after a serve the successor is a single terminal state.
-      std::size_t bestI = 0;
-      support_.clear();
-      for (std::size_t s = 0; s < s_; ++s)
-        if (child_(s) != 0.0) support_.push_back(s);
-      if (!support_.empty()) {
-        double bestV = -kInf;
-        for (std::size_t i = 0; i < n; ++i) {
-          const double* al = &alpha_[i * s_];
-          double v = 0.0;
-          for (std::size_t s : support_) v += al[s] * child_(s);
-          if (v > bestV) {
-            bestV = v;
-            bestI = i;
-          }
-        }
-      }
-      const double* al = &alpha_[bestI * s_];
-      for (std::size_t s = 0; s < s_; ++s) acc_(s) += z(s) * al[s];
+      const auto slot = static_cast<Eigen::Index>(obsOffset_[a] + k);
+      // A zero-probability observation may take any vector (index 0).
+      Eigen::Index bestI = 0;
+      if (children_.col(slot).sum() > 0.0) scores_.col(slot).maxCoeff(&bestI);
+      const double* al = &alpha_[static_cast<std::size_t>(bestI) * s_];
+      acc_ += obsCol_[a][k].cwiseProduct(Eigen::Map<const Eigen::VectorXd>(al, S));
     }
     if (ident) {
       candidate_ = r.col(static_cast<Eigen::Index>(a)) + gamma_ * acc_;
@@ -471,6 +527,9 @@ void PointBasedSolver::trial() {
   path_[0] = b0_;
   std::size_t depth = 0;
   double thr = eps;
+  // Weight of the current node in the root's value: P(observations so far) gamma^depth.
+  double weight = 1.0;
+  const double rootGap = rootUpper_ - rootLower_;
   std::vector<std::size_t>& chosenObs = chosenObs_;
   chosenObs.clear();
   while (true) {
@@ -480,6 +539,8 @@ void PointBasedSolver::trial() {
     const double* bd = path_[depth].data();
     const double gap = upperRaw(bd) - lowerRaw(bd);
     if (gap <= thr || depth + 1 >= options_.maxDepth || now() >= deadline_) break;
+    // A node whose weighted gap is a negligible share of the root gap cannot move the root.
+    if (weight * gap < cutoffScale_ * options_.trialWeightCutoff * rootGap) break;
     const double childThr = thr / gamma_;
     double bestScore = 0.0;
     std::size_t bestK = obsCol_[a].size();
@@ -495,6 +556,7 @@ void PointBasedSolver::trial() {
       }
     }
     if (bestK == obsCol_[a].size()) break;
+    weight *= gamma_ * c.p[obsOffset_[a] + bestK];  // before cache_ may reallocate
     if (path_.size() < depth + 2) {
       path_.emplace_back();
       cache_.emplace_back();
@@ -514,13 +576,24 @@ void PointBasedSolver::trial() {
   ++trials_;
   rootLower_ = std::max(rootLower_, lowerRaw(b0_.data()));
   rootUpper_ = std::min(rootUpper_, upperRaw(b0_.data()));
+  // Trials that stop at the weight cutoff may stop improving the root (its gap then sits in
+  // many light nodes): after kStallTrials trials without progress, halve the cutoff.
+  constexpr std::size_t kStallTrials = 16;
+  if (rootUpper_ - rootLower_ < rootGap * (1.0 - 1e-9)) {
+    stalled_ = 0;
+  } else if (++stalled_ >= kStallTrials) {
+    stalled_ = 0;
+    cutoffScale_ *= 0.5;
+  }
 }
 
 bool PointBasedSolver::runUntil(double untilSeconds) {
   clockOffset_ = elapsed_;
   clock_.reset();
   deadline_ = untilSeconds;
-  while (!converged() && now() < deadline_) trial();
+  while (!converged() && now() < deadline_ &&
+         (options_.maxTrials == 0 || trials_ < options_.maxTrials))
+    trial();
   elapsed_ = now();
   return converged();
 }

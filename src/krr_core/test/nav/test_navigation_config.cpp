@@ -66,10 +66,10 @@ TEST(NavigationConfig, Errors) {
   expectError("{cols: 30, rows: 30, step_limit: 200}", "{cols: 0, rows: 30, step_limit: 200}",
               "'domains.office_30x30.cols': value 0");
   expectError("max_blocked_fraction: 0.25", "max_blocked_fraction: 0", "'grid.max_blocked_fraction'");
-  expectError("areas: {}", "areas: {ba2: {rate: 2}}", "'simulator.areas.ba2.rate': value 2");
-  expectError("areas: {}", "areas: {ba2: {time_of_day: {night: 2}}}",
-              "'simulator.areas.ba2.time_of_day.night': unknown time of day");
-  expectError("areas: {}", "areas: {ba2: {speed: 2}}", "unknown field 'simulator.areas.ba2.speed'");
+  expectError("  areas:\n", "  areas:\n    ba0: {rate: 2}\n", "'simulator.areas.ba0.rate': value 2");
+  expectError("  areas:\n", "  areas:\n    ba0: {time_of_day: {night: 2}}\n",
+              "'simulator.areas.ba0.time_of_day.night': unknown time of day");
+  expectError("  areas:\n", "  areas:\n    ba0: {speed: 2}\n", "unknown field 'simulator.areas.ba0.speed'");
   expectError("    noon: 1.0", "    noon: -1", "'simulator.time_of_day.noon': value -1");
   expectError("map: ../maps/office.yaml", "mapp: ../maps/office.yaml", "unknown field 'mapp'");
   expectError("simulator:", "simulator: [", "broken YAML");

@@ -51,6 +51,16 @@ class LeastKnownSelector : public TaskSelector {
   std::string start_;
 };
 
+/// @brief The trivial selector: always the same task (practise one route, e.g. per setting).
+class FixedTaskSelector : public TaskSelector {
+ public:
+  explicit FixedTaskSelector(NavTask task) : task_(std::move(task)) {}
+  NavTask next(const NavModel&, const NavStateSpace&, Rng&) override { return task_; }
+
+ private:
+  NavTask task_;
+};
+
 /// @brief Parameters of a free-time learning session.
 struct FreeTimeOptions {
   std::string time = "morning";     ///< time of day the robot learns in (the KB context)

@@ -83,8 +83,19 @@ struct NavTransferOptions {
   void validate() const;
 };
 
+/**
+ * @brief Load options from YAML (config/nav_transfer.yaml; every field optional, unknown
+ * fields are errors): start, source, target, time, blocking_rate, source_episodes,
+ * convergence_episodes, target_episodes, rmax {known_threshold, rmax, replan_every, discount,
+ * step_cost, optimism, refine_known}. Starts from `defaults`.
+ * @throws ConfigError naming file, field and value; IoError when unreadable.
+ */
+NavTransferOptions loadNavTransferOptions(const std::string& path,
+                                          const NavTransferOptions& defaults = {});
+
 /// @brief Results of one trial.
 struct NavTransferTrial {
+  std::size_t index = 0;  ///< trial index (its random streams are (seed, index))
   std::vector<double> reward_with, reward_without;       ///< per target episode
   std::vector<std::uint8_t> success_with, success_without;
   std::size_t source_episodes_run = 0;
@@ -114,6 +125,18 @@ struct NavTransferSummary {
  */
 NavTransferSummary runNavTransfer(const NavDomain& domain, const NavTransferOptions& options,
                                   std::uint64_t seed, std::size_t trials, std::size_t threads);
+
+/**
+ * @brief Trials [begin, begin + count) on `threads` workers, in trial order. Trial i depends
+ * only on (seed, i), so ranges run in different processes concatenate to the same results.
+ */
+std::vector<NavTransferTrial> runNavTransferTrials(const NavDomain& domain,
+                                                   const NavTransferOptions& options,
+                                                   std::uint64_t seed, std::size_t begin,
+                                                   std::size_t count, std::size_t threads);
+
+/// @brief Per-episode means over the trials (all with the same number of episodes).
+NavTransferSummary summarizeNavTransfer(const std::vector<NavTransferTrial>& trials);
 
 }  // namespace kb
 }  // namespace krr

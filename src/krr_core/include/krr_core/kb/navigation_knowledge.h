@@ -17,6 +17,11 @@
  * still applies. Learned statements carry the reasoner tag "learned", so re-learning a pair
  * replaces its probabilities instead of duplicating them, and they can be saved to (and
  * reloaded from) their own file, written atomically.
+ *
+ * Speed (Procedure 2 is run after every extraction): only what changed is handed to the
+ * reasoner (statements of new or re-learned pairs, built from a parsed prototype instead of
+ * re-parsing text), the reasoner patches its grounding (the `learned` facts switch the human
+ * defaults off in place) and recomputes only the table rows of the changed pairs.
  */
 #pragma once
 
@@ -101,6 +106,19 @@ class NavigationKnowledge {
    */
   std::size_t addLearned(const std::vector<mdp::KnownPair>& pairs, const std::string& time);
 
+  /// @brief One learned distribution, structured: P(next_cell = outcomes[i].first | cell,
+  /// move, time) = outcomes[i].second / denominator (numerators sum to the denominator).
+  struct LearnedEntry {
+    int cell = -1;
+    int move = 0;  ///< nav::Move index (up, down, left, right)
+    std::string time;
+    std::vector<std::pair<std::string, long>> outcomes;  ///< value ("12", "trapped"), numerator
+    long denominator = 1;
+  };
+  /// @brief Everything learned, one entry per (cell, move, time) in ascending key order: the
+  /// content of learnedText(), for sending it elsewhere (e.g. to a ROS reasoner node).
+  std::vector<LearnedEntry> learnedEntries() const;
+
   /// @brief Forget everything learned (all statements tagged "learned").
   void clearLearned();
   /// @brief Everything learned, as P-log text that loadLearned() reads back.
@@ -119,18 +137,32 @@ class NavigationKnowledge {
   struct LearnedDistribution {
     std::vector<std::pair<std::string, long>> outcomes;
     long denominator = 1;
+    bool operator==(const LearnedDistribution& o) const {
+      return denominator == o.denominator && outcomes == o.outcomes;
+    }
   };
   /// (cell, move index, time) -> distribution
   using LearnedMap = std::map<std::tuple<int, int, std::string>, LearnedDistribution>;
 
   std::string evidenceFor(const std::vector<std::string>& times) const;
-  /// @brief Replace the reasoner's learned statements by the rendering of learned_.
-  void syncLearned();
+  /// @brief Set these learned distributions (new keys or replacements) in learned_ and hand
+  /// the reasoner only the difference.
+  void updateLearned(const LearnedMap& updates);
+  /// @brief The statements of one learned distribution (copies of the parsed prototypes).
+  void appendPrAtoms(const std::tuple<int, int, std::string>& key, const LearnedDistribution& d,
+                     std::vector<plog::PrAtom>& out);
+  plog::Rule learnedFact(const std::tuple<int, int, std::string>& key);
+  const plog::Term& valueTerm(const std::string& value);
 
   NavStateSpace space_;
   plog::Reasoner reasoner_;
   std::vector<std::string> times_;  // values of sort time
   LearnedMap learned_;
+  // Parsed prototypes of the learned statements and the ground terms to put in them.
+  plog::PrAtom pr_proto_;
+  plog::Rule fact_proto_;
+  std::map<std::string, plog::Term> terms_;  // loc / move / time values by text
+  std::size_t learned_line_ = 0;
 };
 
 /// @brief The reasoner tag of learned statements.

@@ -5,12 +5,15 @@
  * A W x H grid has cell states 0..W*H-1 (cell (x, y) is y*W + x, y = 0 is the top row) and one
  * absorbing failure state W*H (the robot is trapped). The four actions are up (y-1), down
  * (y+1), left (x-1), right (x+1). Each (cell, action) has six outcome probabilities: stay, up,
- * down, left, right, fail. Neighbour indices are implicit, so per pair only the probabilities
- * and the expected reward are stored, in blocks of kLanes = 4 neighbouring cells of a row
- * ("array of structures of arrays": for each block, action and outcome slot, 4 contiguous
- * values), so the solver's inner loop reads one contiguous stream and vectorises across the 4
- * cells with compile-time offsets. Rows are padded to a multiple of 4 cells with inert cells. A move off the grid leaves the robot in place (it is
- * folded into "stay"); other obstacles are the caller's business (see navigation_task.h).
+ * down, left, right, fail. Neighbour indices are implicit. The five outcomes a sweep reads
+ * (the failure state is worth 0, so its probability never enters a backup) and the expected
+ * reward are stored in blocks of kLanes = 8 neighbouring cells of a row ("array of structures
+ * of arrays": for each block, action and outcome slot, 8 contiguous values), so the solver's
+ * inner loop reads one contiguous stream and vectorises across the 8 cells (one AVX-512 or two
+ * AVX2 registers) with compile-time offsets; failure probabilities live in a separate array
+ * that only the model's accessors read. Rows are padded to a multiple of 8 cells with inert
+ * cells. A move off the grid leaves the robot in place (it is folded into "stay"); other
+ * obstacles are the caller's business (see navigation_task.h).
  *
  * P is the storage type of probabilities and rewards: double for exactness (tests,
  * conversion to SparseModel), float to halve memory traffic on very large grids. Values are
@@ -41,9 +44,11 @@ class BasicGridModel {
  public:
   static constexpr unsigned kNumActions = 4;
   static constexpr unsigned kNumOutcomes = 6;
-  static constexpr unsigned kLanes = 4;  ///< cells per storage block
-  /// @brief Values per block: actions x outcome slots x lanes.
-  static constexpr unsigned kBlockSize = kNumActions * kNumOutcomes * kLanes;
+  static constexpr unsigned kLanes = 8;  ///< cells per storage block
+  /// @brief Outcome slots stored in the sweep blocks: stay, up, down, left, right.
+  static constexpr unsigned kSweepOutcomes = 5;
+  /// @brief Values per block: actions x sweep outcome slots x lanes.
+  static constexpr unsigned kBlockSize = kNumActions * kSweepOutcomes * kLanes;
   using Probabilities = std::array<double, kNumOutcomes>;
 
   /**
@@ -89,7 +94,8 @@ class BasicGridModel {
   /// @{
   /// @brief Row width rounded up to a multiple of kLanes (padding cells are inert, value 0).
   std::size_t paddedWidth() const { return static_cast<std::size_t>(wb_) * kLanes; }
-  /// @brief Blocks of row y: block b holds prob[a][k][lane] of cells 4b..4b+3.
+  /// @brief Blocks of row y: block b holds prob[a][k][lane] (k < kSweepOutcomes) of cells
+  /// 8b..8b+7.
   const P* probBlocks(std::uint32_t y) const {
     return prob_.data() + static_cast<std::size_t>(y) * wb_ * kBlockSize;
   }
@@ -101,12 +107,14 @@ class BasicGridModel {
   const P* liveRow(std::uint32_t y) const { return live_.data() + static_cast<std::size_t>(y) * paddedWidth(); }
   /// @brief Bytes of model data a sweep reads.
   std::size_t modelBytes() const { return (prob_.size() + reward_.size() + live_.size()) * sizeof(P); }
+  /// @brief Bytes of model data a sweep reads per row.
+  std::size_t rowBytes() const { return modelBytes() / h_; }
   /// @}
 
  private:
   std::size_t probIndex(StateId cell, ActionId a, unsigned k) const {
     const std::size_t y = cell / w_, x = cell % w_;
-    return (((y * wb_ + x / kLanes) * kNumActions + a) * kNumOutcomes + k) * kLanes + x % kLanes;
+    return (((y * wb_ + x / kLanes) * kNumActions + a) * kSweepOutcomes + k) * kLanes + x % kLanes;
   }
   std::size_t rewardIndex(StateId cell, ActionId a) const {
     const std::size_t y = cell / w_, x = cell % w_;
@@ -120,6 +128,7 @@ class BasicGridModel {
   std::uint32_t wb_;  // blocks per row
   double discount_;
   std::vector<P> prob_;
+  std::vector<P> fail_;  // [cell][action], outside the sweep blocks
   std::vector<P> reward_;
   std::vector<P> live_;
 };

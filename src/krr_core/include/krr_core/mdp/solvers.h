@@ -3,7 +3,8 @@
  * @brief Value iteration and policy iteration for SparseModel and the grid layouts.
  *
  * Value iteration is Gauss-Seidel in place, alternating the sweep direction (forward, then
- * backward) so values propagate both towards and away from the goal in two sweeps. It stops
+ * backward; per pass when several sweeps are pipelined in one pass, see below) so values
+ * propagate both towards and away from the goal. It stops
  * when the largest change of a sweep (the residual) is below epsilon (1 - gamma) / (2 gamma),
  * the standard bound under which the greedy policy is epsilon-optimal; with gamma = 1 it stops
  * on residual < epsilon. A warm start (the previous value function) makes replanning after a
@@ -11,9 +12,20 @@
  *
  * On the grid layout a row is updated Jacobi-style from the values at the start of its update
  * (so the row vectorises across cells) and Gauss-Seidel across rows; this is still a
- * gamma-contraction, so the same bound applies. Grids larger than the per-core cache run 4
- * sweeps per pass over memory, pipelined one row apart (identical results, a quarter of the
- * memory traffic). The grid kernel is also compiled for AVX2+FMA and picked at run time.
+ * gamma-contraction, so the same bound applies. Grids larger than about 1 MiB run up to 8
+ * sweeps per pass over memory, pipelined one row apart (identical results, a fraction of the
+ * memory traffic).
+ *
+ * A SparseModel is solved through its sweep layout (BasicSweepModel: per state the union of
+ * the successors of all actions and a dense successor x action block), built on each call
+ * when it suits the model (CSR rows otherwise); build a SweepModel / SweepModelF once to
+ * solve a model repeatedly. Its sweeps are Gauss-Seidel in state order with the actions of a
+ * state evaluated together in SIMD lanes, 4 sweeps pipelined per pass (identical results)
+ * when the model's bandwidth allows.
+ *
+ * The kernels are compiled for AVX2 + FMA and chosen at run time (portable C++ otherwise, or
+ * when the environment variable KRR_MDP_ISA=generic is set), so the default -O3 build needs
+ * no -march flag.
  */
 #pragma once
 
@@ -74,6 +86,16 @@ inline double initialValue(InitialValues init, double max_reward, double discoun
  * @throws ConfigError when options are invalid or warm_start has the wrong size.
  */
 Solution valueIteration(const SparseModel& model, const SolverOptions& options,
+                        const std::vector<double>* warm_start = nullptr);
+/**
+ * @brief Value iteration on the sweep layout of a SparseModel (what valueIteration(const
+ * SparseModel&) uses for models it suits). Build the layout once (float storage halves the
+ * memory traffic of large models) and solve it many times. Same stopping rule and result.
+ */
+Solution valueIteration(const SweepModel& model, const SolverOptions& options,
+                        const std::vector<double>* warm_start = nullptr);
+/// @brief Value iteration on the float sweep layout.
+Solution valueIteration(const SweepModelF& model, const SolverOptions& options,
                         const std::vector<double>* warm_start = nullptr);
 /// @brief Value iteration on the grid layout (values of cells, then the failure state).
 Solution valueIteration(const GridModel& model, const SolverOptions& options,

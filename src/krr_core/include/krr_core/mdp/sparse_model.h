@@ -15,6 +15,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <utility>
 #include <vector>
 
@@ -180,6 +181,81 @@ class SparseModelBuilder {
 
 /// @brief Tolerance on the sum of each transition row.
 constexpr double kRowSumTolerance = 1e-9;
+
+/**
+ * @brief Solver layout of a SparseModel for fast value iteration ("sweep layout").
+ *
+ * Per state s: the sorted union N(s) of its non-terminal successors over all actions, padded
+ * to K = successorsPerState() entries, and a dense K x L block of discounted probabilities
+ * gamma T(s, a, N(s)_k) (L = actionLanes(): the actions rounded up to 4, padding 0), plus the
+ * rewards R(s, a) (padding lanes -infinity). Terminal successors are dropped (they are worth
+ * 0) and terminal states get an all-zero row, so a backup of state s is
+ *   V(s) = max_a (R(s, a) + sum_k P[s][k][a] V(N(s)_k))
+ * with no branch and no index per (s, a): the values of the successors are read once per
+ * state and shared by all actions, which the solver evaluates together in SIMD registers.
+ * Navigation models have the same few successors for all actions, so the layout is about as
+ * compact as the CSR rows; suitable() says when it is not.
+ *
+ * P is the storage type of probabilities and rewards (double, or float for half the memory
+ * traffic on models larger than the caches; values are always computed in double).
+ */
+template <class P>
+class BasicSweepModel {
+ public:
+  /// @brief Largest padded successor count and action count the layout supports.
+  static constexpr std::size_t kMaxSuccessors = 8;
+  static constexpr std::size_t kMaxActions = 8;
+
+  /// @throws ConfigError when a state has more than kMaxSuccessors non-terminal successors or
+  /// the model has more than kMaxActions actions (use the CSR solver for those).
+  explicit BasicSweepModel(const SparseModel& model);
+
+  /// @brief True when the layout applies and stores at most 3 values per CSR non-zero.
+  static bool suitable(const SparseModel& model);
+  /// @brief The layout when suitable(model), else nullptr (one pass over the model).
+  static std::unique_ptr<BasicSweepModel> tryBuild(const SparseModel& model);
+
+  std::size_t getS() const { return s_; }
+  std::size_t getA() const { return a_; }
+  double getDiscount() const { return discount_; }
+  bool isTerminal(StateId s) const { return terminal_[s] != 0; }
+  /// @brief K: successors stored per state (padding repeats the state with probability 0).
+  std::size_t successorsPerState() const { return k_; }
+  /// @brief L: action lanes per successor (4 or 8).
+  std::size_t actionLanes() const { return lanes_; }
+  /// @brief max |s' - s| over stored successors: how far a backup reaches in the state order.
+  std::size_t bandwidth() const { return bandwidth_; }
+
+  /// @name Raw arrays for the solvers.
+  /// @{
+  const std::uint32_t* successorIndices() const { return succ_.data(); }  ///< S x K
+  const P* probabilityBlocks() const { return prob_.data(); }            ///< S x K x L
+  const P* rewardRows() const { return reward_.data(); }                 ///< S x L
+  const std::vector<std::uint8_t>& terminalFlags() const { return terminal_; }
+  /// @brief Bytes a sweep reads.
+  std::size_t bytes() const {
+    return succ_.size() * sizeof(std::uint32_t) + (prob_.size() + reward_.size()) * sizeof(P);
+  }
+  /// @}
+
+ private:
+  BasicSweepModel() = default;
+  /// Fills the layout; on an unsuitable model returns false (strict: throws ConfigError).
+  bool build(const SparseModel& model, bool strict);
+
+  std::size_t s_ = 0, a_ = 0, k_ = 0, lanes_ = 0, bandwidth_ = 0;
+  double discount_ = 0.0;
+  std::vector<std::uint32_t> succ_;
+  std::vector<P> prob_;
+  std::vector<P> reward_;
+  std::vector<std::uint8_t> terminal_;
+};
+
+using SweepModel = BasicSweepModel<double>;
+using SweepModelF = BasicSweepModel<float>;
+
+extern template class BasicSweepModel<double>;
+extern template class BasicSweepModel<float>;
 
 }  // namespace mdp
 }  // namespace krr

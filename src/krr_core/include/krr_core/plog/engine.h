@@ -77,6 +77,7 @@ class ExactEngine {
   bool bodyDead(const std::vector<GLit>& body) const;
   bool litDeadFixed(const GLit& l) const;
   void liveItems(int inst, std::vector<Item>& out) const;
+  const std::vector<Item>& liveItemsCached(int inst);
   void scopeOfLit(const GLit& l, std::vector<int>& out);
   void scopeOfInstance(int inst, std::vector<int>& out);
   bool holds(const GLit& l);
@@ -113,6 +114,8 @@ class ExactEngine {
   std::vector<std::vector<int>> scope_cache_;
   std::vector<char> scope_busy_;
   std::vector<std::vector<int>> live_rules_;  // derived instance -> rules alive in this epoch
+  std::vector<unsigned> live_stamp_;          // epoch of live_cache_ per instance
+  std::vector<std::vector<Item>> live_cache_;
   std::vector<unsigned> rel_stamp_;
   unsigned rel_counter_ = 1;
   std::vector<int> touched_derived_;

@@ -11,6 +11,7 @@
  */
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <set>
 #include <string>
@@ -69,6 +70,12 @@ struct GPr {
   std::vector<GLit> body;
   SourceLocation loc;
   int priority = 0;  ///< PrAtom::priority
+  /// @brief Id of the pr-atom statement it comes from (IncrementalGrounder; 0 otherwise).
+  std::uint64_t src = 0;
+  /// @brief 0: in force. > 0: switched off, by a static guard that holds (a default-negated
+  /// fact `not f` of its body, see IncrementalGrounder) or because its statement was removed.
+  /// Inference skips such pr-atoms; they stay in place so that indices remain stable.
+  int inactive = 0;
 };
 
 /// @brief A dynamic attribute instance a(t): a node of the ground network.
@@ -114,6 +121,69 @@ GroundProgram groundProgram(const Program& program, const std::set<std::string>&
 
 /// @brief All attributes the named ones depend on (the relevance cone), names included.
 std::set<std::string> relevanceCone(const Program& program, const std::set<std::string>& names);
+
+/**
+ * @brief A grounding that is patched in place when knowledge is added or removed, instead of
+ * grounding the whole program again (the knowledge-extraction loop of the paper: learned
+ * pr-atoms and facts come and go, the rest of the knowledge base stays).
+ *
+ * Guards. A default-negated literal `not f(t)=y` in a pr-atom body, where f is an extensional
+ * static attribute (defined by ground facts only, used nowhere else than in such literals), is
+ * not evaluated while grounding: the ground pr-atom is kept and records the fact as a guard,
+ * and it is in force (GPr::inactive == 0) exactly when none of its guard facts holds. Adding
+ * or removing such a fact then flips the affected ground pr-atoms without grounding anything
+ * (e.g. `learned(C, M, T)`, which switches human defaults off where knowledge was learned).
+ *
+ * Supported changes: ground facts of guard attributes added or removed; pr-atoms added
+ * (ground against the existing fact store; they may not create new attribute instances) or
+ * removed. Anything else (rules with bodies, selection rules, declarations, facts of other
+ * attributes, ...) needs a full grounding: apply() then returns false.
+ */
+class IncrementalGrounder {
+ public:
+  /// @brief Changes since the grounding (or since the last apply()).
+  struct Delta {
+    std::vector<const Rule*> added_facts;    ///< facts now in the program
+    std::vector<const Rule*> removed_facts;  ///< copies of facts no longer in the program
+    std::vector<std::pair<const PrAtom*, std::uint64_t>> added_prs;  ///< statement and its id
+    std::vector<std::uint64_t> removed_prs;  ///< ids of removed pr-atom statements
+  };
+
+  /**
+   * @brief Ground `program` restricted to the cone of `cone_attributes` (as groundProgram).
+   * @param pr_ids ids of program.pr_atoms (same size), or nullptr for index + 1.
+   * The program must outlive this object (apply() receives it again after changes).
+   */
+  IncrementalGrounder(const Program& program, const std::set<std::string>& cone_attributes,
+                      const std::vector<std::uint64_t>* pr_ids = nullptr);
+  ~IncrementalGrounder();
+  IncrementalGrounder(const IncrementalGrounder&) = delete;
+  IncrementalGrounder& operator=(const IncrementalGrounder&) = delete;
+
+  const std::shared_ptr<GroundProgram>& ground() const { return ground_; }
+
+  /**
+   * @brief Patch the grounding for the changes in `delta` (`program` is the changed program,
+   * with the same declarations and cone). `changed` receives (instance, pr index) of every
+   * ground pr-atom that was added or switched on or off.
+   * @return false when a change is outside the supported kinds: the grounding is then in an
+   * undefined state and must be discarded (ground the program again).
+   * @throws IncoherentError when an added fact gives a static attribute a second value.
+   */
+  bool apply(const Program& program, const Delta& delta,
+             std::vector<std::pair<int, int>>* changed);
+
+  /// @brief Whether `attribute` is a guard attribute of this grounding.
+  bool isGuardAttribute(const std::string& attribute) const;
+  /// @brief Ground pr-atoms kept, and those of them whose statement was removed (tombstones).
+  std::size_t atoms() const;
+  std::size_t removedAtoms() const;
+
+ private:
+  class Impl;
+  std::shared_ptr<GroundProgram> ground_;
+  std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace plog
 }  // namespace krr

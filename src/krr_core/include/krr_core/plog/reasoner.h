@@ -3,17 +3,22 @@
  * @brief In-process P-log reasoner: load programs, add learned knowledge, answer queries and
  * build whole conditional probability tables (the inner loop of the paper's Procedure 2).
  *
- * Inference is exact: the relevance cone of each query is grounded (cached until the program
- * changes) and the possible-world measure is summed by variable elimination over the random
- * attribute instances (see engine.h). Programs outside that fast path (non-stratified negation,
+ * Inference is exact: the relevance cone of each query is grounded and the possible-world
+ * measure is summed by variable elimination over the random attribute instances (see
+ * engine.h). Groundings are cached and PATCHED when knowledge is added or removed (facts of
+ * guard attributes, pr-atoms; see IncrementalGrounder) instead of being redone, and a table
+ * query recomputes only the rows that a changed ground pr-atom can reach (its body fixes the
+ * do()-conditioning values of the row); every other change grounds again. Programs outside that fast path (non-stratified negation,
  * cyclic dependencies) raise krr::Error naming the construct; the clingo back end handles them.
  */
 #pragma once
 
+#include <cstdint>
 #include <map>
 #include <memory>
 #include <set>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "krr_core/plog/ast.h"
@@ -56,6 +61,10 @@ struct ReasonerStats {
   size_t ground_instances = 0;
   size_t ground_statements = 0;
   double ground_seconds = 0;
+  bool ground_incremental = false;  ///< the last grounding was a patch of a cached one
+  size_t full_groundings = 0;       ///< groundings from scratch so far
+  size_t incremental_groundings = 0;  ///< patches so far
+  size_t table_rows_computed = 0;   ///< rows the last table query computed (others reused)
 };
 
 class Reasoner {
@@ -80,6 +89,17 @@ class Reasoner {
                        const std::string& name = "<statements>");
   /// @brief Remove every rule and pr-atom added with this tag; returns how many.
   size_t removeStatementsWithTag(const std::string& tag);
+
+  /// @brief addStatements() for statements that are already parsed and resolved against this
+  /// program (e.g. parsed once, then copied with other ground values): no text to parse. Same
+  /// semantics (replacement of pr-atoms with the same label/atom/body, no duplicate rules, one
+  /// knowledge generation, tag). The caller guarantees they are well formed; their attributes
+  /// are checked when grounding.
+  size_t addStatements(std::vector<Rule> rules, std::vector<PrAtom> pr_atoms,
+                       const std::string& tag = "");
+  /// @brief Remove the statements equal to the given ones: pr-atoms with the same label, atom
+  /// and body (whatever their probability), rules with the same text. @return how many.
+  size_t removeStatements(const std::vector<Rule>& rules, const std::vector<PrAtom>& pr_atoms);
 
   /// @brief P(formula | obs, do) for a query such as `?{a=y} | obs(b=z), do(c=w)` (the `?`,
   /// braces and final period are optional). Program-level obs/do statements also apply.
@@ -117,11 +137,56 @@ class Reasoner {
   const ReasonerStats& stats() const { return stats_; }
 
  private:
+  struct GroundEntry;
+  struct TableCache;
+  struct Change {
+    enum Kind { kAddRule, kRemoveRule, kAddPr, kRemovePr } kind;
+    std::uint64_t seq;
+    std::uint64_t id;
+    std::shared_ptr<const Rule> rule;  ///< removed rule (its content is gone from the program)
+  };
+
+  std::shared_ptr<GroundEntry> groundEntryFor(const std::set<std::string>& attrs);
   std::shared_ptr<const GroundProgram> groundFor(const std::set<std::string>& attrs);
-  void invalidate();
+  /// @brief Something other than facts and pr-atoms changed: rebuild the bookkeeping and drop
+  /// every grounding.
+  void structuralChange();
+  size_t addParsed(std::vector<Rule> rules, std::vector<PrAtom> prs, const std::string& tag);
+  void eraseMarked(const std::vector<char>& rule_gone, const std::vector<char>& pr_gone);
+  /// @brief Update the dependency counts for a statement (+1 added, -1 removed); true when
+  /// the dependency structure (hence some relevance cone) changed.
+  bool countRule(const Rule& r, int delta);
+  bool countPr(const PrAtom& p, int delta);
+  void rebuildPrIndex();
+  void trimLog();
+  /// @brief The declarations (sorts, attributes, #domain) only: what parsing a query needs.
+  const Program& declarations();
 
   Program program_;
-  std::map<std::string, std::shared_ptr<const GroundProgram>> ground_cache_;
+  // Statement bookkeeping, parallel to program_.rules / program_.pr_atoms.
+  std::vector<std::uint64_t> rule_ids_, pr_ids_;
+  std::vector<std::string> rule_keys_, pr_keys_;
+  std::unordered_map<std::string, int> rule_key_count_;
+  std::unordered_map<std::string, size_t> pr_index_;  ///< pr key -> position (if valid)
+  bool pr_index_valid_ = false;
+  std::uint64_t next_id_ = 1;
+  // Dependency structure (attribute indices), to know when relevance cones may change.
+  std::unordered_map<std::string, int> attr_idx_;
+  std::vector<char> attr_random_;
+  std::unordered_map<std::uint64_t, int> edge_count_;   ///< (child, parent) -> statements
+  std::unordered_map<std::string, int> head_value_count_;  ///< "attr|value" -> rules
+  std::vector<int> head_values_;                        ///< attr -> distinct head values
+  std::vector<char> head_var_;                          ///< attr -> some head value is a variable
+  std::uint64_t structure_version_ = 1;
+  // Change log since the oldest cached grounding.
+  std::uint64_t change_seq_ = 0;
+  std::vector<Change> log_;
+  std::uint64_t entry_serial_ = 0;
+  std::map<std::string, std::pair<std::uint64_t, std::set<std::string>>> cone_cache_;
+  std::map<std::string, std::shared_ptr<GroundEntry>> ground_cache_;
+  std::map<std::string, std::shared_ptr<TableCache>> table_cache_;
+  Program decls_;
+  std::uint64_t decls_version_ = 0;
   ReasonerStats stats_;
 };
 

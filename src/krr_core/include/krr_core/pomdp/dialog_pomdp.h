@@ -8,7 +8,8 @@
  * value ("is it coke?", cost 1.5), and serve(I,R,P) for every request. Serving request a when
  * the true request is s is fulfilled with probability T^D(s, a) (the paper's delivery
  * equation, computed by the knowledge base from navigation reach probabilities): reward +80
- * if fulfilled, -80 otherwise, so R(s, serve a) = 80 T^D - 80 (1 - T^D). Observations: the
+ * if fulfilled, -80 otherwise, so R(s, serve a) = 80 T^D - 80 (1 - T^D) (minus serveCost(s, a)
+ * when DialogSpec::serveCost is given). Observations: the
  * item / room / person names (answers to general questions, correct with p_general, otherwise
  * uniform over the other values), yes / no (answers to confirming questions, correct with
  * p_yesno) and none (after serving). All numbers are inputs: the KB feeds them later.
@@ -36,6 +37,9 @@ struct DialogSpec {
   std::vector<std::string> persons{"alice", "bob"};
   Eigen::VectorXd prior;     ///< over requests; empty = uniform
   Eigen::MatrixXd delivery;  ///< T^D(s, a): requests x serve actions; empty = all 1
+  /// Extra cost subtracted from R(s, serve a) (requests x serve actions, finite); empty = 0.
+  /// The knowledge base uses it for the navigation cost of the trips a delivery implies.
+  Eigen::MatrixXd serveCost;
   double pGeneral = 0.8;     ///< accuracy of answers to general questions
   double pYesNo = 0.8;       ///< accuracy of yes/no answers
   double generalCost = 2.0;

@@ -1,0 +1,91 @@
+// bench_delivery: timings of the delivery pipeline on the office domain. Prints the time to
+// reason out the dialog knowledge (prior + speech model: 30 requests x 13 queries), to build
+// the navigation model from the knowledge base (Procedure 2) with the robot's policies and P^N,
+// to build the dialog POMDP (T^D + serve costs), to solve it, and per delivery trial.
+// usage: bench_delivery [--root DIR] [--br 0.3] [--trials 2000] [--solver-trials 300]
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/common/resources.h"
+#include "krr_core/dialog/delivery_experiment.h"
+#include "krr_core/dialog/experiment_paths.h"
+
+int main(int argc, char** argv) {
+  using namespace krr;
+  using namespace krr::dialog;
+  std::string root;
+  double br = 0.3;
+  std::size_t trials = 2000, solverTrials = 300;
+  for (int i = 1; i + 1 < argc; i += 2) {
+    const std::string f = argv[i], v = argv[i + 1];
+    if (f == "--root") root = v;
+    else if (f == "--br") br = std::atof(v.c_str());
+    else if (f == "--trials") trials = static_cast<std::size_t>(std::atol(v.c_str()));
+    else if (f == "--solver-trials") solverTrials = static_cast<std::size_t>(std::atol(v.c_str()));
+    else {
+      std::fprintf(stderr, "bench_delivery: unknown option %s\n", f.c_str());
+      return 2;
+    }
+  }
+  try {
+    const ExperimentPaths paths = ExperimentPaths::find(root, "office_30x30");
+    DialogConfig cfg = loadDialogConfig(paths.dialog_yaml);
+    cfg.solver_max_trials = solverTrials;
+    const kb::NavDomain dom = kb::NavDomain::load(paths.navigation_yaml, "office_30x30",
+                                                  paths.geometry, paths.navigation_plog);
+    const int reps = 5;
+    double tKnowledge = 0, tNav = 0, tSpec = 0;
+    std::unique_ptr<DialogKnowledge> k;
+    std::unique_ptr<DeliveryNavigation> nav;
+    std::unique_ptr<pomdp::DialogPomdp> d;
+    kb::NavigationKnowledge nk(*dom.grid, dom.knowledge_files);
+    for (int r = 0; r < reps; ++r) {
+      Stopwatch c;
+      k = std::make_unique<DialogKnowledge>(cfg.office_plog, cfg.speech_plog);
+      tKnowledge += c.seconds() / reps;
+      c.reset();
+      const kb::NavModel model = nk.buildModel({cfg.time}, cfg.nav_discount);
+      DeliveryNavigationOptions o;
+      o.rooms = k->base().rooms;
+      o.step_limit = static_cast<std::size_t>(dom.domain.step_limit);
+      o.reward = mdp::NavigationReward{cfg.step_cost, cfg.rmax};
+      o.failure_penalty = cfg.failure_penalty;
+      nav = std::make_unique<DeliveryNavigation>(*dom.space, model.dynamics, o);
+      tNav += c.seconds() / reps;
+      c.reset();
+      d = std::make_unique<pomdp::DialogPomdp>(k->buildSpec(*nav, cfg));
+      tSpec += c.seconds() / reps;
+    }
+    std::printf("dialog knowledge by reasoning (prior + speech model): %8.2f ms\n", 1e3 * tKnowledge);
+    std::printf("navigation model (Procedure 2) + 6 policies + P^N:     %8.2f ms\n", 1e3 * tNav);
+    std::printf("dialog POMDP (T^D, serve costs, %zu states):          %8.2f ms\n",
+                d->model().getS(), 1e3 * tSpec);
+    std::printf("dialog model from the KB, total:                       %8.2f ms\n",
+                1e3 * (tKnowledge + tNav + tSpec));
+    PreparationReport rep;
+    Stopwatch c;
+    solveDialogPolicy(*d, cfg, "", &rep);
+    std::printf("solve (%zu trials): %.2f s, bounds at b0 [%.2f, %.2f]\n", rep.bounds.trials,
+                c.seconds(), rep.bounds.lower, rep.bounds.upper);
+    DeliveryExperimentOptions eo;
+    eo.blocking_rate = br;
+    eo.cache_dir = "";
+    DeliveryExperiment ex(dom, cfg, eo);
+    c.reset();
+    const auto res = ex.runTrials(0, trials, 1);
+    const double per = c.seconds() / static_cast<double>(trials);
+    double turns = 0;
+    for (const auto& r : res) turns += r.turns;
+    std::printf("delivery trial (br %.2f, 1 thread): %.3f ms per trial (%.1f questions, %zu trials)\n",
+                br, 1e3 * per, turns / static_cast<double>(trials), trials);
+    std::printf("experiment preparation: learning %.2f s, navigation %.3f s, dialog %.3f s, solve %.2f s\n",
+                ex.preparation().learning.seconds, ex.preparation().nav_model_seconds,
+                ex.preparation().dialog_model_seconds, ex.preparation().solve_seconds);
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_delivery: error: %s\n", e.what());
+    return 1;
+  }
+}

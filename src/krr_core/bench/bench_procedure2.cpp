@@ -1,0 +1,205 @@
+/**
+ * @file bench_procedure2.cpp
+ * @brief Benchmark of Procedure 2 on the real knowledge base: the office geometry
+ * (maps/office_<N>x<N>_geometry.plog) plus config/navigation.plog, built into the navigation
+ * MDP by NavigationKnowledge::buildModel, before and after knowledge extraction.
+ *
+ * For each domain (in a child process, so the peak memory is the domain's own):
+ *  - construct: load and parse the knowledge files;
+ *  - first build: buildModel({time}) on the human knowledge (grounding + table query);
+ *  - rebuild after extraction: R-Max learns shop -> room1, its known pairs are extracted with
+ *    addLearned, and the model is rebuilt (the paper's loop: learn, update the KB, rebuild);
+ *  - a second extraction + rebuild (re-learning replaces pairs), and a "morning or noon" build;
+ *  - peak RSS of the child.
+ *
+ * Usage: bench_procedure2 [--repo DIR] [--time morning] [--repeat 3] [DOMAIN...]
+ *        (default domains office_30x30 office_50x50; DIR defaults to the source tree)
+ */
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/common/random.h"
+#include "krr_core/common/resources.h"
+#include "krr_core/kb/nav_transfer.h"
+
+namespace {
+
+std::string defaultRepo() {
+  // bench sources live in <repo>/src/krr_core/bench
+  std::string f = __FILE__;
+  const std::string tail = "/src/krr_core/bench/bench_procedure2.cpp";
+  if (f.size() > tail.size() && f.compare(f.size() - tail.size(), tail.size(), tail) == 0)
+    return f.substr(0, f.size() - tail.size());
+  return ".";
+}
+
+double best(const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); }
+
+double threadCpuSeconds() {
+  timespec ts;
+  ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+/// Wall-clock and CPU time of this thread (the machine may be shared: CPU time is the figure
+/// that does not depend on the load).
+class Timer {
+ public:
+  Timer() { reset(); }
+  void reset() {
+    wall_.reset();
+    cpu0_ = threadCpuSeconds();
+  }
+  double wall() const { return wall_.seconds(); }
+  double cpu() const { return threadCpuSeconds() - cpu0_; }
+
+ private:
+  krr::Stopwatch wall_;
+  double cpu0_ = 0;
+};
+
+struct Figure {
+  std::vector<double> wall, cpu;
+  void add(const Timer& t) {
+    cpu.push_back(t.cpu());
+    wall.push_back(t.wall());
+  }
+  std::string str() const {
+    char b[96];
+    std::snprintf(b, sizeof(b), "%.4f s (CPU %.4f s)", best(wall), best(cpu));
+    return b;
+  }
+};
+
+int runDomain(const std::string& repo, const std::string& name, const std::string& time,
+              int repeat) {
+
+  krr::kb::NavDomain dom = krr::kb::NavDomain::load(
+      repo + "/config/navigation.yaml", name, repo + "/maps/" + name + "_geometry.plog",
+      repo + "/config/navigation.plog");
+  Figure t_construct, t_first, t_rebuild, t_rebuild2, t_mixed, t_add, t_add2, t_clear;
+  std::vector<double> g_first, g_rebuild;
+  std::size_t rows_rebuild = 0;
+  std::size_t pairs = 0, learned_rows = 0, rows = 0;
+  for (int r = 0; r < repeat; ++r) {
+    Timer sw;
+    krr::kb::NavigationKnowledge kb(*dom.grid, dom.knowledge_files);
+    t_construct.add(sw);
+    sw.reset();
+    krr::kb::NavModel m0 = kb.buildModel({time});
+    t_first.add(sw);
+    g_first.push_back(kb.reasoner().stats().ground_seconds);
+    rows = m0.dynamics.getS();
+
+    // Learn shop -> room1 with R-Max (not timed), extract, rebuild.
+    krr::mdp::RMaxParams p;
+    p.step_limit = static_cast<std::uint32_t>(dom.domain.step_limit);
+    krr::nav::Context ctx;
+    ctx.time_of_day = dom.simulator->timeOfDayIndex(time);
+    krr::kb::SimulatedNavigation env(*dom.simulator, *dom.space, dom.grid->placeCell("shop"),
+                                     {dom.grid->placeCell("room1")}, ctx, p.navigationReward());
+    krr::mdp::RMaxAgent agent = krr::kb::makeNavigationAgent(dom, env, p, nullptr);
+    krr::Rng rng = krr::makeRng(1, "bench_procedure2", static_cast<std::uint64_t>(r));
+    krr::kb::learnUntilConverged(env, agent, 200, 20, rng, {}, nullptr);
+    sw.reset();
+    pairs = kb.addLearned(agent.model().knownPairs(), time);
+    t_add.add(sw);
+    sw.reset();
+    krr::kb::NavModel m1 = kb.buildModel({time});
+    t_rebuild.add(sw);
+    rows_rebuild = kb.reasoner().stats().table_rows_computed;
+    g_rebuild.push_back(kb.reasoner().stats().ground_seconds);
+    learned_rows = m1.numLearned();
+
+    // More learning on shop -> room2 (from the KB's model), extraction, rebuild.
+    krr::kb::SimulatedNavigation env2(*dom.simulator, *dom.space, dom.grid->placeCell("shop"),
+                                      {dom.grid->placeCell("room2")}, ctx, p.navigationReward());
+    krr::mdp::RMaxAgent agent2 = krr::kb::makeNavigationAgent(dom, env2, p, &m1);
+    krr::kb::learnUntilConverged(env2, agent2, 100, 20, rng, {}, nullptr);
+    sw.reset();
+    kb.addLearned(agent2.model().knownPairs(), time);
+    t_add2.add(sw);
+    sw.reset();
+    kb.buildModel({time});
+    t_rebuild2.add(sw);
+    sw.reset();
+    kb.buildModel({"morning", "noon"});
+    t_mixed.add(sw);
+    sw.reset();
+    kb.clearLearned();
+    kb.buildModel({time});
+    t_clear.add(sw);
+  }
+  std::printf("%s: %zu states, best of %d runs\n", name.c_str(), rows, repeat);
+  std::printf("  construct (parse knowledge files)         %s\n", t_construct.str().c_str());
+  std::printf("  first build (human knowledge)             %s, grounding %.4f s\n",
+              t_first.str().c_str(), best(g_first));
+  std::printf("  addLearned (%zu pairs)                   %s\n", pairs, t_add.str().c_str());
+  std::printf("  rebuild after extraction (%zu learned)   %s, grounding %.4f s, %zu rows\n",
+              learned_rows, t_rebuild.str().c_str(), best(g_rebuild), rows_rebuild);
+  std::printf("  second extraction: addLearned             %s\n", t_add2.str().c_str());
+  std::printf("  second extraction: rebuild                %s\n", t_rebuild2.str().c_str());
+  std::printf("  build for \"morning or noon\"               %s\n", t_mixed.str().c_str());
+  std::printf("  clearLearned + rebuild                    %s\n", t_clear.str().c_str());
+  std::printf("  peak RSS                                 %.1f MiB\n", krr::peakRssMiB());
+  std::fflush(stdout);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string repo = defaultRepo(), time = "morning";
+  int repeat = 3;
+  std::vector<std::string> domains;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if ((a == "--repo" || a == "--time" || a == "--repeat") && i + 1 < argc) {
+      const std::string v = argv[++i];
+      if (a == "--repo") repo = v;
+      else if (a == "--time") time = v;
+      else repeat = std::max(1, std::atoi(v.c_str()));
+    } else if (a == "-h" || a == "--help") {
+      std::printf("usage: bench_procedure2 [--repo DIR] [--time morning] [--repeat 3] [DOMAIN...]\n");
+      return 0;
+    } else if (!a.empty() && a[0] == '-') {
+      std::fprintf(stderr, "bench_procedure2: unknown option %s\n", a.c_str());
+      return 2;
+    } else {
+      domains.push_back(a);
+    }
+  }
+  if (domains.empty()) domains = {"office_30x30", "office_50x50"};
+  int status_all = 0;
+  for (const std::string& d : domains) {
+    // One child per domain: its peak RSS is the domain's own.
+    std::fflush(stdout);
+    const pid_t pid = ::fork();
+    if (pid < 0) {
+      std::perror("bench_procedure2: fork");
+      return 1;
+    }
+    if (pid == 0) {
+      try {
+        std::_Exit(runDomain(repo, d, time, repeat));
+      } catch (const krr::Error& e) {
+        std::fprintf(stderr, "bench_procedure2: %s: %s\n", d.c_str(), e.what());
+        std::fflush(stderr);
+        std::_Exit(1);
+      }
+    }
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) status_all = 1;
+  }
+  return status_all;
+}

@@ -1,0 +1,82 @@
+/**
+ * @file dialog_config.h
+ * @brief Parameters of the dialog manager and of delivery trials (config/dialog.yaml).
+ *
+ * Question costs, delivery rewards and the turn limit are the paper's (Sec. IV): general
+ * questions 2.0, confirming questions 1.5, +80 / -80 for a fulfilled / unfulfilled delivery,
+ * a forced delivery after 20 turns. The speech model is *not* here: it is knowledge
+ * (config/dialog.plog) and is obtained by reasoning. Every field is validated on load; a bad
+ * value raises ConfigError naming the file, the field and the value.
+ *
+ * serve_cost (our extension, see DialogKnowledge): the serve reward may also carry the
+ * navigation cost of the trips the delivery equation implies, computed from the navigation
+ * model:
+ *   none     R(s, serve a) = 80 T^D - 80 (1 - T^D)                   (the paper's formula)
+ *   expected ... - weight * E[navigation cost of the trial | s, a]   (trips gated by arrival)
+ *   tasks    ... - weight * (C(shop, a) + [a != s] (C(a, shop) + C(shop, s)))
+ * with C the expected cost of one navigation task (DeliveryNavigation).
+ */
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "krr_core/mdp/rmax_agent.h"
+
+namespace krr {
+namespace dialog {
+
+/// @brief How navigation costs enter the serve reward (see the file comment).
+enum class ServeCostMode { kNone, kExpected, kTasks };
+
+/// @brief "none", "expected", "tasks".
+std::string toString(ServeCostMode mode);
+/// @brief Inverse of toString. @throws ConfigError naming the value.
+ServeCostMode serveCostModeFromString(const std::string& text);
+
+/// @brief Everything config/dialog.yaml holds.
+struct DialogConfig {
+  // dialog:
+  double general_cost = 2.0;     ///< "which item / room / person?"
+  double confirm_cost = 1.5;     ///< "is it coke?"
+  double success_reward = 80.0;  ///< fulfilled delivery
+  double failure_reward = -80.0; ///< unfulfilled delivery
+  int turn_limit = 20;           ///< questions before a forced delivery
+  double discount = 0.99;        ///< of the dialog POMDP (not given in the paper)
+  // serve_cost:
+  ServeCostMode serve_cost_mode = ServeCostMode::kTasks;
+  double serve_cost_weight = 1.0;
+  // navigation:
+  std::string shop = "shop";       ///< place every delivery starts from
+  std::string time = "morning";    ///< time of day of the knowledge used and learned
+  double step_cost = 1.0;          ///< navigation reward: cost per move
+  double rmax = 40.0;              ///< navigation reward: goal bonus / failure penalty (R-Max)
+  double failure_penalty = 40.0;   ///< cost of a failed trip (trapped or step limit)
+  double nav_discount = 1.0;       ///< discount of the navigation task the policies solve
+  // solver:
+  double solver_precision = 0.5;   ///< target bound gap at the initial belief
+  double solver_timeout = 600.0;   ///< seconds; a run stopped by it is not reproducible
+  std::size_t solver_max_trials = 400;  ///< trial budget (0: none): a reproducible stop
+  // learning (Procedure 1 for the delivery routes):
+  std::uint32_t known_threshold = 30;  ///< R-Max M
+  bool refine_known = true;            ///< keep refining known pairs from all samples
+  std::size_t max_episodes_per_task = 300;
+  std::size_t convergence_episodes = 20;
+  std::size_t learning_rounds = 1;     ///< passes over the 2 x rooms delivery routes
+  // knowledge: (absolute after loading; relative paths are resolved against the YAML's dir)
+  std::string office_plog = "office.plog";  ///< people, items, rooms, request prior
+  std::string speech_plog = "dialog.plog";  ///< speech understanding model
+
+  /// @brief R-Max parameters for learning (step cost and Rmax of the navigation reward).
+  mdp::RMaxParams rmaxParams() const;
+  /// @throws ConfigError naming the field and value (same checks as the loader).
+  void validate() const;
+};
+
+/// @brief Load and validate a dialog.yaml. Unknown fields are errors.
+/// @throws ConfigError naming file, field and value (also for unreadable or broken YAML).
+DialogConfig loadDialogConfig(const std::string& path);
+
+}  // namespace dialog
+}  // namespace krr

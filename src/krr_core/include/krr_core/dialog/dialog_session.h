@@ -1,0 +1,98 @@
+/**
+ * @file dialog_session.h
+ * @brief One live dialog: exact belief over requests, the robot's questions, the user's text.
+ *
+ * The session is what a dialog manager (the dialog_node, the dialog_script CLI) runs: the
+ * robot asks what the policy (or a script) says, the user answers in free text, the language
+ * front end turns the text into observations of the dialog POMDP and the session applies
+ * them by exact Bayesian updates. A turn is one robot question; once the model's turnLimit
+ * questions have been asked, nextAction() serves the most likely request (paper: "in case a
+ * dialog does not end after 20 turns, the robot is forced to work on the most likely
+ * delivery"). Nothing the user says can crash it: unknown words, ignored answers and
+ * observations the model deems impossible are reported in the HearResult.
+ */
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "krr_core/dialog/language.h"
+#include "krr_core/pomdp/alpha_policy.h"
+#include "krr_core/pomdp/belief.h"
+#include "krr_core/pomdp/dialog_pomdp.h"
+
+namespace krr {
+namespace dialog {
+
+/// @brief The outcome of one user utterance.
+struct HearResult {
+  std::string text;                              ///< what the user said
+  std::vector<DialogObservation> applied;        ///< observations used to update the belief
+  std::vector<std::string> unknownWords;         ///< words the front end did not know
+  std::vector<std::string> notes;                ///< why content was ignored
+  /// @brief True if the belief was updated.
+  bool understood() const { return !applied.empty(); }
+};
+
+/// @brief Marginals of a belief in the paper's Figure 4 order, with its entropy.
+struct BeliefSummary {
+  Eigen::VectorXd items, persons, rooms;
+  double entropy = 0.0;          ///< of the joint belief over requests, nats
+  std::size_t mostLikely = 0;    ///< request index of the belief's mode
+  double mostLikelyProbability = 0.0;
+};
+
+/// @brief A dialog in progress (see the file comment).
+class DialogSession {
+ public:
+  /**
+   * @param dialog the dialog model (referenced: it must outlive the session)
+   * @param language the front end (referenced: it must outlive the session)
+   * @param policy the policy choosing questions, or nullptr for scripted dialogs (then
+   *        nextAction() is only available at the turn limit)
+   * @throws ConfigError if the policy's state count differs from the model's.
+   */
+  DialogSession(const pomdp::DialogPomdp& dialog, const LanguageFrontEnd& language,
+                const pomdp::AlphaVectorPolicy* policy = nullptr);
+
+  /// @brief Back to the prior, no question asked.
+  void reset();
+  /// @brief The policy's action at the current belief, or serve(most likely request) at the
+  /// turn limit. @throws ConfigError without a policy before the turn limit, or when finished.
+  std::size_t nextAction() const;
+  /// @brief True when the turn limit has been reached.
+  bool atTurnLimit() const { return turns_ >= dialog_.spec().turnLimit; }
+  /// @brief The robot asks question a (counts a turn; yes / no now answer it) or serves
+  /// (the dialog is finished). @throws ConfigError for an out-of-range action or when finished.
+  void act(std::size_t a);
+  /// @brief The user said `text`: understand it and update the belief. Never throws on text.
+  HearResult hear(const std::string& text);
+
+  const pomdp::Belief& belief() const { return belief_; }
+  BeliefSummary summary() const;
+  int turns() const { return turns_; }
+  /// @brief The last question asked, -1 if none yet.
+  long lastQuestion() const { return lastQuestion_; }
+  bool finished() const { return finished_; }
+  /// @brief The request served (valid once finished()).
+  std::size_t servedRequest() const { return served_; }
+  const pomdp::DialogPomdp& dialog() const { return dialog_; }
+
+ private:
+  const pomdp::DialogPomdp& dialog_;
+  const LanguageFrontEnd& language_;
+  const pomdp::AlphaVectorPolicy* policy_;
+  pomdp::Belief belief_;
+  int turns_ = 0;
+  long lastQuestion_ = -1;
+  bool finished_ = false;
+  std::size_t served_ = 0;
+};
+
+/// @brief summary() of any belief of the dialog model.
+BeliefSummary summarizeBelief(const pomdp::DialogPomdp& dialog, const pomdp::Belief& b);
+
+}  // namespace dialog
+}  // namespace krr

@@ -1,0 +1,38 @@
+/**
+ * @file experiment_paths.h
+ * @brief Where the delivery experiments' inputs live: the repository's config/ and maps/.
+ *
+ * The CLIs (delivery_trials, dialog_entropy) run from anywhere: the repository root is the
+ * --root option, else $KRR_ROOT, else the first directory holding config/dialog.yaml found
+ * walking up from the working directory, then from the executable's directory.
+ */
+#pragma once
+
+#include <string>
+
+namespace krr {
+namespace dialog {
+
+/// @brief Input files of a delivery experiment on one navigation domain.
+struct ExperimentPaths {
+  std::string root;             ///< repository root
+  std::string dialog_yaml;      ///< root/config/dialog.yaml
+  std::string navigation_yaml;  ///< root/config/navigation.yaml
+  std::string navigation_plog;  ///< root/config/navigation.plog
+  std::string geometry;         ///< root/maps/<domain>_geometry.plog
+
+  /**
+   * @brief Resolve the paths for `domain` (see the file comment for `root_hint` = --root).
+   * @throws ConfigError naming what was searched when no root is found or a file is missing.
+   */
+  static ExperimentPaths find(const std::string& root_hint, const std::string& domain);
+};
+
+/**
+ * @brief Default directory of learned knowledge and policies: $KRR_CACHE_DIR, else
+ * $XDG_CACHE_HOME/krr_rl/delivery, else $HOME/.cache/krr_rl/delivery; empty if none is set.
+ */
+std::string defaultCacheDir();
+
+}  // namespace dialog
+}  // namespace krr

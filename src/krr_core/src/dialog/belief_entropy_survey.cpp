@@ -1,0 +1,117 @@
+#include "krr_core/dialog/belief_entropy_survey.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <mutex>
+#include <random>
+#include <thread>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/common/random.h"
+#include "krr_core/pomdp/belief.h"
+
+namespace krr {
+namespace dialog {
+
+void BeliefSamplerOptions::validate() const {
+  if (!(alpha_min > 0) || !std::isfinite(alpha_min))
+    throw ConfigError("belief sampler: alpha_min = " + std::to_string(alpha_min) + " must be > 0");
+  if (!(alpha_max >= alpha_min) || !std::isfinite(alpha_max))
+    throw ConfigError("belief sampler: alpha_max = " + std::to_string(alpha_max) +
+                      " must be finite and >= alpha_min");
+}
+
+BeliefEntropySurvey::BeliefEntropySurvey(const pomdp::DialogPomdp& dialog,
+                                         const pomdp::AlphaVectorPolicy& policy,
+                                         const BeliefSamplerOptions& options, std::uint64_t seed)
+    : dialog_(dialog), policy_(policy), options_(options), seed_(seed) {
+  options_.validate();
+  if (policy.numStates() != dialog.model().getS())
+    throw ConfigError("belief entropy survey: policy has " + std::to_string(policy.numStates()) +
+                      " states, the dialog model " + std::to_string(dialog.model().getS()));
+}
+
+pomdp::Belief BeliefEntropySurvey::belief(std::size_t index) const {
+  Rng rng = makeRng(seed_, "entropy/belief", index);
+  const double lo = std::log(options_.alpha_min), hi = std::log(options_.alpha_max);
+  const double alpha = std::exp(lo + (hi - lo) * uniform01(rng));
+  // Dirichlet(alpha) in log space: G(alpha) = G(alpha + 1) U^(1/alpha), so tiny alphas do not
+  // underflow to an all-zero vector.
+  const std::size_t n = dialog_.numRequests();
+  std::vector<double> logw(n);
+  std::gamma_distribution<double> gamma(alpha + 1.0, 1.0);
+  for (std::size_t k = 0; k < n; ++k) {
+    double u = uniform01(rng);
+    if (u <= 0) u = 1e-300;
+    logw[k] = std::log(std::max(gamma(rng), 1e-300)) + std::log(u) / alpha;
+  }
+  const double mx = *std::max_element(logw.begin(), logw.end());
+  pomdp::Belief b = pomdp::Belief::Zero(static_cast<Eigen::Index>(dialog_.model().getS()));
+  double sum = 0;
+  for (std::size_t k = 0; k < n; ++k) sum += (b(static_cast<Eigen::Index>(k)) = std::exp(logw[k] - mx));
+  b /= sum;
+  return b;
+}
+
+EntropySample BeliefEntropySurvey::sample(std::size_t index) const {
+  const pomdp::Belief b = belief(index);
+  EntropySample s;
+  s.index = index;
+  s.action = policy_.bestAction(b);
+  s.serve = dialog_.isServe(s.action);
+  if (s.serve) s.request = dialog_.requestOfServe(s.action);
+  s.entropy = pomdp::entropy(b, pomdp::EntropyUnit::kNats);
+  s.entropy_bits = pomdp::entropy(b, pomdp::EntropyUnit::kBits);
+  s.max_probability = b.maxCoeff();
+  return s;
+}
+
+std::vector<EntropySample> BeliefEntropySurvey::run(std::size_t begin, std::size_t count,
+                                                    std::size_t threads) const {
+  std::vector<EntropySample> out(count);
+  threads = std::max<std::size_t>(1, std::min(threads, count));
+  std::atomic<std::size_t> next{0};
+  std::exception_ptr failure;
+  std::mutex mu;
+  auto worker = [&]() {
+    try {
+      for (std::size_t k = next++; k < count; k = next++) out[k] = sample(begin + k);
+    } catch (...) {
+      std::lock_guard<std::mutex> lock(mu);
+      if (!failure) failure = std::current_exception();
+      next = count;
+    }
+  };
+  if (threads == 1) {
+    worker();
+  } else {
+    std::vector<std::thread> pool;
+    for (std::size_t t = 0; t < threads; ++t) pool.emplace_back(worker);
+    for (auto& t : pool) t.join();
+  }
+  if (failure) std::rethrow_exception(failure);
+  return out;
+}
+
+std::string BeliefEntropySurvey::csvHeader() {
+  return "trial,action,room,entropy,entropy_bits,max_probability,served";
+}
+
+std::string BeliefEntropySurvey::csvRow(const EntropySample& s) const {
+  const std::string action = dialog_.model().actionNames()[s.action];
+  std::string room, served;
+  if (s.serve) {
+    room = dialog_.spec().rooms[dialog_.requestParts(s.request)[1]];
+    served = dialog_.requestName(s.request);
+  }
+  char buf[256];
+  std::snprintf(buf, sizeof(buf), "%zu,%s,%s,%.6g,%.6g,%.6g,%s", s.index, action.c_str(),
+                room.c_str(), s.entropy, s.entropy_bits, s.max_probability, served.c_str());
+  return buf;
+}
+
+}  // namespace dialog
+}  // namespace krr

@@ -1,0 +1,177 @@
+#include "krr_core/dialog/delivery_learning.h"
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <cstdio>
+#include <sstream>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/common/resources.h"
+#include "krr_core/nav/grid_astar.h"
+
+namespace krr {
+namespace dialog {
+
+DeliveryRouteSelector::DeliveryRouteSelector(std::string shop, std::vector<std::string> rooms)
+    : shop_(std::move(shop)), rooms_(std::move(rooms)) {
+  if (rooms_.empty()) throw ConfigError("delivery route selector: no room");
+  for (const auto& r : rooms_)
+    if (r == shop_) throw ConfigError("delivery route selector: room '" + r + "' is the shop");
+}
+
+kb::NavTask DeliveryRouteSelector::next(const kb::NavModel& model, const kb::NavStateSpace& space,
+                                        Rng& rng) {
+  if (remaining_.empty()) {
+    for (const auto& r : rooms_) {
+      remaining_.push_back({shop_, r});
+      remaining_.push_back({r, shop_});
+    }
+  }
+  nav::GridAStar astar(space.grid());
+  std::vector<std::size_t> best;
+  long bestUnknown = -1;
+  for (std::size_t i = 0; i < remaining_.size(); ++i) {
+    const nav::GridRoute route = astar.plan(space.grid().placeCell(remaining_[i].start),
+                                            space.grid().placeCell(remaining_[i].goal));
+    long unknown = 0;
+    for (std::size_t k = 0; k < route.moves.size(); ++k) {
+      const mdp::StateId s = space.stateOf(route.cells[k]);
+      unknown += model.learned[s * 4 + static_cast<std::size_t>(route.moves[k])] ? 0 : 1;
+    }
+    if (unknown > bestUnknown) {
+      bestUnknown = unknown;
+      best.clear();
+    }
+    if (unknown == bestUnknown) best.push_back(i);
+  }
+  const std::size_t pick = best[std::min(best.size() - 1,
+                                         static_cast<std::size_t>(uniform01(rng) * best.size()))];
+  const kb::NavTask task = remaining_[pick];
+  remaining_.erase(remaining_.begin() + static_cast<long>(pick));
+  return task;
+}
+
+namespace {
+
+/// Simulator parameters that change what is learned (part of the cache key).
+std::string simulatorKey(const kb::NavDomain& d) {
+  const nav::SimulatorConfig& s = d.config.simulator;
+  std::ostringstream o;
+  o.precision(17);
+  o << s.move_success << "|" << s.slip_stay << "|" << s.slip_lateral << "|"
+    << static_cast<int>(s.blocking_mode) << "|" << s.trap_probability << "|"
+    << s.trap_reference_cell_size << "|" << d.domain.step_limit << "|" << d.grid->cols() << "x"
+    << d.grid->rows() << "|" << d.grid->numFreeCells();
+  for (std::size_t i = 0; i < s.times_of_day.size(); ++i)
+    o << "|" << s.times_of_day[i] << "=" << (i < s.time_factors.size() ? s.time_factors[i] : 1.0);
+  for (const auto& [name, area] : s.areas) {
+    o << "|" << name << ":" << area.rate;
+    for (const auto& [t, f] : area.time_factor) o << "," << t << "=" << f;
+  }
+  return o.str();
+}
+
+bool fileExists(const std::string& path) {
+  struct stat st;
+  return ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+}
+
+}  // namespace
+
+void makeDirectories(const std::string& dir) {
+  if (dir.empty()) return;
+  std::string path;
+  std::size_t pos = 0;
+  while (pos != std::string::npos) {
+    pos = dir.find('/', pos + 1);
+    path = dir.substr(0, pos);
+    if (path.empty()) continue;
+    struct stat st;
+    if (::stat(path.c_str(), &st) == 0) {
+      if (!S_ISDIR(st.st_mode)) throw IoError("cache directory: " + path + " is not a directory");
+      continue;
+    }
+    if (::mkdir(path.c_str(), 0755) != 0 && errno != EEXIST)
+      throw IoError("cache directory: cannot create " + path + ": " + std::strerror(errno));
+  }
+}
+
+std::uint64_t stableHash(const std::string& text) {
+  std::uint64_t h = 1469598103934665603ULL;
+  for (unsigned char c : text) {
+    h ^= c;
+    h *= 1099511628211ULL;
+  }
+  return h;
+}
+
+std::string learnedCacheName(const kb::NavDomain& domain, const DialogConfig& c,
+                             const std::vector<std::string>& rooms, double br, std::uint64_t seed,
+                             const std::string& domain_name) {
+  std::ostringstream key;
+  key.precision(17);
+  key << "v1|" << c.time << "|" << c.shop << "|" << c.known_threshold << "|" << c.refine_known
+      << "|" << c.max_episodes_per_task << "|" << c.convergence_episodes << "|"
+      << c.learning_rounds << "|" << c.step_cost << "|" << c.rmax;
+  for (const auto& r : rooms) key << "|" << r;
+  key << "|" << simulatorKey(domain);
+  char buf[160];
+  std::snprintf(buf, sizeof(buf), "learned_%s_br%.4g_seed%llu_%016llx.plog", domain_name.c_str(),
+                br, static_cast<unsigned long long>(seed),
+                static_cast<unsigned long long>(stableHash(key.str())));
+  return buf;
+}
+
+LearningReport prepareLearnedKnowledge(const kb::NavDomain& domain,
+                                       kb::NavigationKnowledge& knowledge,
+                                       const DialogConfig& config,
+                                       const std::vector<std::string>& rooms, double br,
+                                       std::uint64_t seed, const std::string& cache_dir,
+                                       const std::string& domain_name) {
+  if (!(br >= 0.0 && br <= 1.0))
+    throw ConfigError("delivery learning: blocking rate " + std::to_string(br) +
+                      " is not in [0, 1]");
+  config.validate();
+  Stopwatch clock;
+  LearningReport report;
+  knowledge.clearLearned();
+  if (!cache_dir.empty()) {
+    report.cache_file =
+        cache_dir + "/" + learnedCacheName(domain, config, rooms, br, seed, domain_name);
+    if (fileExists(report.cache_file)) {
+      knowledge.loadLearned(report.cache_file);
+      report.from_cache = true;
+      report.pairs = knowledge.buildModel({config.time}).numLearned();
+      report.seconds = clock.seconds();
+      return report;
+    }
+  }
+  DeliveryRouteSelector selector(config.shop, rooms);
+  kb::FreeTimeOptions o;
+  o.time = config.time;
+  o.blocking_rate = br;
+  o.max_episodes_per_task = config.max_episodes_per_task;
+  o.convergence_episodes = config.convergence_episodes;
+  o.max_tasks = config.learning_rounds * selector.routesPerRound();
+  o.rmax = config.rmaxParams();
+  kb::FreeTimeLearner learner(domain, knowledge, selector, o);
+  char stream[64];
+  std::snprintf(stream, sizeof(stream), "delivery/learning/br%.6g", br);
+  Rng rng = makeRng(seed, stream);
+  const kb::FreeTimeReport fr = learner.run(rng, {});
+  report.tasks = fr.tasks.size();
+  for (std::size_t e : fr.episodes) report.episodes += e;
+  report.pairs = knowledge.buildModel({config.time}).numLearned();
+  if (!report.cache_file.empty()) {
+    makeDirectories(cache_dir);
+    knowledge.saveLearned(report.cache_file);
+  }
+  report.seconds = clock.seconds();
+  return report;
+}
+
+}  // namespace dialog
+}  // namespace krr

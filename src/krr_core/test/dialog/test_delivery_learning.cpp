@@ -1,0 +1,107 @@
+// Delivery learning: the route selector, Procedure 1 on the delivery routes, the learned
+// knowledge cache (a rerun loads instead of relearning).
+#include <gtest/gtest.h>
+
+#include <set>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/common/files.h"
+#include "krr_core/dialog/delivery_learning.h"
+#include "delivery_test_support.h"
+
+namespace {
+
+using namespace krr;
+using namespace krr::dialog;
+
+DialogConfig fastLearning() {
+  DialogConfig c;
+  c.known_threshold = 3;
+  c.max_episodes_per_task = 30;
+  c.convergence_episodes = 5;
+  return c;
+}
+
+TEST(DeliveryRouteSelector, EachRoundPractisesEveryRouteOnce) {
+  const kb::NavDomain d = delivery_test::corridor();
+  kb::NavigationKnowledge kb(*d.grid, d.knowledge_files);
+  DeliveryRouteSelector sel("shop", {"room1", "room2"});
+  EXPECT_EQ(sel.routesPerRound(), 4u);
+  Rng rng = makeRng(3, "sel");
+  const kb::NavModel model = kb.buildModel({"morning"});
+  for (int round = 0; round < 2; ++round) {
+    std::set<std::pair<std::string, std::string>> seen;
+    for (int k = 0; k < 4; ++k) {
+      const kb::NavTask t = sel.next(model, *d.space, rng);
+      EXPECT_TRUE(seen.insert({t.start, t.goal}).second) << t.start << "->" << t.goal;
+    }
+    EXPECT_EQ(seen, (std::set<std::pair<std::string, std::string>>{
+                        {"shop", "room1"}, {"room1", "shop"}, {"shop", "room2"}, {"room2", "shop"}}));
+  }
+  // Nothing known yet: the longest route (shop <-> room2, 6 moves) comes first.
+  DeliveryRouteSelector fresh("shop", {"room1", "room2"});
+  const kb::NavTask first = fresh.next(model, *d.space, rng);
+  EXPECT_TRUE((first.start == "shop" && first.goal == "room2") ||
+              (first.start == "room2" && first.goal == "shop"));
+  EXPECT_THROW(DeliveryRouteSelector("shop", {}), ConfigError);
+  EXPECT_THROW(DeliveryRouteSelector("shop", {"shop"}), ConfigError);
+}
+
+TEST(DeliveryLearning, LearnsOnceAndReloadsFromTheCache) {
+  const kb::NavDomain d = delivery_test::corridor();
+  const DialogConfig c = fastLearning();
+  const std::string cache = delivery_test::tempDir("delivery_cache") + "/nested/dir";
+  kb::NavigationKnowledge kb(*d.grid, d.knowledge_files);
+  const LearningReport first =
+      prepareLearnedKnowledge(d, kb, c, {"room1", "room2"}, 0.5, 7, cache, "corridor");
+  EXPECT_FALSE(first.from_cache);
+  EXPECT_EQ(first.tasks, 4u);
+  EXPECT_GT(first.episodes, 0u);
+  EXPECT_GT(first.pairs, 0u);
+  EXPECT_EQ(first.cache_file.find(cache), 0u);
+  const std::string learned = kb.learnedText();
+  EXPECT_EQ(readFile(first.cache_file), learned);
+
+  kb::NavigationKnowledge kb2(*d.grid, d.knowledge_files);
+  const LearningReport again =
+      prepareLearnedKnowledge(d, kb2, c, {"room1", "room2"}, 0.5, 7, cache, "corridor");
+  EXPECT_TRUE(again.from_cache);
+  EXPECT_EQ(again.tasks, 0u);
+  EXPECT_EQ(again.cache_file, first.cache_file);
+  EXPECT_EQ(again.pairs, first.pairs);
+  EXPECT_EQ(kb2.learnedText(), learned);
+
+  // Learning is deterministic per seed (what makes concurrent cache writers agree), and the
+  // cache key separates blocking rates, seeds and learning parameters.
+  kb::NavigationKnowledge kb3(*d.grid, d.knowledge_files);
+  prepareLearnedKnowledge(d, kb3, c, {"room1", "room2"}, 0.5, 7, "", "corridor");
+  EXPECT_EQ(kb3.learnedText(), learned);
+  const std::string n = learnedCacheName(d, c, {"room1", "room2"}, 0.5, 7, "corridor");
+  EXPECT_NE(n, learnedCacheName(d, c, {"room1", "room2"}, 0.3, 7, "corridor"));
+  EXPECT_NE(n, learnedCacheName(d, c, {"room1", "room2"}, 0.5, 8, "corridor"));
+  DialogConfig other = c;
+  other.known_threshold = 4;
+  EXPECT_NE(n, learnedCacheName(d, other, {"room1", "room2"}, 0.5, 7, "corridor"));
+
+  EXPECT_THROW(prepareLearnedKnowledge(d, kb3, c, {"room1", "room2"}, 1.5, 7, "", "corridor"),
+               ConfigError);
+  writeFileAtomic(cache + "/file", "x");
+  EXPECT_THROW(makeDirectories(cache + "/file/sub"), IoError);
+}
+
+TEST(DeliveryLearning, HigherBlockingRatesAreLearnedAsHarderNavigation) {
+  const kb::NavDomain d = delivery_test::corridor();
+  DialogConfig c = fastLearning();
+  c.known_threshold = 10;
+  auto trappedMass = [&](double br) {
+    kb::NavigationKnowledge kb(*d.grid, d.knowledge_files);
+    prepareLearnedKnowledge(d, kb, c, {"room1", "room2"}, br, 1, "", "corridor");
+    const kb::NavModel m = kb.buildModel({"morning"});
+    // Moving right into the blocking area (column 3) from column 2, middle row.
+    const mdp::StateId s = d.space->stateOf(d.grid->cellId(2, 1));
+    return m.dynamics.getTransitionProbability(s, nav::kRight, d.space->trappedState());
+  };
+  EXPECT_LT(trappedMass(0.0), trappedMass(1.0));
+}
+
+}  // namespace

@@ -1,0 +1,42 @@
+// ExperimentPaths: finding the repository's config/ and maps/ for the CLIs.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/dialog/experiment_paths.h"
+#include "delivery_test_support.h"
+
+namespace {
+
+using namespace krr::dialog;
+
+TEST(ExperimentPaths, ResolvesTheRepositoryFiles) {
+  const std::string root = delivery_test::repo("");
+  const ExperimentPaths p = ExperimentPaths::find(root, "office_30x30");
+  EXPECT_EQ(p.dialog_yaml, p.root + "/config/dialog.yaml");
+  EXPECT_EQ(p.geometry, p.root + "/maps/office_30x30_geometry.plog");
+  EXPECT_EQ(p.navigation_plog, p.root + "/config/navigation.plog");
+  // Unknown domain: no geometry file, named in the error.
+  try {
+    ExperimentPaths::find(root, "office_7x7");
+    ADD_FAILURE() << "no error";
+  } catch (const krr::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("office_7x7"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(ExperimentPaths::find(delivery_test::tempDir("no_repo"), "office_30x30"),
+               krr::ConfigError);
+}
+
+TEST(ExperimentPaths, DefaultCacheDirectoryFollowsTheEnvironment) {
+  ::setenv("KRR_CACHE_DIR", "/tmp/some_cache", 1);
+  EXPECT_EQ(defaultCacheDir(), "/tmp/some_cache");
+  ::unsetenv("KRR_CACHE_DIR");
+  ::setenv("XDG_CACHE_HOME", "/tmp/xdg", 1);
+  EXPECT_EQ(defaultCacheDir(), "/tmp/xdg/krr_rl/delivery");
+  ::unsetenv("XDG_CACHE_HOME");
+  ::setenv("HOME", "/tmp/home", 1);
+  EXPECT_EQ(defaultCacheDir(), "/tmp/home/.cache/krr_rl/delivery");
+}
+
+}  // namespace

@@ -1,0 +1,316 @@
+// learner_node: Procedure 1 of the paper, the robot's free time.
+//
+// While no task is active, the node selects navigation tasks (kb::LeastKnownSelector: the route
+// the knowledge base knows least), learns them with R-Max in the stochastic-blockage simulator
+// (kb::FreeTimeLearner, starting from the model the knowledge base gives), and sends every
+// newly learned or re-learned distribution to reasoner_node's add_knowledge service.
+//
+// A task is active while a goal of the navigation action is pending or active (watched on
+// <navigation_action>/status) and for ~task_hold seconds after a service request or a user
+// utterance (the dialog that precedes a delivery). Learning is interrupted between episodes;
+// what was learned so far is extracted and sent before the node pauses.
+#include <actionlib_msgs/GoalStatusArray.h>
+#include <krr_msgs/AddKnowledge.h>
+#include <krr_msgs/ServiceRequest.h>
+#include <krr_msgs/UserUtterance.h>
+#include <ros/ros.h>
+#include <std_msgs/String.h>
+
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/common/random.h"
+#include "krr_core/kb/free_time_learner.h"
+#include "krr_ros/conversions.h"
+#include "krr_ros/nav_kb.h"
+#include "krr_ros/params.h"
+
+namespace {
+
+const char* const kLog = "learner";
+using Entry = krr::kb::NavigationKnowledge::LearnedEntry;
+
+/// @brief Validated parameters of learner_node.
+struct LearnerParams {
+  krr_ros::NavKbParams kb;            ///< map, grid, P-log files (nav_kb.h)
+  std::string learned_file;           ///< ~learned_file: knowledge to start from ("" = none)
+  std::string knowledge_service;      ///< ~knowledge_service: AddKnowledge service
+  double service_timeout = 10;        ///< ~service_timeout (s)
+  std::string navigation_action;      ///< ~navigation_action: action whose goals are tasks
+  std::string request_topic;          ///< ~request_topic: ServiceRequest ("" = not watched)
+  std::string utterance_topic;        ///< ~utterance_topic: UserUtterance ("" = not watched)
+  double task_hold = 30;              ///< ~task_hold: s paused after a request / utterance
+  double idle_delay = 1;              ///< ~idle_delay: s idle after a task before learning
+  std::vector<std::string> places;    ///< ~places: goal candidates ([] = every place)
+  std::string start_place;            ///< ~start_place
+  bool enabled = true;                ///< ~enabled
+  long rest_threshold = 5;            ///< ~rest_threshold: a task changing fewer distributions
+                                      ///< than this taught (almost) nothing;
+  long rest_after = 10;               ///< ~rest_after: after so many such tasks in a row ...
+  double rest_period = 60;            ///< ~rest_period: ... before resting this long (s)
+  krr::kb::FreeTimeOptions options;   ///< ~time, ~blocking_rate, ~max_*, ~convergence_episodes,
+                                      ///< ~known_threshold, ~rmax, ~discount, ~step_cost,
+                                      ///< ~replan_every
+  std::uint64_t seed = 1;             ///< ~seed: task selection, simulator, R-Max
+
+  static LearnerParams read(krr_ros::ParamReader& r) {
+    LearnerParams p;
+    p.seed = r.seed();
+    p.kb = krr_ros::NavKbParams::read(r);
+    p.learned_file = r.path("learned_file", "", false);
+    p.knowledge_service = r.str("knowledge_service", "/reasoner/add_knowledge");
+    p.service_timeout = r.number("service_timeout", 10, 0.1, 3600);
+    p.navigation_action = r.str("navigation_action", "navigate");
+    p.request_topic = r.str("request_topic", "service_request");
+    p.utterance_topic = r.str("utterance_topic", "user_utterance");
+    p.task_hold = r.number("task_hold", 30, 0, 86400);
+    p.idle_delay = r.number("idle_delay", 1, 0, 86400);
+    p.places = r.strings("places", {});
+    p.start_place = r.str("start_place", "shop");
+    p.enabled = r.boolean("enabled", true);
+    p.rest_threshold = r.integer("rest_threshold", 5, 0, 1000000);
+    p.rest_after = r.integer("rest_after", 10, 1, 1000000);
+    p.rest_period = r.number("rest_period", 60, 0, 86400);
+    krr::kb::FreeTimeOptions& o = p.options;
+    o.time = r.str("time", "morning");
+    o.blocking_rate = r.number("blocking_rate", -1, -1, 1);
+    o.max_episodes_per_task = static_cast<std::size_t>(r.integer("max_episodes_per_task", 300, 1, 1000000));
+    o.convergence_episodes = static_cast<std::size_t>(r.integer("convergence_episodes", 20, 1, 1000000));
+    o.max_tasks = static_cast<std::size_t>(r.integer("max_tasks", 0, 0, 1000000));
+    o.rmax.known_threshold = static_cast<std::uint32_t>(r.integer("known_threshold", 5, 1, 1000000));
+    o.rmax.rmax = r.number("rmax", 40, 1e-6, 1e9);
+    o.rmax.discount = r.number("discount", 0.95, 0.01, 1.0);
+    o.rmax.step_cost = r.number("step_cost", 1, 0, 1e6);
+    o.rmax.replan_every = static_cast<std::uint32_t>(r.integer("replan_every", 10, 0, 1000000));
+    if (o.rmax.step_cost >= o.rmax.rmax)
+      r.refuse("step_cost", std::to_string(o.rmax.step_cost),
+               "must be below rmax = " + std::to_string(o.rmax.rmax));
+    try {
+      o.validate();
+    } catch (const krr::Error& e) {
+      throw krr::ConfigError("parameters of " + ros::this_node::getName() + ": " + e.what());
+    }
+    r.rejectUnknown();
+    return p;
+  }
+};
+
+class LearnerNode {
+ public:
+  LearnerNode(ros::NodeHandle& nh, ros::NodeHandle& pnh, LearnerParams params)
+      : p_(std::move(params)),
+        dom_(p_.kb.loadDomain()),
+        knowledge_(*dom_.grid, dom_.knowledge_files),
+        selector_(placesOrAll(), p_.start_place),
+        rng_(krr::makeRng(p_.seed, "learner_node")) {
+    checkParam("start_place", p_.start_place, [&] { dom_.grid->placeCell(p_.start_place); });
+    for (const std::string& place : p_.places)
+      checkParam("places", place, [&] { dom_.grid->placeCell(place); });
+    checkParam("time", p_.options.time, [&] { dom_.simulator->timeOfDayIndex(p_.options.time); });
+    if (!p_.learned_file.empty() && std::filesystem::exists(p_.learned_file)) {
+      knowledge_.loadLearned(p_.learned_file);
+      for (const Entry& e : knowledge_.learnedEntries()) sent_[key(e)] = e;
+    }
+    client_ = nh.serviceClient<krr_msgs::AddKnowledge>(p_.knowledge_service);
+    status_pub_ = pnh.advertise<std_msgs::String>("status", 10, true);
+    if (!p_.navigation_action.empty())
+      subs_.push_back(nh.subscribe(p_.navigation_action + "/status", 10,
+                                   &LearnerNode::onGoalStatus, this));
+    if (!p_.request_topic.empty())
+      subs_.push_back(nh.subscribe<krr_msgs::ServiceRequest>(
+          p_.request_topic, 10, [this](const krr_msgs::ServiceRequestConstPtr&) {
+            hold("service request");
+          }));
+    if (!p_.utterance_topic.empty())
+      subs_.push_back(nh.subscribe<krr_msgs::UserUtterance>(
+          p_.utterance_topic, 10, [this](const krr_msgs::UserUtteranceConstPtr&) {
+            hold("user utterance");
+          }));
+    ROS_INFO_NAMED(kLog, "%zu learned distribution(s) known at start; learning %s from %s at "
+                   "time %s, up to %zu episodes per task, %s", sent_.size(),
+                   p_.enabled ? "enabled" : "disabled", p_.start_place.c_str(),
+                   p_.options.time.c_str(), p_.options.max_episodes_per_task,
+                   p_.options.max_tasks ? (std::to_string(p_.options.max_tasks) + " tasks").c_str()
+                                        : "until stopped");
+  }
+
+  /// @brief The free-time loop; returns when ROS shuts down.
+  void run() {
+    std::size_t done = 0;
+    ros::Rate wait(20);
+    while (ros::ok()) {
+      if (ros::WallTime::now() < rest_until_) {
+        setStatus("resting: fewer than " + std::to_string(p_.rest_threshold) +
+                  " distribution(s) learned per task in " + std::to_string(p_.rest_after) +
+                  " task(s) in a row");
+        wait.sleep();
+        continue;
+      }
+      const std::string reason = busyReason();
+      const bool finished = !p_.enabled || (p_.options.max_tasks && done >= p_.options.max_tasks);
+      if (finished || !reason.empty()) {
+        setStatus(finished ? (p_.enabled ? "finished: " + std::to_string(done) + " task(s)"
+                                         : "disabled")
+                           : "paused: " + reason);
+        wait.sleep();
+        continue;
+      }
+      krr::kb::FreeTimeOptions o = p_.options;
+      if (o.max_tasks) o.max_tasks -= done;
+      try {
+        krr::kb::FreeTimeLearner learner(dom_, knowledge_, selector_, o);
+        setStatus("learning");
+        const krr::kb::FreeTimeReport r = learner.run(
+            rng_,
+            [this] {
+              return !ros::ok() || !busyReason().empty() || ros::WallTime::now() < rest_until_;
+            },
+            [this](const krr::kb::NavTask& t) { onTask(t); });
+        done += r.tasks.size();
+      } catch (const std::exception& e) {
+        ROS_ERROR_NAMED(kLog, "free-time learning failed: %s; retrying in 5 s", e.what());
+        setStatus(std::string("error: ") + e.what());
+        ros::Duration(5).sleep();
+      }
+    }
+  }
+
+ private:
+  /// @brief Run a check of a parameter's value, naming the parameter if it fails.
+  template <class Check>
+  static void checkParam(const std::string& name, const std::string& value, Check check) {
+    try {
+      check();
+    } catch (const krr::Error& e) {
+      throw krr::ConfigError("parameter " + ros::this_node::getName() + "/" + name + " = '" +
+                             value + "': " + e.what());
+    }
+  }
+
+  static std::tuple<int, int, std::string> key(const Entry& e) {
+    return std::make_tuple(e.cell, e.move, e.time);
+  }
+
+  std::vector<std::string> placesOrAll() const {
+    if (!p_.places.empty()) return p_.places;
+    std::vector<std::string> all;
+    for (const auto& pl : dom_.grid->places()) all.push_back(pl.name);
+    return all;
+  }
+
+  /// @brief After each practised task: send what changed to the reasoner.
+  void onTask(const krr::kb::NavTask& task) {
+    std::vector<Entry> changed;
+    for (const Entry& e : knowledge_.learnedEntries()) {
+      auto it = sent_.find(key(e));
+      if (it == sent_.end() || it->second.outcomes != e.outcomes ||
+          it->second.denominator != e.denominator)
+        changed.push_back(e);
+    }
+    setStatus("learned " + task.start + "->" + task.goal + ": " +
+              std::to_string(changed.size()) + " new or updated distribution(s)");
+    const long n = static_cast<long>(changed.size());
+    unproductive_ = n < p_.rest_threshold ? unproductive_ + 1 : 0;
+    if (unproductive_ >= p_.rest_after) {  // the knowledge base has what practice can teach
+      unproductive_ = 0;
+      rest_until_ = ros::WallTime::now() + ros::WallDuration(p_.rest_period);
+    }
+    if (changed.empty()) return;
+    krr_msgs::AddKnowledge srv;
+    srv.request.update.header.stamp = ros::Time::now();
+    srv.request.update.source = ros::this_node::getName();
+    srv.request.update.atoms = krr_ros::toAtoms(changed);
+    if (!client_.waitForExistence(ros::Duration(p_.service_timeout)) || !client_.call(srv)) {
+      ROS_WARN_NAMED(kLog, "service %s unavailable: %zu distribution(s) kept for the next "
+                     "attempt", p_.knowledge_service.c_str(), changed.size());
+      return;
+    }
+    if (!srv.response.success) {
+      ROS_ERROR_NAMED(kLog, "the reasoner refused the update: %s", srv.response.message.c_str());
+      return;
+    }
+    for (const Entry& e : changed) sent_[key(e)] = e;
+    ROS_INFO_NAMED(kLog, "task %s->%s: sent %zu distribution(s); the reasoner knows %u",
+                   task.start.c_str(), task.goal.c_str(), changed.size(),
+                   srv.response.total_learned);
+  }
+
+  void onGoalStatus(const actionlib_msgs::GoalStatusArrayConstPtr& msg) {
+    bool active = false;
+    for (const auto& s : msg->status_list)
+      active = active || s.status == s.PENDING || s.status == s.ACTIVE ||
+               s.status == s.PREEMPTING || s.status == s.RECALLING;
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (goal_active_ && !active) idle_until_ = ros::WallTime::now() + ros::WallDuration(p_.idle_delay);
+    goal_active_ = active;
+  }
+
+  void hold(const std::string& what) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    hold_until_ = ros::WallTime::now() + ros::WallDuration(p_.task_hold);
+    hold_reason_ = what;
+  }
+
+  /// @brief Why learning must not run now ("" = free time).
+  std::string busyReason() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    const ros::WallTime now = ros::WallTime::now();
+    if (goal_active_) return "navigation goal active";
+    if (now < hold_until_) return hold_reason_ + " received";
+    if (now < idle_until_) return "task just ended";
+    return "";
+  }
+
+  void setStatus(const std::string& s) {
+    if (s == status_) return;
+    status_ = s;
+    std_msgs::String msg;
+    msg.data = s;
+    status_pub_.publish(msg);
+    ROS_INFO_NAMED(kLog, "%s", s.c_str());
+  }
+
+  LearnerParams p_;
+  krr::kb::NavDomain dom_;
+  krr::kb::NavigationKnowledge knowledge_;
+  krr::kb::LeastKnownSelector selector_;
+  krr::Rng rng_;
+  std::map<std::tuple<int, int, std::string>, Entry> sent_;
+  long unproductive_ = 0;           // tasks in a row that changed nothing (learning thread)
+  ros::WallTime rest_until_;        // learning thread only
+  ros::ServiceClient client_;
+  ros::Publisher status_pub_;
+  std::vector<ros::Subscriber> subs_;
+  std::mutex mutex_;  // guards the task state below (callback thread vs learning thread)
+  bool goal_active_ = false;
+  ros::WallTime hold_until_, idle_until_;
+  std::string hold_reason_, status_;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "learner");
+  ros::NodeHandle nh, pnh("~");
+  std::unique_ptr<LearnerNode> node;
+  try {
+    krr_ros::ParamReader reader(pnh);
+    LearnerParams params = LearnerParams::read(reader);
+    ROS_INFO_NAMED(kLog, "seed %lu, base_dir %s", static_cast<unsigned long>(params.seed),
+                   reader.baseDir().c_str());
+    node = std::make_unique<LearnerNode>(nh, pnh, std::move(params));
+  } catch (const std::exception& e) {
+    ROS_FATAL_NAMED(kLog, "cannot start: %s", e.what());
+    return 1;
+  }
+  ros::AsyncSpinner spinner(1);  // callbacks run while the main thread learns
+  spinner.start();
+  node->run();
+  return 0;
+}

@@ -1,0 +1,406 @@
+// navigation_node: the robot's navigation in the simulated office, as a ROS action.
+//
+// Loads the map and the navigation domain, publishes the map (latched), the blocking areas and
+// places (markers), and serves the `navigate` action: for each goal it gets the navigation MDP
+// built from the knowledge base (Procedure 2; from reasoner_node's build_task_model service, or
+// in-process from the same files with ~model_source local), solves it by value iteration, and
+// executes the policy move by move in the stochastic-blockage simulator, driving an OMPL path
+// for every executed move. The robot pose goes out as tf2 map -> base_link and on robot_pose.
+#include <actionlib/server/simple_action_server.h>
+#include <geometry_msgs/TransformStamped.h>
+#include <krr_msgs/BuildTaskModel.h>
+#include <krr_msgs/NavigateAction.h>
+#include <nav_msgs/OccupancyGrid.h>
+#include <nav_msgs/Path.h>
+#include <ros/ros.h>
+#include <tf2_ros/transform_broadcaster.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/common/random.h"
+#include "krr_core/kb/navigation_knowledge.h"
+#include "krr_core/mdp/navigation_task.h"
+#include "krr_core/mdp/solvers.h"
+#include "krr_core/nav/ompl_planner.h"
+#include "krr_ros/conversions.h"
+#include "krr_ros/nav_kb.h"
+#include "krr_ros/params.h"
+
+namespace {
+
+const char* const kLog = "navigation";
+using NavigateServer = actionlib::SimpleActionServer<krr_msgs::NavigateAction>;
+
+/// @brief Validated parameters of navigation_node.
+struct NavigationParams {
+  krr_ros::NavKbParams kb;             ///< map, grid, P-log files (nav_kb.h)
+  std::string model_source;            ///< ~model_source: reasoner | local
+  std::string model_service;           ///< ~model_service: BuildTaskModel service
+  double model_timeout = 30;           ///< ~model_timeout: s to wait for the service
+  std::string learned_file;            ///< ~learned_file: local source only ("" = none)
+  std::string start_place;             ///< ~start_place: where the robot starts
+  std::string time;                    ///< ~time: default time of day of goals
+  double blocking_rate = -1;           ///< ~blocking_rate: br of the world (< 0: navigation.yaml)
+  double sim_rate = 0;                 ///< ~sim_rate: simulated moves per second (0: no wait)
+  long step_limit = 0;                 ///< ~step_limit: moves per goal (0: the domain's)
+  double discount = 0.99, step_cost = 1, rmax = 40;  ///< ~discount, ~step_cost, ~rmax
+  bool ompl_paths = true;              ///< ~ompl_paths: plan an OMPL path per executed move
+  double pose_rate = 10;               ///< ~pose_rate: tf / pose republish rate (Hz)
+  std::string map_frame, base_frame;   ///< ~map_frame, ~base_frame
+  std::uint64_t seed = 1;              ///< ~seed: simulator and OMPL
+
+  static NavigationParams read(krr_ros::ParamReader& r) {
+    NavigationParams p;
+    p.seed = r.seed();
+    p.kb = krr_ros::NavKbParams::read(r);
+    p.model_source = r.str("model_source", "reasoner", {"reasoner", "local"});
+    p.model_service = r.str("model_service", "/reasoner/build_task_model");
+    p.model_timeout = r.number("model_timeout", 30, 0.1, 3600);
+    p.learned_file = r.path("learned_file", "", false);
+    p.start_place = r.str("start_place", "shop");
+    p.time = r.str("time", "morning");
+    p.blocking_rate = r.number("blocking_rate", -1, -1, 1);
+    p.sim_rate = r.number("sim_rate", 0, 0, 1000);
+    p.step_limit = r.integer("step_limit", 0, 0, 1000000);
+    p.discount = r.number("discount", 0.99, 0.01, 1.0);
+    p.step_cost = r.number("step_cost", 1.0, 0.0, 1e6);
+    p.rmax = r.number("rmax", 40.0, 1e-6, 1e9);
+    p.ompl_paths = r.boolean("ompl_paths", true);
+    p.pose_rate = r.number("pose_rate", 10, 0.1, 1000);
+    p.map_frame = r.str("map_frame", "map");
+    p.base_frame = r.str("base_frame", "base_link");
+    if (p.map_frame.empty() || p.base_frame.empty() || p.map_frame == p.base_frame)
+      r.refuse("base_frame", "'" + p.base_frame + "'",
+               "map_frame and base_frame must be two different, non-empty names");
+    if (p.step_cost >= p.rmax)
+      r.refuse("step_cost", std::to_string(p.step_cost),
+               "must be below rmax = " + std::to_string(p.rmax));
+    r.rejectUnknown();
+    return p;
+  }
+};
+
+/// @brief A goal that cannot be accepted (unknown place, cell out of range...).
+class GoalError : public krr::Error {
+ public:
+  using krr::Error::Error;
+};
+
+class NavigationNode {
+ public:
+  NavigationNode(ros::NodeHandle& nh, ros::NodeHandle& pnh, NavigationParams params)
+      : p_(std::move(params)),
+        dom_(p_.kb.loadDomain()),
+        map_(krr::nav::loadMap(dom_.config.map)),
+        rng_(krr::makeRng(p_.seed, "navigation_node")),
+        server_(nh, "navigate", [this](const krr_msgs::NavigateGoalConstPtr& g) { execute(g); },
+                false) {
+    krr::nav::seedOmpl(p_.seed);
+    if (p_.ompl_paths)
+      planner_ = std::make_unique<krr::nav::OmplPlanner>(map_, dom_.config.planner, p_.seed);
+    context_.blocking_rate = p_.blocking_rate;
+    const std::string param = "parameter " + ros::this_node::getName() + "/";
+    context_.time_of_day = timeIndex(p_.time, param + "time = '" + p_.time + "'");
+    try {
+      cell_ = dom_.grid->placeCell(p_.start_place);
+    } catch (const krr::Error& e) {
+      throw krr::ConfigError(param + "start_place = '" + p_.start_place + "': " + e.what());
+    }
+    pose_ = dom_.grid->cellCentre(cell_);
+    if (p_.step_limit == 0) p_.step_limit = dom_.domain.step_limit;
+    if (p_.model_source == "local")
+      knowledge_ = std::make_unique<krr::kb::NavigationKnowledge>(*dom_.grid, dom_.knowledge_files);
+    else
+      model_client_ = nh.serviceClient<krr_msgs::BuildTaskModel>(p_.model_service);
+
+    map_pub_ = nh.advertise<nav_msgs::OccupancyGrid>("map", 1, true);
+    markers_pub_ = nh.advertise<visualization_msgs::MarkerArray>("blocking_areas", 1, true);
+    pose_pub_ = nh.advertise<geometry_msgs::PoseStamped>("robot_pose", 10, true);
+    plan_pub_ = nh.advertise<nav_msgs::Path>("planned_path", 1, true);
+    executed_pub_ = nh.advertise<nav_msgs::Path>("executed_path", 1, true);
+    const ros::Time now = ros::Time::now();
+    map_pub_.publish(krr_ros::toMsg(map_, p_.map_frame, now));
+    markers_pub_.publish(krr_ros::areaMarkers(*dom_.simulator, context_, p_.map_frame, now));
+    publishPose();
+    pose_timer_ = pnh.createTimer(ros::Duration(1.0 / p_.pose_rate),
+                                  [this](const ros::TimerEvent&) { publishPose(); });
+    server_.start();
+    ROS_INFO_NAMED(kLog, "domain %s (%d x %d cells, %d free), robot at %s (cell %d), time %s, "
+                   "model from %s, step limit %ld, sim_rate %g", p_.kb.domain.c_str(),
+                   dom_.grid->cols(), dom_.grid->rows(), dom_.grid->numFreeCells(),
+                   p_.start_place.c_str(), cell_, p_.time.c_str(),
+                   p_.model_source == "local" ? "the local knowledge base"
+                                              : p_.model_service.c_str(),
+                   p_.step_limit, p_.sim_rate);
+  }
+
+ private:
+  int timeIndex(const std::string& time, const std::string& what) const {
+    try {
+      return dom_.simulator->timeOfDayIndex(time);
+    } catch (const krr::Error& e) {
+      throw GoalError(what + ": " + e.what());
+    }
+  }
+
+  /// @brief The goal cell, or GoalError naming what is wrong with the goal.
+  int resolveGoal(const krr_msgs::NavigateGoal& goal, int from) const {
+    const krr::nav::NavGrid& g = *dom_.grid;
+    int cell = goal.cell;
+    if (!goal.place.empty()) {
+      try {
+        cell = g.placeCell(goal.place);
+      } catch (const krr::Error&) {
+        std::string known;
+        for (const auto& pl : g.places()) known += (known.empty() ? "" : ", ") + pl.name;
+        throw GoalError("unknown place '" + goal.place + "' (known places: " + known + ")");
+      }
+    } else if (!g.valid(cell)) {
+      throw GoalError("goal cell " + std::to_string(cell) + " is out of range [0, " +
+                      std::to_string(g.numCells() - 1) + "] (no place given)");
+    } else if (!g.isFree(cell)) {
+      throw GoalError("goal cell " + std::to_string(cell) + " is not a free cell");
+    }
+    const std::vector<int> reach = g.reachableFrom(from);
+    if (!std::binary_search(reach.begin(), reach.end(), cell))
+      throw GoalError("goal cell " + std::to_string(cell) + " cannot be reached from cell " +
+                      std::to_string(from));
+    return cell;
+  }
+
+  /// @brief Procedure 2: the transition model for `time`, from the knowledge base.
+  krr::mdp::SparseModel model(const std::string& time) {
+    if (knowledge_) {
+      if (!p_.learned_file.empty() && std::filesystem::exists(p_.learned_file)) {
+        const auto stamp = std::filesystem::last_write_time(p_.learned_file);
+        if (stamp != learned_stamp_) {
+          knowledge_->clearLearned();
+          knowledge_->loadLearned(p_.learned_file);
+          learned_stamp_ = stamp;
+        }
+      }
+      return knowledge_->buildModel({time}, p_.discount).dynamics;
+    }
+    if (!model_client_.waitForExistence(ros::Duration(p_.model_timeout)))
+      throw krr::IoError("service " + p_.model_service + " is not available (is reasoner_node "
+                         "running?)");
+    krr_msgs::BuildTaskModel srv;
+    srv.request.task = "navigation";
+    srv.request.times = {time};
+    srv.request.discount = p_.discount;
+    if (!model_client_.call(srv))
+      throw krr::IoError("call to " + p_.model_service + " failed");
+    if (!srv.response.success)
+      throw krr::Error("the reasoner could not build the model: " + srv.response.message);
+    return krr_ros::navigationModelFromMsg(srv.response, *dom_.space);
+  }
+
+  /// @brief The most likely route under the policy: follow each move's likeliest outcome.
+  std::vector<krr::nav::Point2> intendedRoute(const krr::mdp::SparseModel& m,
+                                              const std::vector<krr::mdp::ActionId>& policy,
+                                              int from, int goal) const {
+    std::vector<krr::nav::Point2> pts{dom_.grid->cellCentre(from)};
+    std::vector<std::uint8_t> seen(dom_.space->numStates(), 0);
+    krr::mdp::StateId s = dom_.space->stateOf(from);
+    const krr::mdp::StateId g = dom_.space->stateOf(goal);
+    for (long k = 0; k < p_.step_limit && s != g && !seen[s]; ++k) {
+      seen[s] = 1;
+      krr::mdp::StateId best = s;
+      double bp = -1;
+      for (krr::mdp::Outcome o : m.successors(s, policy[s]))
+        if (o.state != dom_.space->trappedState() && o.state != s && o.probability > bp) {
+          bp = o.probability;
+          best = o.state;
+        }
+      if (best == s) break;
+      s = best;
+      pts.push_back(dom_.grid->cellCentre(dom_.space->cellOf(s)));
+    }
+    return pts;
+  }
+
+  void execute(const krr_msgs::NavigateGoalConstPtr& goal) {
+    krr_msgs::NavigateResult result;
+    result.final_cell = currentCell();
+    try {
+      const int goal_cell = resolveGoal(*goal, result.final_cell);
+      const std::string time = goal->time.empty() ? p_.time : goal->time;
+      krr::nav::Context ctx = context_;
+      ctx.time_of_day = timeIndex(time, "goal time");
+      ROS_INFO_NAMED(kLog, "goal: %s (cell %d) from cell %d, time %s",
+                     goal->place.empty() ? "cell" : goal->place.c_str(), goal_cell,
+                     result.final_cell, time.c_str());
+      drive(goal_cell, model(time), ctx, &result);
+    } catch (const GoalError& e) {
+      finish(&result, "rejected", e.what());
+    } catch (const std::exception& e) {
+      finish(&result, "error", e.what());
+    }
+  }
+
+  void drive(int goal_cell, const krr::mdp::SparseModel& dynamics, const krr::nav::Context& ctx,
+             krr_msgs::NavigateResult* result) {
+    const krr::kb::NavStateSpace& sp = *dom_.space;
+    const krr::mdp::StateId goal = sp.stateOf(goal_cell);
+    const krr::mdp::SparseModel task = krr::mdp::makeNavigationTask(
+        dynamics, {goal}, {sp.trappedState()}, {p_.step_cost, p_.rmax});
+    krr::mdp::SolverOptions opt;
+    opt.epsilon = 1e-3;
+    const std::vector<krr::mdp::ActionId> policy = krr::mdp::valueIteration(task, opt).policy;
+    int cell = currentCell();
+    std::vector<krr::nav::Point2> executed{dom_.grid->cellCentre(cell)};
+    plan_pub_.publish(krr_ros::pathMsg(intendedRoute(dynamics, policy, cell, goal_cell),
+                                       p_.map_frame, ros::Time::now()));
+    ros::Rate rate(p_.sim_rate > 0 ? p_.sim_rate : 1.0);
+    krr_msgs::NavigateFeedback fb;
+    fb.goal_cell = goal_cell;
+    for (long step = 1; cell != goal_cell; ++step) {
+      if (server_.isPreemptRequested() || !ros::ok())
+        return finish(result, "preempted", "preempted after " + std::to_string(step - 1) + " moves");
+      if (step > p_.step_limit)
+        return finish(result, "step_limit", "step limit of " + std::to_string(p_.step_limit) +
+                                                " moves reached at cell " + std::to_string(cell));
+      const int move = static_cast<int>(policy[sp.stateOf(cell)]);
+      const krr::nav::Outcome out = dom_.simulator->step(cell, move, ctx, rng_);
+      const int expected = dom_.grid->neighbour(cell, move);
+      if (out.cell != cell) moveAlong(cell, out.cell, &executed);
+      cell = out.cell;
+      result->final_cell = cell;
+      result->steps = static_cast<std::uint32_t>(step);
+      fb.current_cell = cell;
+      fb.step = static_cast<std::uint32_t>(step);
+      fb.last_move = krr::nav::moveName(move);
+      fb.blocked = out.blocked;
+      fb.pose = krr_ros::poseMsg(pose_, yaw_, p_.map_frame, ros::Time::now());
+      server_.publishFeedback(fb);
+      executed_pub_.publish(krr_ros::pathMsg(executed, p_.map_frame, ros::Time::now()));
+      if (out.trapped)
+        return finish(result, "trapped", "trapped by walkers" + areasOf(expected) +
+                                             " moving " + fb.last_move + " from cell " +
+                                             std::to_string(cell) + " after " +
+                                             std::to_string(step) + " moves");
+      if (cell != expected && cell != goal_cell)  // slipped or blocked: show the new route
+        plan_pub_.publish(krr_ros::pathMsg(intendedRoute(dynamics, policy, cell, goal_cell),
+                                           p_.map_frame, ros::Time::now()));
+      if (p_.sim_rate > 0) rate.sleep();
+    }
+    finish(result, "reached", "");
+  }
+
+  /// @brief " in ba1, ba2" for the blocking areas of a cell ("" if none or invalid).
+  std::string areasOf(int cell) const {
+    if (!dom_.grid->valid(cell)) return "";
+    std::string names;
+    for (std::size_t a = 0; a < dom_.grid->areas().size(); ++a)
+      if (dom_.grid->areaMask(cell) & (1u << a))
+        names += (names.empty() ? " in " : ", ") + dom_.grid->areas()[a].name;
+    return names;
+  }
+
+  /// @brief Drive the robot from one cell to the next along an OMPL path (straight line if
+  /// OMPL finds none in time) and record it.
+  void moveAlong(int from, int to, std::vector<krr::nav::Point2>* executed) {
+    std::vector<krr::nav::Point2> path;
+    if (planner_) {
+      try {
+        path = planner_->planCellMove(*dom_.grid, from, to);
+      } catch (const krr::Error& e) {
+        ROS_WARN_NAMED(kLog, "OMPL: %s; driving straight from cell %d to %d", e.what(), from, to);
+      }
+    }
+    if (path.empty()) path = {dom_.grid->cellCentre(from), dom_.grid->cellCentre(to)};
+    executed->insert(executed->end(), path.begin(), path.end());
+    std::lock_guard<std::mutex> lock(mutex_);
+    const krr::nav::Point2 a = path.size() > 1 ? path[path.size() - 2] : pose_;
+    pose_ = path.back();
+    if (std::hypot(pose_.x - a.x, pose_.y - a.y) > 1e-9) yaw_ = std::atan2(pose_.y - a.y, pose_.x - a.x);
+    cell_ = to;
+    publishPoseLocked();
+  }
+
+  void finish(krr_msgs::NavigateResult* r, const std::string& outcome, const std::string& reason) {
+    r->outcome = outcome;
+    r->success = outcome == "reached";
+    r->failure_reason = reason;
+    if (r->success) {
+      ROS_INFO_NAMED(kLog, "goal reached at cell %d in %u moves", r->final_cell, r->steps);
+      server_.setSucceeded(*r, "reached");
+    } else if (outcome == "preempted") {
+      ROS_INFO_NAMED(kLog, "goal %s", reason.c_str());
+      server_.setPreempted(*r, reason);
+    } else {
+      ROS_WARN_NAMED(kLog, "goal failed (%s): %s", outcome.c_str(), reason.c_str());
+      server_.setAborted(*r, reason);
+    }
+  }
+
+  int currentCell() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return cell_;
+  }
+
+  void publishPose() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    publishPoseLocked();
+  }
+
+  void publishPoseLocked() {
+    const geometry_msgs::PoseStamped pose =
+        krr_ros::poseMsg(pose_, yaw_, p_.map_frame, ros::Time::now());
+    pose_pub_.publish(pose);
+    geometry_msgs::TransformStamped tf;
+    tf.header = pose.header;
+    tf.child_frame_id = p_.base_frame;
+    tf.transform.translation.x = pose.pose.position.x;
+    tf.transform.translation.y = pose.pose.position.y;
+    tf.transform.rotation = pose.pose.orientation;
+    tf_.sendTransform(tf);
+  }
+
+  NavigationParams p_;
+  krr::kb::NavDomain dom_;
+  krr::nav::OccupancyGrid map_;
+  krr::Rng rng_;
+  krr::nav::Context context_;
+  std::unique_ptr<krr::nav::OmplPlanner> planner_;
+  std::unique_ptr<krr::kb::NavigationKnowledge> knowledge_;
+  std::filesystem::file_time_type learned_stamp_{};
+  ros::ServiceClient model_client_;
+  std::mutex mutex_;  // guards cell_, pose_, yaw_ (timer thread vs action thread)
+  int cell_ = -1;
+  krr::nav::Point2 pose_;
+  double yaw_ = 0;
+  ros::Publisher map_pub_, markers_pub_, pose_pub_, plan_pub_, executed_pub_;
+  tf2_ros::TransformBroadcaster tf_;
+  ros::Timer pose_timer_;
+  NavigateServer server_;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "navigation");
+  ros::NodeHandle nh, pnh("~");
+  std::unique_ptr<NavigationNode> node;
+  try {
+    krr_ros::ParamReader reader(pnh);
+    NavigationParams params = NavigationParams::read(reader);
+    ROS_INFO_NAMED(kLog, "seed %lu (simulator and OMPL), base_dir %s",
+                   static_cast<unsigned long>(params.seed), reader.baseDir().c_str());
+    node = std::make_unique<NavigationNode>(nh, pnh, std::move(params));
+  } catch (const std::exception& e) {
+    ROS_FATAL_NAMED(kLog, "cannot start: %s", e.what());
+    return 1;
+  }
+  ROS_INFO_NAMED(kLog, "ready: send goals to the 'navigate' action");
+  ros::spin();
+  return 0;
+}

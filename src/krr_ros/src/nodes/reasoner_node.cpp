@@ -1,0 +1,254 @@
+// reasoner_node: the knowledge base of the robot as ROS services.
+//
+// Two P-log knowledge bases: the domain KB (config/office.plog: people, items, rooms, the
+// request prior) and the navigation KB (grid geometry + config/navigation.plog + what the robot
+// learned). Services: ~query_probability, ~add_knowledge, ~build_task_model. Learned knowledge
+// is written atomically to ~learned_file (navigation) and ~domain_learned_file (statements)
+// after every accepted update and reloaded at start, so a restart loses nothing.
+#include <krr_msgs/AddKnowledge.h>
+#include <krr_msgs/BuildTaskModel.h>
+#include <krr_msgs/KnowledgeUpdate.h>
+#include <krr_msgs/QueryProbability.h>
+#include <ros/ros.h>
+
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/common/files.h"
+#include "krr_core/common/resources.h"
+#include "krr_core/kb/navigation_knowledge.h"
+#include "krr_core/plog/reasoner.h"
+#include "krr_ros/conversions.h"
+#include "krr_ros/nav_kb.h"
+#include "krr_ros/params.h"
+
+namespace {
+
+const char* const kLog = "reasoner";
+
+/// @brief Validated parameters of reasoner_node.
+struct ReasonerParams {
+  std::vector<std::string> domain_files;  ///< ~domain_files: domain KB, loaded in order
+  std::string domain_learned_file;        ///< ~domain_learned_file: added statements
+  krr_ros::NavKbParams nav;               ///< navigation KB files (see nav_kb.h)
+  std::string learned_file;               ///< ~learned_file: learned navigation knowledge
+  double discount = 0.95;                 ///< ~discount: default discount of built models
+  std::uint64_t seed = 1;                 ///< ~seed (the reasoner is deterministic; logged)
+
+  static ReasonerParams read(krr_ros::ParamReader& r) {
+    ReasonerParams p;
+    p.seed = r.seed();
+    p.domain_files = r.paths("domain_files", {"config/office.plog"}, true);
+    if (p.domain_files.empty())
+      r.refuse("domain_files", "[]", "at least one P-log file is required");
+    p.nav = krr_ros::NavKbParams::read(r);
+    const std::string data = krr_ros::defaultDataDirectory();
+    p.learned_file = r.path("learned_file", data + "/learned_navigation.plog", false);
+    p.domain_learned_file = r.path("domain_learned_file", data + "/learned_domain.plog", false);
+    if (p.learned_file.empty() || p.domain_learned_file.empty() ||
+        p.learned_file == p.domain_learned_file)
+      r.refuse("domain_learned_file", "'" + p.domain_learned_file + "'",
+               "must be a non-empty path different from learned_file");
+    p.discount = r.number("discount", 0.95, 1e-6, 1.0);
+    r.rejectUnknown();
+    return p;
+  }
+};
+
+class ReasonerNode {
+ public:
+  ReasonerNode(ros::NodeHandle& pnh, ReasonerParams params)
+      : params_(std::move(params)), domain_(params_.nav.loadDomain()) {
+    krr::Stopwatch clock;
+    loadDomainKb();
+    nav_ = std::make_unique<krr::kb::NavigationKnowledge>(*domain_.grid, domain_.knowledge_files);
+    if (std::filesystem::exists(params_.learned_file)) nav_->loadLearned(params_.learned_file);
+    times_ = nav_->reasoner().sortValues("time");
+    ROS_INFO_NAMED(kLog, "knowledge loaded in %.2f s: domain KB %zu file(s), %zu added "
+                   "statement(s); navigation KB %s (%zu free cells), %zu learned distribution(s) "
+                   "from %s", clock.seconds(), params_.domain_files.size(), num_added_,
+                   params_.nav.domain.c_str(), domain_.space->numStates() - 1,
+                   nav_->learnedEntries().size(), params_.learned_file.c_str());
+    updates_pub_ = pnh.advertise<krr_msgs::KnowledgeUpdate>("knowledge_updates", 10);
+    query_srv_ = pnh.advertiseService("query_probability", &ReasonerNode::query, this);
+    add_srv_ = pnh.advertiseService("add_knowledge", &ReasonerNode::add, this);
+    build_srv_ = pnh.advertiseService("build_task_model", &ReasonerNode::build, this);
+  }
+
+ private:
+  void loadDomainKb() {
+    domain_kb_.loadFile(params_.domain_files.front());
+    for (std::size_t i = 1; i < params_.domain_files.size(); ++i)
+      domain_kb_.addStatements(krr::readFile(params_.domain_files[i]), "", params_.domain_files[i]);
+    if (std::filesystem::exists(params_.domain_learned_file)) {
+      added_text_ = krr::readFile(params_.domain_learned_file);
+      num_added_ = domain_kb_.addStatements(added_text_, "added", params_.domain_learned_file);
+    }
+  }
+
+  krr::plog::Reasoner& kbFor(const std::string& name) {
+    if (name.empty() || name == "domain") return domain_kb_;
+    if (name == "navigation") return nav_->reasoner();
+    throw krr::ConfigError("knowledge_base '" + name + "' is neither 'domain' nor 'navigation'");
+  }
+
+  bool query(krr_msgs::QueryProbability::Request& req, krr_msgs::QueryProbability::Response& res) {
+    try {
+      krr::plog::Reasoner& kb = kbFor(req.knowledge_base);
+      if (req.query.empty() == req.attribute.empty())
+        throw krr::ConfigError("give exactly one of 'query' and 'attribute'");
+      if (!req.query.empty()) {
+        res.probability = kb.probability(req.query);
+        res.message = "P(" + req.query + ") = " + std::to_string(res.probability);
+      } else {
+        for (const krr::plog::ValueProb& vp : kb.distribution(req.attribute, req.evidence)) {
+          res.values.push_back(vp.value);
+          res.probabilities.push_back(vp.probability);
+        }
+        res.message = "distribution of " + req.attribute + ": " +
+                      std::to_string(res.values.size()) + " value(s)";
+      }
+      res.success = true;
+      ROS_DEBUG_NAMED(kLog, "%s", res.message.c_str());
+    } catch (const std::exception& e) {
+      res.success = false;
+      res.message = e.what();
+      ROS_WARN_NAMED(kLog, "query '%s%s' refused: %s", req.query.c_str(), req.attribute.c_str(),
+                     e.what());
+    }
+    return true;
+  }
+
+  bool add(krr_msgs::AddKnowledge::Request& req, krr_msgs::AddKnowledge::Response& res) {
+    const krr_msgs::KnowledgeUpdate& u = req.update;
+    try {
+      // Validate everything before changing anything.
+      const auto pairs = krr_ros::toKnownPairs(u.atoms, *domain_.space, times_);
+      if (u.atoms.empty() && u.statements.find_first_not_of(" \t\r\n") == std::string::npos)
+        throw krr::ConfigError("the update holds neither atoms nor statements");
+      const std::string tag = "update" + std::to_string(++updates_);
+      const std::string nav_before = nav_->learnedText();
+      if (!u.statements.empty()) {
+        res.statements_added = static_cast<std::uint32_t>(
+            domain_kb_.addStatements(u.statements, tag, "<update from " + u.source + ">"));
+        checkDomainCoherent(tag);
+      }
+      try {
+        for (const auto& [time, list] : pairs)
+          res.atoms_added += static_cast<std::uint32_t>(nav_->addLearned(list, time));
+        persist(u.statements, u.source);
+      } catch (...) {
+        rollback(tag, nav_before);
+        throw;
+      }
+      res.total_learned = static_cast<std::uint32_t>(nav_->learnedEntries().size());
+      res.success = true;
+      res.message = "added " + std::to_string(res.atoms_added) + " learned distribution(s) and " +
+                    std::to_string(res.statements_added) + " statement(s)";
+      ROS_INFO_NAMED(kLog, "update from '%s': %s; %u learned in total, saved to %s",
+                     u.source.c_str(), res.message.c_str(), res.total_learned,
+                     params_.learned_file.c_str());
+      updates_pub_.publish(u);
+    } catch (const std::exception& e) {
+      res = krr_msgs::AddKnowledge::Response();
+      res.success = false;
+      res.total_learned = static_cast<std::uint32_t>(nav_->learnedEntries().size());
+      res.message = std::string("update refused, nothing changed: ") + e.what();
+      ROS_WARN_NAMED(kLog, "update from '%s' refused: %s", u.source.c_str(), e.what());
+    }
+    return true;
+  }
+
+  /// @brief Added statements must leave the domain KB's own queries answerable.
+  void checkDomainCoherent(const std::string& tag) {
+    try {
+      domain_kb_.answerProgramQueries();
+    } catch (const krr::Error& e) {
+      domain_kb_.removeStatementsWithTag(tag);
+      throw krr::IncoherentError(std::string("the statements make the domain knowledge base "
+                                             "incoherent: ") + e.what());
+    }
+  }
+
+  /// @brief Undo a failed update: in memory and, if it was already written, on disk.
+  void rollback(const std::string& tag, const std::string& nav_before) {
+    domain_kb_.removeStatementsWithTag(tag);
+    if (std::filesystem::exists(params_.learned_file) &&
+        krr::readFile(params_.learned_file) != nav_before)
+      krr::writeFileAtomic(params_.learned_file, nav_before);
+    nav_->clearLearned();
+    if (std::filesystem::exists(params_.learned_file)) nav_->loadLearned(params_.learned_file);
+  }
+
+  void persist(const std::string& statements, const std::string& source) {
+    krr_ros::ensureParentDirectory(params_.learned_file);
+    nav_->saveLearned(params_.learned_file);
+    if (statements.find_first_not_of(" \t\r\n") == std::string::npos) return;
+    const std::string text = added_text_ + "% added by " + (source.empty() ? "?" : source) +
+                             "\n" + statements + "\n";
+    krr_ros::ensureParentDirectory(params_.domain_learned_file);
+    krr::writeFileAtomic(params_.domain_learned_file, text);
+    added_text_ = text;
+  }
+
+  bool build(krr_msgs::BuildTaskModel::Request& req, krr_msgs::BuildTaskModel::Response& res) {
+    try {
+      if (req.task == "dialog")
+        throw krr::ConfigError("task model 'dialog' is not available from reasoner_node");
+      if (req.task != "navigation")
+        throw krr::ConfigError("task '" + req.task + "' is neither 'navigation' nor 'dialog'");
+      if (!(req.discount == 0 || (req.discount > 0 && req.discount <= 1)))
+        throw krr::ConfigError("discount " + std::to_string(req.discount) + " is not in (0, 1]");
+      krr::Stopwatch clock;
+      const krr::kb::NavModel model =
+          nav_->buildModel(req.times, req.discount > 0 ? req.discount : params_.discount);
+      krr_ros::fillNavigationModel(model, *domain_.space, &res);
+      res.success = true;
+      res.message = "navigation model: " + std::to_string(res.num_states) + " states, " +
+                    std::to_string(res.next_states.size()) + " transitions, " +
+                    std::to_string(res.num_learned) + " learned pairs";
+      ROS_INFO_NAMED(kLog, "%s (built in %.2f s)", res.message.c_str(), clock.seconds());
+    } catch (const std::exception& e) {
+      res = krr_msgs::BuildTaskModel::Response();
+      res.success = false;
+      res.message = e.what();
+      ROS_WARN_NAMED(kLog, "build_task_model '%s' refused: %s", req.task.c_str(), e.what());
+    }
+    return true;
+  }
+
+  ReasonerParams params_;
+  krr::kb::NavDomain domain_;
+  krr::plog::Reasoner domain_kb_;
+  std::unique_ptr<krr::kb::NavigationKnowledge> nav_;
+  std::vector<std::string> times_;
+  std::string added_text_;
+  std::size_t num_added_ = 0;
+  unsigned long updates_ = 0;
+  ros::Publisher updates_pub_;
+  ros::ServiceServer query_srv_, add_srv_, build_srv_;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "reasoner");
+  ros::NodeHandle pnh("~");
+  std::unique_ptr<ReasonerNode> node;
+  try {
+    krr_ros::ParamReader reader(pnh);
+    ReasonerParams params = ReasonerParams::read(reader);
+    ROS_INFO_NAMED(kLog, "seed %lu, base_dir %s", static_cast<unsigned long>(params.seed),
+                   reader.baseDir().c_str());
+    node = std::make_unique<ReasonerNode>(pnh, std::move(params));
+  } catch (const std::exception& e) {
+    ROS_FATAL_NAMED(kLog, "cannot start: %s", e.what());
+    return 1;
+  }
+  ROS_INFO_NAMED(kLog, "ready");
+  ros::spin();
+  return 0;
+}

@@ -1,0 +1,86 @@
+"""Helpers shared by the krr_ros rostest nodes (imported from the test directory)."""
+import os
+import signal
+import subprocess
+import threading
+import time
+
+import roslib.packages
+import rospy
+
+
+def node_binary(name):
+    """Path of a krr_ros executable (devel or install space)."""
+    found = roslib.packages.find_node('krr_ros', name)
+    if not found:
+        raise RuntimeError('krr_ros/%s not found: build it first' % name)
+    return found[0]
+
+
+class SpawnedNode:
+    """A krr_ros node started by the test itself, with its parameters set on the master, so a
+    test can kill it (SIGKILL: no clean shutdown) and start it again."""
+
+    def __init__(self, binary, name, params):
+        self.binary = node_binary(binary)
+        self.name = name
+        self.params = params
+        self.proc = None
+        self.output = ''
+
+    def start(self):
+        rospy.set_param('/' + self.name, self.params)
+        self.proc = subprocess.Popen([self.binary, '__name:=' + self.name],
+                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                     env=dict(os.environ, ROSCONSOLE_STDOUT_LINE_BUFFERED='1'))
+        return self
+
+    def wait_exit(self, timeout):
+        """Wait for the process to exit; returns its exit code (None on timeout)."""
+        try:
+            out, _ = self.proc.communicate(timeout=timeout)
+            self.output = out.decode(errors='replace')
+            return self.proc.returncode
+        except subprocess.TimeoutExpired:
+            return None
+
+    def kill(self):
+        if self.proc and self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGKILL)
+            self.proc.wait(10)
+
+    def clear_params(self):
+        if rospy.has_param('/' + self.name):
+            rospy.delete_param('/' + self.name)
+
+
+class Latest:
+    """Subscribes to a topic and keeps every message (thread-safe)."""
+
+    def __init__(self, topic, msg_type):
+        self.lock = threading.Lock()
+        self.messages = []
+        self.sub = rospy.Subscriber(topic, msg_type, self._cb, queue_size=100)
+
+    def _cb(self, msg):
+        with self.lock:
+            self.messages.append(msg)
+
+    def last(self):
+        with self.lock:
+            return self.messages[-1] if self.messages else None
+
+    def count(self):
+        with self.lock:
+            return len(self.messages)
+
+    def wait(self, predicate=lambda m: True, timeout=10.0):
+        """The first message (old or new) satisfying predicate, or None after timeout."""
+        end = time.time() + timeout
+        while time.time() < end and not rospy.is_shutdown():
+            with self.lock:
+                for m in self.messages:
+                    if predicate(m):
+                        return m
+            time.sleep(0.05)
+        return None

@@ -1,0 +1,80 @@
+#!/usr/bin/python3
+"""rostest of the nodes' parameter validation: each node, started with one bad parameter on top
+of the shipped configuration, exits with status 1 and a message naming the parameter."""
+import os
+import unittest
+
+import rospy
+import rostest
+import yaml
+
+from krr_test_utils import SpawnedNode
+
+ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', '..'))
+
+
+def shipped(node):
+    """The parameters the launch files give `node` (config YAMLs + base_dir + learned files)."""
+    params = {}
+    for f in ('navigation_kb.yaml', node + '.yaml'):
+        with open(os.path.join(ROOT, 'config', f)) as fh:
+            params.update(yaml.safe_load(fh))
+    params['base_dir'] = ROOT
+    tmp = rospy.get_param('~tmp_dir')
+    params['learned_file'] = os.path.join(tmp, 'nav.plog')
+    if node == 'reasoner_node':
+        params['domain_learned_file'] = os.path.join(tmp, 'domain.plog')
+    return params
+
+
+class TestNodeParams(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('test_node_params')
+        cls.counter = 0
+
+    def refused(self, node, changes, needle, remove=()):
+        params = shipped(node)
+        params.update(changes)
+        for k in remove:
+            params.pop(k)
+        TestNodeParams.counter += 1
+        name = 'bad_%s_%d' % (node.split('_')[0], self.counter)
+        proc = SpawnedNode(node, name, params).start()
+        try:
+            rc = proc.wait_exit(30)
+        finally:
+            proc.kill()
+            proc.clear_params()
+        self.assertEqual(rc, 1, '%s %s: exit code %s, output:\n%s' % (node, changes, rc,
+                                                                      proc.output))
+        self.assertIn('/%s/' % name, proc.output)  # the parameter is named with its node
+        self.assertIn(needle, proc.output)
+
+    def test_reasoner_node(self):
+        self.refused('reasoner_node', {'discount': 2.0}, 'discount = 2: must be in [1e-06, 1]')
+        self.refused('reasoner_node', {'discount': 'high'}, "discount = 'high': must be a number")
+        self.refused('reasoner_node', {'domain_files': ['config/nope.plog']},
+                     "domain_files[0] = '%s/config/nope.plog': no such file" % ROOT)
+        self.refused('reasoner_node', {'discuont': 0.9}, 'discuont is not a parameter of this node')
+        self.refused('reasoner_node', {'seed': -4}, 'seed = -4: must be in [0, 2147483647]')
+
+    def test_navigation_node(self):
+        self.refused('navigation_node', {'sim_rate': -1}, 'sim_rate = -1: must be in [0, 1000]')
+        self.refused('navigation_node', {'model_source': 'magic'},
+                     "model_source = 'magic': must be one of reasoner, local")
+        self.refused('navigation_node', {'start_place': 'kitchen'}, "start_place = 'kitchen'")
+        self.refused('navigation_node', {'time': 'midnight'}, "'midnight'")
+        self.refused('navigation_node', {'ompl_paths': 'yes'}, 'ompl_paths = ')
+        self.refused('navigation_node', {'domain': 'office_99x99'}, 'office_99x99')
+
+    def test_learner_node(self):
+        self.refused('learner_node', {'max_episodes_per_task': 0},
+                     'max_episodes_per_task = 0: must be in [1, 1000000]')
+        self.refused('learner_node', {'places': ['room1', 'kitchen']}, "places = 'kitchen'")
+        self.refused('learner_node', {'enabled': 'yes'}, "enabled = 'yes': must be true or false")
+        self.refused('learner_node', {'step_cost': 50.0}, 'step_cost')
+
+
+if __name__ == '__main__':
+    rostest.rosrun('krr_ros', 'node_params', TestNodeParams)

@@ -1,0 +1,193 @@
+#!/usr/bin/python3
+"""rostest of reasoner_node: queries, knowledge updates, persistence across a crash, errors."""
+import os
+import shutil
+import unittest
+
+import rospy
+import rostest
+from krr_msgs.msg import KnowledgeUpdate, LearnedAtom
+from krr_msgs.srv import AddKnowledge, BuildTaskModel, QueryProbability
+
+from krr_test_utils import SpawnedNode
+
+BOB_QUERY = '?{curr_room(bob)=room2} | do(curr_person=bob).'
+
+
+def atom(cell, move, outcomes, counts, time='morning', samples=None):
+    return LearnedAtom(cell=cell, move=move, time=time, outcomes=outcomes, counts=counts,
+                       samples=sum(counts) if samples is None else samples)
+
+
+def nav_query(cell, move, outcome, time='morning'):
+    return '?{next_cell=%s} | do(curr_cell=%d), do(act_move=%s), obs(curr_time=%s)' % (
+        outcome, cell, move, time)
+
+
+class Reasoner:
+    """Service proxies of one reasoner node."""
+
+    def __init__(self, ns):
+        for s in ('query_probability', 'add_knowledge', 'build_task_model'):
+            rospy.wait_for_service(ns + '/' + s, timeout=30)
+        self.query = rospy.ServiceProxy(ns + '/query_probability', QueryProbability)
+        self.add = rospy.ServiceProxy(ns + '/add_knowledge', AddKnowledge)
+        self.build = rospy.ServiceProxy(ns + '/build_task_model', BuildTaskModel)
+
+    def update(self, atoms=(), statements=''):
+        return self.add(KnowledgeUpdate(source='test', atoms=list(atoms), statements=statements))
+
+
+class TestReasonerNode(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('test_reasoner_node')
+        cls.r = Reasoner('/reasoner')
+        cls.learned_dir = rospy.get_param('~learned_dir')
+
+    def test_known_probability_from_office_kb(self):
+        res = self.r.query(query=BOB_QUERY)
+        self.assertTrue(res.success, res.message)
+        self.assertAlmostEqual(res.probability, 0.8, places=9)
+        # P(curr_room(bob)=room5 | do(curr_person=bob)): the other four rooms share 0.2.
+        res = self.r.query(query='?{curr_room(bob)=room5} | do(curr_person=bob)')
+        self.assertAlmostEqual(res.probability, 0.05, places=9)
+
+    def test_distribution_of_an_attribute(self):
+        res = self.r.query(attribute='curr_room(john)', evidence='do(curr_person=john)')
+        self.assertTrue(res.success, res.message)
+        dist = dict(zip(res.values, res.probabilities))
+        self.assertEqual(sorted(dist), ['room1', 'room2', 'room3', 'room4', 'room5'])
+        self.assertAlmostEqual(dist['room5'], 0.8, places=9)
+        self.assertAlmostEqual(sum(dist.values()), 1.0, places=9)
+
+    def test_navigation_kb_human_knowledge(self):
+        # Free space (room1, no blocking area): the intended cell with 0.8.
+        res = self.r.query(query=nav_query(213, 'up', '243'), knowledge_base='navigation')
+        self.assertTrue(res.success, res.message)
+        self.assertAlmostEqual(res.probability, 0.8, places=9)
+
+    def test_malformed_queries_are_errors_and_the_node_survives(self):
+        bad = self.r.query(query='?{curr_room(bob)=room2 | do(')
+        self.assertFalse(bad.success)
+        self.assertIn('<query>:1:', bad.message)  # location of the syntax error
+        bad = self.r.query(query='?{curr_room(carol)=room2}')
+        self.assertFalse(bad.success)
+        self.assertIn("'carol'", bad.message)
+        bad = self.r.query(query='?{curr_room(bob)=room9}')
+        self.assertFalse(bad.success)
+        self.assertIn("'room9'", bad.message)
+        bad = self.r.query(query=BOB_QUERY, knowledge_base='kitchen')
+        self.assertFalse(bad.success)
+        self.assertIn("'kitchen'", bad.message)
+        bad = self.r.query()
+        self.assertFalse(bad.success)
+        self.assertIn('exactly one', bad.message)
+        bad = self.r.query(attribute='curr_room(', evidence='')
+        self.assertFalse(bad.success)
+        self.assertTrue(self.r.query(query=BOB_QUERY).success)
+
+    def test_add_knowledge_changes_the_model_and_is_persisted(self):
+        res = self.r.update([atom(182, 'up', ['212', '182'], [7, 3])])
+        self.assertTrue(res.success, res.message)
+        self.assertEqual(res.atoms_added, 1)
+        self.assertGreaterEqual(res.total_learned, 1)
+        q = self.r.query(query=nav_query(182, 'up', '212'), knowledge_base='navigation')
+        self.assertAlmostEqual(q.probability, 0.7, places=9)
+        # Only in its context: at noon human knowledge still applies.
+        q = self.r.query(query=nav_query(182, 'up', '212', 'noon'), knowledge_base='navigation')
+        self.assertAlmostEqual(q.probability, 0.8, places=9)
+        text = open(os.path.join(self.learned_dir, 'learned_navigation.plog')).read()
+        self.assertIn('pr(next_cell=212 | curr_cell=182, act_move=up, curr_time=morning) = 7/10.',
+                      text)
+        self.assertIn('learned(182, up, morning).', text)
+        m = self.r.build(task='navigation', times=['morning'])
+        self.assertTrue(m.success, m.message)
+        s = list(m.state_cells).index(182)
+        self.assertEqual(m.learned[s * 4 + 0], 1)  # move up = action 0
+        lo, hi = m.row_offsets[s * 4], m.row_offsets[s * 4 + 1]
+        row = {m.state_cells[m.next_states[i]]: m.probabilities[i] for i in range(lo, hi)}
+        self.assertAlmostEqual(row[212], 0.7, places=9)
+        self.assertAlmostEqual(row[182], 0.3, places=9)
+
+    def test_bad_updates_are_refused_and_change_nothing(self):
+        path = os.path.join(self.learned_dir, 'learned_navigation.plog')
+        before = open(path).read() if os.path.exists(path) else None
+        total = self.r.build(task='navigation', times=['morning']).num_learned
+        cases = [
+            ([atom(183, 'sideways', ['213'], [1])], "atoms[0].move: 'sideways'"),
+            ([atom(183, 'up', ['213', '183'], [3, 3], samples=5)], 'sum to 6'),
+            ([atom(0, 'up', ['1'], [1])], 'atoms[0].cell'),
+            ([atom(183, 'up', ['213'], [1], time='midnight')], "'midnight'"),
+            ([atom(183, 'up', ['x'], [1])], "'x' is neither"),
+            ([atom(183, 'up', ['300'], [1])], 'atoms[0].outcomes[0]: cell 300 is neither'),
+            ([atom(183, 'up', ['213', 'trapped'], [1, 1])], "'trapped' is impossible"),
+            ([atom(183, 'up', ['213'], [0], samples=0)], 'atoms[0].'),
+            ([atom(183, 'up', ['213'], [1]), atom(183, 'up', ['183'], [1])], 'a second atom'),
+            ([], 'neither atoms nor statements'),
+        ]
+        for atoms, needle in cases:
+            res = self.r.update(atoms)
+            self.assertFalse(res.success, needle)
+            self.assertIn(needle, res.message)
+        # A valid atom with an invalid statement: all or nothing.
+        res = self.r.update([atom(183, 'up', ['213'], [1])], statements='pr(curr_room(bob')
+        self.assertFalse(res.success)
+        self.assertIn('<update from test>:1:', res.message)
+        # Statements that make the domain KB incoherent (probabilities summing above 1).
+        res = self.r.update(statements='pr(curr_room(bob)=room3 | place(bob,room2)=true) = 5/10.')
+        self.assertFalse(res.success)
+        self.assertIn('incoherent', res.message)
+        self.assertAlmostEqual(self.r.query(query=BOB_QUERY).probability, 0.8, places=9)
+        self.assertEqual(self.r.build(task='navigation', times=['morning']).num_learned, total)
+        after = open(path).read() if os.path.exists(path) else None
+        self.assertEqual(before, after)
+
+    def test_build_task_model_errors(self):
+        res = self.r.build(task='navigation', times=['midnight'])
+        self.assertFalse(res.success)
+        self.assertIn("'midnight'", res.message)
+        res = self.r.build(task='cooking')
+        self.assertFalse(res.success)
+        self.assertIn("'cooking'", res.message)
+        res = self.r.build(task='dialog')
+        self.assertFalse(res.success)
+        self.assertIn('not available', res.message)
+        res = self.r.build(task='navigation', discount=1.5)
+        self.assertFalse(res.success)
+        res = self.r.build(task='navigation')  # all times marginalised
+        self.assertTrue(res.success, res.message)
+        self.assertEqual(res.num_states, 470)  # 469 free cells + trapped
+
+    def test_knowledge_survives_a_crash_and_restart(self):
+        # A second reasoner with its own files, killed with SIGKILL (no clean shutdown).
+        params = rospy.get_param('/reasoner')
+        d = os.path.join(self.learned_dir, 'restart')
+        shutil.rmtree(d, ignore_errors=True)
+        params['learned_file'] = os.path.join(d, 'nav.plog')
+        params['domain_learned_file'] = os.path.join(d, 'domain.plog')
+        node = SpawnedNode('reasoner_node', 'reasoner_restart', params).start()
+        try:
+            r = Reasoner('/reasoner_restart')
+            # 188 -> right enters blocking area ba1 (cell 189).
+            res = r.update([atom(188, 'right', ['189', '188', 'trapped'], [2, 1, 1])],
+                           statements='pr(curr_room(bob)=room2 | place(bob,room2)=true) = 9/10.')
+            self.assertTrue(res.success, res.message)
+            self.assertAlmostEqual(r.query(query=BOB_QUERY).probability, 0.9, places=9)
+            node.kill()
+            node.start()
+            r = Reasoner('/reasoner_restart')
+            self.assertEqual(r.build(task='navigation', times=['morning']).num_learned, 1)
+            q = r.query(query=nav_query(188, 'right', 'trapped'), knowledge_base='navigation')
+            self.assertTrue(q.success, q.message)
+            self.assertAlmostEqual(q.probability, 0.25, places=9)
+            self.assertAlmostEqual(r.query(query=BOB_QUERY).probability, 0.9, places=9)
+        finally:
+            node.kill()
+            node.clear_params()
+        # The launched reasoner was not affected.
+        self.assertAlmostEqual(self.r.query(query=BOB_QUERY).probability, 0.8, places=9)
+
+
+if __name__ == '__main__':
+    rostest.rosrun('krr_ros', 'reasoner_node', TestReasonerNode)

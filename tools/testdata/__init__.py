@@ -1,0 +1,1 @@
+"""Test helpers of the tools' unittest suites (fake core CLIs)."""
