@@ -1,8 +1,28 @@
 #!/usr/bin/env bash
-# Main job: install, build, run the headless evaluation on the bundled office map.
+# Main job: install, build, then on the bundled office map
+#   1. the headless ROS sim (reasoner, navigation, dialog, simulated user) making a few
+#      deliveries end to end through topics, and
+#   2. the evaluation of every experiment of the paper (tools/evaluate.py) with tables, plots
+#      and a report comparing with the paper's numbers.
+# Output goes to out/ (override with KRR_OUT). Options are passed on to tools/evaluate.py, e.g.
+#   bash tools/run_main.sh --trials-scale 0.1       # a faster, smaller evaluation
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 export PATH="/usr/bin:/bin:$PATH"
+OUT="${KRR_OUT:-$ROOT/out}"
 bash "$ROOT/tools/install_deps.sh"
 bash "$ROOT/tools/build.sh"
-echo "[run_main] nothing to evaluate yet"
+mkdir -p "$OUT/sim"
+
+echo "== headless sim: 3 deliveries on the office map (log: $OUT/sim/roslaunch.log)"
+set +u; source "$ROOT/catkin_ws/devel/setup.bash"; set -u
+export ROS_HOME="$OUT/sim/ros_home"
+PORT=$(/usr/bin/python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])')
+timeout 600 roslaunch --screen -p "$PORT" "$ROOT/launch/sim.launch" user:=true learner:=false \
+  sim_rate:=0 deliveries:=3 exit_when_done:=true seed:=1 learned_dir:="$OUT/sim/kb" \
+  > "$OUT/sim/roslaunch.log" 2>&1 || echo "[run_main] roslaunch ended with an error (see log)"
+grep -E "delivery [0-9]+ ended|hidden request|I am delivering" "$OUT/sim/roslaunch.log" \
+  | sed -e 's/\x1b\[[0-9;]*m//g' -e 's/^/  /' || echo "  (no delivery finished: see the log)"
+
+echo "== evaluation (tools/evaluate.py, output in $OUT/eval)"
+/usr/bin/python3 "$ROOT/tools/evaluate.py" --out "$OUT/eval" "$@"

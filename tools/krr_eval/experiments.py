@@ -42,7 +42,8 @@ CONDITION_LABEL = {"outdated": "without extraction (outdated, learned at br 0.3)
 # ---------------------------------------------------------------------------------------------
 # Settings: defaults (paper), --quick, and how they are resolved
 DEFAULTS = {
-    "exp1": {"trials": 1000, "target_episodes": 100, "window": 10, "early_episodes": 30,
+    # target_episodes None: the CLI's config/nav_transfer.yaml decides (100)
+    "exp1": {"trials": 1000, "target_episodes": None, "window": 10, "early_episodes": 30,
              "domains": ["small", "large"]},
     "exp2": {"trials": 10000, "brs": [0.1, 0.5, 0.7], "paper_subsample": 100},
     "exp3": {"rooms": ["room2", "room4"]},
@@ -128,11 +129,13 @@ def _sub(values, mask):
 NAV_COLUMNS = "trial, episode, condition (with/without), reward[, success]"
 
 
-def nav_spec(ctx, domain, trials, episodes):
+def nav_spec(ctx, domain, trials, episodes=None):
+    """nav_transfer for one domain; everything else (M, Rmax, episodes, br, ...) comes from
+    config/nav_transfer.yaml unless `episodes` is given."""
     grid, _ = navigation.DOMAINS[domain]
-    args = ["--config", "config/navigation.yaml", "--domain", grid,
-            "--geometry", "maps/%s_geometry.plog" % grid, "--knowledge", "config/navigation.plog",
-            "--target-episodes", str(episodes)]
+    args = ["--domain", grid]
+    if episodes:
+        args += ["--target-episodes", str(episodes)]
     return TrialSpec("nav_transfer_%s" % domain, "nav_transfer", args, ctx.seed, trials,
                      trials_flag="--trials-out", scratch_flags=("--out",))
 
@@ -162,7 +165,8 @@ def exp1_nav_transfer(ctx):
         pt = stats.paired_t_test(w, wo)
         grid, limit = navigation.DOMAINS[d]
         g = stats.mean_ci(gains[d])
-        rows.append([d, grid.split("_")[1], limit, n, len(episodes),
+        n_eps = len(episodes)
+        rows.append([d, grid.split("_")[1], limit, n, n_eps,
                      Est(*stats.mean_ci(w)[:2]), Est(*stats.mean_ci(wo)[:2]), Est(g.mean, g.half),
                      P(pt.p), Est(*stats.mean_ci(early_gain)[:2])])
         res.claims.append(Claim(
@@ -173,7 +177,7 @@ def exp1_nav_transfer(ctx):
         "exp1_nav_transfer", "Navigation transfer: mean reward per target episode (95% CI)",
         ["domain", "grid", "step limit", "trials", "episodes", "with extraction",
          "without extraction", "gain", "p (paired t)",
-         "gain, first %d episodes" % min(early, eps)], rows,
+         "gain, first %d episodes" % min(early, n_eps)], rows,
         note="Gain = per-trial mean reward over all target episodes, with minus without "
              "extraction (the area between the learning curves)."))
     if "small" in gains and "large" in gains:
@@ -187,7 +191,8 @@ def exp1_nav_transfer(ctx):
     navigation.plot(curves, ctx.path(png), window=window)
     res.figures.append(png)
     res.notes.append("Each point: mean over %d trials; curves smoothed over %d episodes; step "
-                     "limits 200 (30x30) and 300 (50x50) as in the paper." % (n, window))
+                     "limits 200 (30x30) and 300 (50x50) as in the paper; R-Max and experiment "
+                     "settings from config/nav_transfer.yaml." % (n, window))
     return res
 
 

@@ -2,7 +2,7 @@
 // reason out the dialog knowledge (prior + speech model: 30 requests x 13 queries), to build
 // the navigation model from the knowledge base (Procedure 2) with the robot's policies and P^N,
 // to build the dialog POMDP (T^D + serve costs), to solve it, and per delivery trial.
-// usage: bench_delivery [--root DIR] [--br 0.3] [--trials 2000] [--solver-trials 300]
+// usage: bench_delivery [--root DIR] [--br 0.3] [--trials 2000] [--solver-trials N]
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -17,7 +17,7 @@ int main(int argc, char** argv) {
   using namespace krr::dialog;
   std::string root;
   double br = 0.3;
-  std::size_t trials = 2000, solverTrials = 300;
+  std::size_t trials = 2000, solverTrials = 0;  // 0: the config's budget
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string f = argv[i], v = argv[i + 1];
     if (f == "--root") root = v;
@@ -32,7 +32,7 @@ int main(int argc, char** argv) {
   try {
     const ExperimentPaths paths = ExperimentPaths::find(root, "office_30x30");
     DialogConfig cfg = loadDialogConfig(paths.dialog_yaml);
-    cfg.solver_max_trials = solverTrials;
+    if (solverTrials > 0) cfg.solver_max_trials = solverTrials;
     const kb::NavDomain dom = kb::NavDomain::load(paths.navigation_yaml, "office_30x30",
                                                   paths.geometry, paths.navigation_plog);
     const int reps = 5;

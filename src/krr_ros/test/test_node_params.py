@@ -10,7 +10,8 @@ import yaml
 
 from krr_test_utils import SpawnedNode
 
-ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', '..'))
+# realpath: catkin_ws/src is a symlink to the repository's src/
+ROOT = os.path.realpath(os.path.join(os.path.dirname(os.path.realpath(__file__)), '..', '..', '..'))
 
 
 def shipped(node):

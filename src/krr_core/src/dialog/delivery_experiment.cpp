@@ -14,6 +14,7 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/pomdp/belief.h"
+#include "krr_core/pomdp/tiger.h"
 
 namespace krr {
 namespace dialog {
@@ -57,6 +58,24 @@ std::size_t sample(const Eigen::VectorXd& p, Rng& rng) {
   return 0;
 }
 
+/// A fingerprint of the solver's behaviour (its policy on the Tiger problem after a fixed
+/// number of trials), part of the policy cache key: a changed solver does not reuse policies
+/// cached by an older one.
+std::uint64_t solverFingerprint() {
+  static const std::uint64_t fp = [] {
+    const pomdp::Model tiger = pomdp::makeTiger();
+    pomdp::SolverOptions so;
+    so.precision = 1e-12;
+    so.timeout = 1e9;
+    so.maxTrials = 25;
+    so.initTimeLimit = std::numeric_limits<double>::infinity();
+    pomdp::PointBasedSolver solver(tiger, tiger.initialBelief(), so);
+    solver.solve();
+    return stableHash(solver.policy().toText());
+  }();
+  return fp;
+}
+
 }  // namespace
 
 pomdp::AlphaVectorPolicy solveDialogPolicy(const pomdp::DialogPomdp& dialog,
@@ -68,8 +87,8 @@ pomdp::AlphaVectorPolicy solveDialogPolicy(const pomdp::DialogPomdp& dialog,
   if (!cache_dir.empty()) {
     std::ostringstream key;
     key.precision(17);
-    key << "v1|" << config.solver_precision << "|" << config.solver_max_trials << "|"
-        << dialog.exportCassandra();
+    key << "v2|" << solverFingerprint() << "|" << config.solver_precision << "|"
+        << config.solver_max_trials << "|" << dialog.exportCassandra();
     char name[64];
     std::snprintf(name, sizeof(name), "policy_%016llx.txt",
                   static_cast<unsigned long long>(stableHash(key.str())));
@@ -99,6 +118,17 @@ pomdp::AlphaVectorPolicy solveDialogPolicy(const pomdp::DialogPomdp& dialog,
   const bool reproducible =
       converged || (so.maxTrials > 0 && bounds.trials >= so.maxTrials && bounds.time < so.timeout);
   pomdp::AlphaVectorPolicy policy = solver.policy();
+  // Complete the lower bound with the exact value of serving at once (serving ends the
+  // episode, so R(., serve a) is a valid alpha vector): point-based pruning drops serve vectors
+  // that are not best at the beliefs the trials visited, and without them the policy compares
+  // serving with asking arbitrarily at other beliefs (e.g. Table II's random beliefs).
+  const pomdp::Model& m = dialog.model();
+  for (std::size_t r = 0; r < dialog.numRequests(); ++r) {
+    const std::size_t a = dialog.serveAction(r);
+    Eigen::VectorXd alpha = m.rewardMatrix().col(static_cast<Eigen::Index>(a));
+    alpha(static_cast<Eigen::Index>(dialog.terminalState())) = 0.0;
+    policy.add(alpha, a);
+  }
   if (report) {
     report->converged = converged;
     report->reproducible = reproducible;

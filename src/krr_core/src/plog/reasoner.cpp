@@ -294,15 +294,7 @@ size_t Reasoner::addStatements(const std::string& text, const std::string& tag,
       program_.random_rules.push_back(std::move(work.random_rules[i]));
     for (auto& o : work.observations) program_.observations.push_back(std::move(o));
     for (auto& d : work.interventions) program_.interventions.push_back(std::move(d));
-  } else if (work.sorts.size() == program_.sorts.size()) {
-    // a sort may have been redefined in place
-    for (size_t i = 0; i < work.sorts.size(); ++i)
-      if (work.sorts[i].values.size() != program_.sorts[i].values.size()) {
-        program_.sorts = std::move(work.sorts);
-        structuralChange();
-        break;
-      }
-  }
+  }  // (sorts and attributes cannot be redeclared: the parser refuses that)
   for (size_t i = nq; i < work.queries.size(); ++i) program_.queries.push_back(std::move(work.queries[i]));
   std::vector<Rule> rules(std::make_move_iterator(work.rules.begin() + static_cast<long>(nr)),
                           std::make_move_iterator(work.rules.end()));
@@ -446,6 +438,12 @@ size_t Reasoner::removeStatements(const std::vector<Rule>& rules, const std::vec
 }
 
 void Reasoner::trimLog() {
+  // A grounding that is never used again must not keep the log growing: past a size, stale
+  // groundings are dropped (they are made afresh if needed).
+  if (log_.size() > 500000) {
+    for (auto it = ground_cache_.begin(); it != ground_cache_.end();)
+      it = it->second->seq < change_seq_ ? ground_cache_.erase(it) : std::next(it);
+  }
   std::uint64_t oldest = change_seq_;
   for (const auto& kv : ground_cache_) oldest = std::min(oldest, kv.second->seq);
   size_t k = 0;
@@ -500,7 +498,7 @@ std::shared_ptr<Reasoner::GroundEntry> Reasoner::groundEntryFor(const std::set<s
       e->dead = e->grounder->removedAtoms();
       e->total = e->grounder->atoms();
       e->seq = change_seq_;
-      if (e->changes.size() + changed.size() > 2000000) {
+      if (e->changes.size() + changed.size() > 500000) {
         e->changes.clear();
         e->changes_from = change_seq_;
       } else {
@@ -774,6 +772,16 @@ Table Reasoner::tableQuery(const std::string& target, const std::vector<std::str
     cache->target = ti;
     cache->conditioning = ci;
     cache->table = t;
+    // Changes older than every table cached on this grounding are no longer needed.
+    std::uint64_t oldest = entry->seq;
+    for (const auto& kv : table_cache_)
+      if (kv.second && kv.second->entry_serial == entry->serial) oldest = std::min(oldest, kv.second->seq);
+    size_t k = 0;
+    while (k < entry->changes.size() && entry->changes[k].first <= oldest) ++k;
+    if (k) {
+      entry->changes.erase(entry->changes.begin(), entry->changes.begin() + static_cast<long>(k));
+      entry->changes_from = std::max(entry->changes_from, oldest);
+    }
   } else {
     table_cache_.erase(cache_key);
   }

@@ -101,6 +101,63 @@ TEST(NavTransfer, ExtractionLearnsFaster) {
   EXPECT_GT(s.success_with[0], s.success_without[0]);
 }
 
+TEST(NavTransfer, TrialRangesConcatenateToTheWholeRun) {
+  NavDomain d = tinyDomain();
+  auto o = tinyOptions();
+  o.target_episodes = 5;
+  const auto all = krr::kb::runNavTransferTrials(d, o, 4, 0, 4, 2);
+  const auto head = krr::kb::runNavTransferTrials(d, o, 4, 0, 1, 1);
+  const auto tail = krr::kb::runNavTransferTrials(d, o, 4, 1, 3, 2);
+  ASSERT_EQ(all.size(), 4u);
+  EXPECT_EQ(all[0].reward_with, head[0].reward_with);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(tail[i].index, i + 1);
+    EXPECT_EQ(all[i + 1].reward_with, tail[i].reward_with);
+    EXPECT_EQ(all[i + 1].reward_without, tail[i].reward_without);
+    EXPECT_EQ(all[i + 1].success_without, tail[i].success_without);
+  }
+  // The summary of the trials is the summary runNavTransfer computes.
+  const auto s = krr::kb::summarizeNavTransfer(all);
+  const auto r = krr::kb::runNavTransfer(d, o, 4, 4, 1);
+  EXPECT_EQ(s.mean_with, r.mean_with);
+  EXPECT_EQ(s.ci_without, r.ci_without);
+}
+
+TEST(NavTransfer, OptionsFileIsReadAndValidated) {
+  char tmpl[] = "/tmp/krr_transfer_opt_XXXXXX";
+  const std::string dir = ::mkdtemp(tmpl);
+  auto load = [&](const std::string& text) {
+    krr::writeFileAtomic(dir + "/o.yaml", text);
+    return krr::kb::loadNavTransferOptions(dir + "/o.yaml");
+  };
+  const auto o = load("target: room5\ntarget_episodes: 40\nrmax: {known_threshold: 3, step_cost: 0.5}\n");
+  EXPECT_EQ(o.target, "room5");
+  EXPECT_EQ(o.target_episodes, 40u);
+  EXPECT_EQ(o.rmax.known_threshold, 3u);
+  EXPECT_EQ(o.rmax.step_cost, 0.5);
+  EXPECT_EQ(o.rmax.rmax, 40.0);  // untouched default
+  for (const auto& [text, what] : std::vector<std::pair<std::string, std::string>>{
+           {"targt: room5\n", "unknown field 'targt'"},
+           {"target_episodes: 0\n", "target_episodes"},
+           {"blocking_rate: 1.5\n", "blocking_rate"},
+           {"rmax: {known_threshold: 0}\n", "rmax.known_threshold"},
+           {"rmax: {speed: 1}\n", "unknown field 'rmax.speed'"},
+           {"target: room1\n", "same as source"},
+           {"rmax: [1, 2\n", "not valid YAML"}}) {
+    try {
+      load(text);
+      ADD_FAILURE() << "no ConfigError for " << text;
+    } catch (const krr::ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("o.yaml"), std::string::npos) << e.what();
+    }
+  }
+  // The shipped defaults load.
+  const auto shipped = krr::kb::loadNavTransferOptions(
+      std::string(KRR_TEST_DATA_DIR) + "/../../../../config/nav_transfer.yaml");
+  EXPECT_EQ(shipped.rmax.rmax, 40.0);  // the paper's Rmax
+}
+
 TEST(NavTransfer, InvalidOptionsAreRefused) {
   NavDomain d = tinyDomain();
   auto o = tinyOptions();

@@ -8,7 +8,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
-#include <fstream>
+#include <algorithm>
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
@@ -197,6 +197,21 @@ TEST(NewCircumstances, TrialsDependOnlyOnSeedAndIndex) {
   // Column count of a row matches the header.
   const std::string h = krr::kb::newCircumstancesCsvHeader(o), r = krr::kb::newCircumstancesCsvRow(all[0]);
   EXPECT_EQ(std::count(h.begin(), h.end(), ','), std::count(r.begin(), r.end(), ','));
+}
+
+TEST(NewCircumstances, LeastKnownSelectorLearnsThroughProcedureOne) {
+  const NavDomain d = corridors();
+  auto o = smallOptions();
+  o.selector = "least_known";
+  o.places = {"room1"};
+  o.learn_tasks = 2;
+  o.learn_episodes = 20;
+  NavigationKnowledge kb(*d.grid, d.knowledge_files);
+  const auto t = krr::kb::runNewCircumstancesTrial(d, kb, o, 3, 0);
+  ASSERT_EQ(t.learned_pairs.size(), 2u);
+  EXPECT_GT(t.learned_pairs[0], 0u);
+  EXPECT_GE(t.expected_merged, 0.0);
+  EXPECT_LE(t.expected_merged, 1.0);
 }
 
 TEST(NewCircumstances, OptionsFileIsValidated) {

@@ -160,8 +160,13 @@ class DeliveryExperiment {
 /**
  * @brief Solve a dialog POMDP with the config's precision, trial budget and timeout (FIB
  * initialisation bounded by iterations, not time, so a run that stops at the precision or the
- * trial budget is reproducible). With a cache directory a reproducible policy is saved to
- * policy_<hash of the exact model and solver options>.txt there, and loaded on later runs.
+ * trial budget is reproducible). The solver's alpha vectors are completed with the exact
+ * serve-at-once vectors R(., serve a) (valid lower-bound vectors that point-based pruning may
+ * drop), so that serving is compared with asking correctly at any belief.
+ * With a cache directory a reproducible policy is saved to
+ * policy_<hash>.txt there, and loaded on later runs; the hash covers the exact model (its
+ * Cassandra text), the solver options and a fingerprint of the solver's behaviour (its policy
+ * on Tiger after 25 trials), so a changed model or solver never reuses a stale policy.
  */
 pomdp::AlphaVectorPolicy solveDialogPolicy(const pomdp::DialogPomdp& dialog,
                                            const DialogConfig& config,

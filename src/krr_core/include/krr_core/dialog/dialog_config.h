@@ -57,7 +57,7 @@ struct DialogConfig {
   // solver:
   double solver_precision = 0.5;   ///< target bound gap at the initial belief
   double solver_timeout = 600.0;   ///< seconds; a run stopped by it is not reproducible
-  std::size_t solver_max_trials = 400;  ///< trial budget (0: none): a reproducible stop
+  std::size_t solver_max_trials = 1000;  ///< trial budget (0: none): a reproducible stop
   // learning (Procedure 1 for the delivery routes):
   std::uint32_t known_threshold = 30;  ///< R-Max M
   bool refine_known = true;            ///< keep refining known pairs from all samples

@@ -21,18 +21,22 @@
  *  - serve costs (our extension, DialogConfig::serve_cost_mode): the navigation cost of the
  *    trips a delivery implies (C from DeliveryNavigation), in the serve reward.
  *
- * Why the extension. With the paper's R(s, serve a) = 80 T^D - 80 (1 - T^D), the regret of
- * serving a when the request is s != a in the same room (item or person misheard) is
- * 160 q (1 - q^2), q = P^N(shop, room) = P^N(room, shop): it vanishes both for easy rooms
- * (q = 1: the redelivery trips always succeed) and for very hard ones (q -> 0: the delivery
- * fails anyway), so "harder room -> more questions" holds only while q > 1/sqrt(3) ~ 0.58.
+ * Why the extension. With the paper's R(s, serve a) = 80 T^D - 80 (1 - T^D) alone, the regret
+ * of serving a when the request is s is 160 P^N(shop, s) (1 - P^N(shop, a) P^N(a, shop)). On the
+ * office map room1 and room4 are never blocked (P^N = 1), so serving any room1 / room4 request
+ * loses nothing: T^D(s, a) = P^N(shop, s) = T^D(s, s) for every s. The optimal dialog policy
+ * then asks nothing at all and always serves such a request, using the redelivery rule ("go
+ * back, learn the request, deliver again") as a free oracle; "harder room -> more questions"
+ * cannot hold. For same-room confusions (item or person misheard) the regret is
+ * 160 q (1 - q^2), q = P^N(shop, room) = P^N(room, shop): it vanishes for q -> 1 and q -> 0.
  * Charging the navigation tasks the delivery equation names (ServeCostMode::kTasks: one task
- * for a right delivery, three for a wrong one, each at its expected cost C) adds
- * C(a, shop) + C(shop, s) to that regret, which grows monotonically as navigation gets harder
- * (more moves, more failures). ServeCostMode::kExpected charges instead the exact expected
- * navigation cost of the executed trial (later trips only if the earlier ones arrived); it is
- * consistent with the trial's recorded cost but multiplies the redelivery cost by q again, so
- * it cannot reverse the q -> 0 collapse.
+ * for a right delivery, three for a wrong one, each at its expected cost C = step_cost x moves
+ * + failure_penalty x P(fail), the paper's navigation reward without the goal bonus) adds
+ * C(a, shop) + C(shop, s) to every wrong delivery, which grows as navigation gets harder.
+ * ServeCostMode::kExpected instead charges the exact expected navigation cost of the executed
+ * trial (a later trip only if the earlier ones arrived): consistent with the cost a trial
+ * records, but it multiplies the redelivery cost by P^N(shop, a) again, so it fades for very
+ * hard rooms.
  */
 #pragma once
 
