@@ -1,3 +1,4 @@
+#include "krr_core/common/format.h"
 #include "krr_core/dialog/dialog_config.h"
 
 #include <yaml-cpp/yaml.h>
@@ -18,12 +19,7 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-std::string num(double v) {
-  std::ostringstream o;
-  o.precision(10);
-  o << v;
-  return o.str();
-}
+std::string num(double v) { return formatNumber(v, 10); }
 
 std::string dump(const YAML::Node& n) {
   std::string s = YAML::Dump(n);

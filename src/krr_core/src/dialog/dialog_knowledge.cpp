@@ -1,3 +1,4 @@
+#include "krr_core/common/format.h"
 #include "krr_core/dialog/dialog_knowledge.h"
 
 #include <cmath>
@@ -15,12 +16,7 @@ namespace {
 
 constexpr double kTol = 1e-9;
 
-std::string num(double v) {
-  std::ostringstream o;
-  o.precision(10);
-  o << v;
-  return o.str();
-}
+std::string num(double v) { return formatNumber(v, 10); }
 
 }  // namespace
 

@@ -1,3 +1,4 @@
+#include "krr_core/common/format.h"
 #include "krr_core/mdp/rmax_model.h"
 
 #include <algorithm>
@@ -12,12 +13,7 @@ namespace mdp {
 
 namespace {
 
-std::string num(double v) {
-  std::ostringstream o;
-  o.precision(17);
-  o << v;
-  return o.str();
-}
+std::string num(double v) { return formatNumber(v, 17); }
 
 std::string pairName(StateId s, ActionId a) {
   return "(s=" + std::to_string(s) + ", a=" + std::to_string(a) + ")";

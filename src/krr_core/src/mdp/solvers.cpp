@@ -1,3 +1,4 @@
+#include "krr_core/common/format.h"
 #include "krr_core/mdp/solvers.h"
 
 #include <Eigen/Sparse>
@@ -21,12 +22,7 @@ namespace mdp {
 
 namespace {
 
-std::string num(double v) {
-  std::ostringstream o;
-  o.precision(17);
-  o << v;
-  return o.str();
-}
+std::string num(double v) { return formatNumber(v, 17); }
 
 void checkWarmStart(const std::vector<double>* warm, std::size_t n) {
   if (warm != nullptr && warm->size() != n) {

@@ -1,3 +1,4 @@
+#include "krr_core/common/format.h"
 #include "krr_core/mdp/sparse_model.h"
 
 #include <algorithm>
@@ -17,12 +18,7 @@ std::string pairName(std::size_t s, std::size_t a) {
   return "(s=" + std::to_string(s) + ", a=" + std::to_string(a) + ")";
 }
 
-std::string num(double v) {
-  std::ostringstream o;
-  o.precision(17);
-  o << v;
-  return o.str();
-}
+std::string num(double v) { return formatNumber(v, 17); }
 
 void checkDiscount(double discount) {
   if (!(discount >= 0.0 && discount <= 1.0)) {

@@ -1,3 +1,4 @@
+#include "krr_core/common/format.h"
 #include "krr_core/nav/navigation_config.h"
 
 #include <yaml-cpp/yaml.h>
@@ -15,12 +16,7 @@ namespace nav {
 
 namespace {
 
-std::string num(double v) {
-  std::ostringstream o;
-  o.precision(10);
-  o << v;
-  return o.str();
-}
+std::string num(double v) { return formatNumber(v, 10); }
 
 std::string dump(const YAML::Node& n) {
   std::string s = YAML::Dump(n);

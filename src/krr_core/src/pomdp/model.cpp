@@ -1,3 +1,4 @@
+#include "krr_core/common/format.h"
 #include "krr_core/pomdp/model.h"
 
 #include <cmath>
@@ -11,12 +12,7 @@ namespace pomdp {
 
 namespace {
 
-std::string num(double v) {
-  std::ostringstream ss;
-  ss.precision(12);
-  ss << v;
-  return ss.str();
-}
+std::string num(double v) { return formatNumber(v, 12); }
 
 std::vector<std::string> defaultNames(const char* prefix, std::size_t n) {
   std::vector<std::string> out;
