@@ -27,20 +27,8 @@ const char* kUsage =
     "         [--domain office_30x30] [--geometry maps/<domain>_geometry.plog]\n"
     "         [--knowledge config/navigation.plog] [--goal room2] [--br 0.1]\n"
     "         [--learn-episodes N] [--selector fixed|least_known]\n"
-    "Paths default to DIR (default: the current directory if it holds config/navigation.yaml,\n"
-    "else the source tree). Flags override the options file.\n";
-
-std::string sourceRepo() {
-  const std::string f = __FILE__, tail = "/src/krr_core/apps/new_circumstances.cpp";
-  if (f.size() > tail.size() && f.compare(f.size() - tail.size(), tail.size(), tail) == 0)
-    return f.substr(0, f.size() - tail.size());
-  return ".";
-}
-
-bool exists(const std::string& p) {
-  struct stat st;
-  return ::stat(p.c_str(), &st) == 0;
-}
+    "Paths default to DIR (default: $KRR_ROOT, else the checkout holding the working directory\n"
+    "or this program). Flags override the options file.\n";
 
 double toNumber(const std::string& flag, const std::string& v) {
   char* end = nullptr;
@@ -100,7 +88,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    if (repo.empty()) repo = exists("config/navigation.yaml") ? "." : sourceRepo();
+    repo = krr::findRepositoryRoot(repo);
     if (options_file.empty()) options_file = repo + "/config/new_circumstances.yaml";
     krr::kb::NewCircumstancesOptions o = krr::kb::loadNewCircumstancesOptions(options_file);
     for (const auto& [f, v] : overrides) {

@@ -27,20 +27,12 @@
 #include <vector>
 
 #include "krr_core/common/errors.h"
+#include "krr_core/common/files.h"
 #include "krr_core/common/random.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/kb/nav_transfer.h"
 
 namespace {
-
-std::string defaultRepo() {
-  // bench sources live in <repo>/src/krr_core/bench
-  std::string f = __FILE__;
-  const std::string tail = "/src/krr_core/bench/bench_procedure2.cpp";
-  if (f.size() > tail.size() && f.compare(f.size() - tail.size(), tail.size(), tail) == 0)
-    return f.substr(0, f.size() - tail.size());
-  return ".";
-}
 
 double best(const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); }
 
@@ -158,7 +150,7 @@ int runDomain(const std::string& repo, const std::string& name, const std::strin
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string repo = defaultRepo(), time = "morning";
+  std::string repo = "", time = "morning";
   int repeat = 3;
   std::vector<std::string> domains;
   for (int i = 1; i < argc; ++i) {
@@ -190,7 +182,7 @@ int main(int argc, char** argv) {
     }
     if (pid == 0) {
       try {
-        std::_Exit(runDomain(repo, d, time, repeat));
+        std::_Exit(runDomain(krr::findRepositoryRoot(repo), d, time, repeat));
       } catch (const krr::Error& e) {
         std::fprintf(stderr, "bench_procedure2: %s: %s\n", d.c_str(), e.what());
         std::fflush(stderr);

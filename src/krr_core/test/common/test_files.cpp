@@ -59,6 +59,27 @@ TEST(Random, DerivedStreamsAreReproducibleAndDistinct) {
   EXPECT_LT(u, 1.0);
 }
 
+TEST(Files, FindsTheRepositoryRootFromHintEnvironmentAndWorkingDirectory) {
+  char tmpl[] = "/tmp/krr_root_XXXXXX";
+  const std::string dir = ::mkdtemp(tmpl);
+  ASSERT_EQ(std::system(("mkdir -p " + dir + "/config " + dir + "/a/b").c_str()), 0);
+  krr::writeFileAtomic(dir + "/config/marker_for_test.yaml", "x: 1\n");
+  const char* saved_env = std::getenv("KRR_ROOT");
+  const std::string saved = saved_env ? saved_env : "";
+  ::unsetenv("KRR_ROOT");
+  char cwd[4096];
+  ASSERT_NE(::getcwd(cwd, sizeof cwd), nullptr);
+  EXPECT_EQ(krr::findRepositoryRoot("/given", "config/marker_for_test.yaml"), "/given");
+  ASSERT_EQ(::chdir((dir + "/a/b").c_str()), 0);
+  EXPECT_EQ(krr::findRepositoryRoot("", "config/marker_for_test.yaml"), dir);
+  EXPECT_THROW(krr::findRepositoryRoot("", "config/no_such_marker_anywhere.yaml"), krr::ConfigError);
+  ::setenv("KRR_ROOT", "/from/env", 1);
+  EXPECT_EQ(krr::findRepositoryRoot("", "config/marker_for_test.yaml"), "/from/env");
+  ASSERT_EQ(::chdir(cwd), 0);
+  if (saved_env) ::setenv("KRR_ROOT", saved.c_str(), 1); else ::unsetenv("KRR_ROOT");
+  std::system(("rm -rf " + dir).c_str());
+}
+
 TEST(Errors, ParseErrorCarriesLocation) {
   krr::ParseError e({"kb.plog", 3, 14}, "expected '.'");
   EXPECT_STREQ(e.what(), "kb.plog:3:14: expected '.'");
