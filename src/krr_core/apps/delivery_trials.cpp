@@ -10,6 +10,7 @@
 #include <string>
 #include <thread>
 
+#include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/resources.h"
@@ -43,18 +44,11 @@ struct Args {
 };
 
 double toNumber(const std::string& flag, const std::string& v) {
-  char* end = nullptr;
-  const double d = std::strtod(v.c_str(), &end);
-  if (v.empty() || *end || !std::isfinite(d))
-    throw krr::ConfigError("option " + flag + ": '" + v + "' is not a number");
-  return d;
+  return krr::parseNumberOption(flag, v);
 }
 
 std::size_t toCount(const std::string& flag, const std::string& v) {
-  const double d = toNumber(flag, v);
-  if (d < 0 || d != std::floor(d) || d > 1e15)
-    throw krr::ConfigError("option " + flag + ": '" + v + "' is not a non-negative integer");
-  return static_cast<std::size_t>(d);
+  return krr::parseCountOption(flag, v);
 }
 
 Args parse(int argc, char** argv) {

@@ -26,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/dialog/dialog_knowledge.h"
@@ -53,10 +54,7 @@ struct Args {
 };
 
 double toNumber(const std::string& flag, const std::string& v) {
-  char* end = nullptr;
-  const double d = std::strtod(v.c_str(), &end);
-  if (v.empty() || *end) throw krr::ConfigError("option " + flag + ": '" + v + "' is not a number");
-  return d;
+  return krr::parseNumberOption(flag, v);
 }
 
 Args parse(int argc, char** argv) {

@@ -8,9 +8,11 @@
 #include <cstdlib>
 #include <iostream>
 #include <sstream>
+#include <fstream>
 #include <string>
 #include <thread>
 
+#include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/resources.h"
@@ -27,35 +29,17 @@ const char* kUsage =
     "         [--time morning] [--source room1] [--target room2] [--rmax 40] [--step-cost 1]\n"
     "         [--known M] [--replan E] [--discount 0.95] [--repo DIR]\n"
     "Experiment defaults come from the options file (default DIR/config/nav_transfer.yaml when\n"
-    "it exists); flags override them. Relative default paths are under DIR (the current\n"
-    "directory if it holds config/navigation.yaml, else the source tree).\n"
+    "it exists); flags override them. Relative default paths are under DIR (the\n"
+    "checkout found from $KRR_ROOT, the working directory or this program).\n"
     "--out: episode, mean and 95% CI of the reward with/without extraction, success rates.\n"
     "--trials-out: trial, episode, condition (with/without), reward, success.\n";
 
-std::string sourceRepo() {
-  const std::string f = __FILE__, tail = "/src/krr_core/apps/nav_transfer.cpp";
-  if (f.size() > tail.size() && f.compare(f.size() - tail.size(), tail.size(), tail) == 0)
-    return f.substr(0, f.size() - tail.size());
-  return ".";
-}
-
-bool exists(const std::string& p) {
-  struct stat st;
-  return ::stat(p.c_str(), &st) == 0;
-}
-
 double toNumber(const std::string& flag, const std::string& v) {
-  char* end = nullptr;
-  const double d = std::strtod(v.c_str(), &end);
-  if (v.empty() || *end) throw krr::ConfigError("option " + flag + ": '" + v + "' is not a number");
-  return d;
+  return krr::parseNumberOption(flag, v);
 }
 
 std::size_t toCount(const std::string& flag, const std::string& v) {
-  const double d = toNumber(flag, v);
-  if (d < 0 || d != static_cast<double>(static_cast<std::size_t>(d)))
-    throw krr::ConfigError("option " + flag + ": '" + v + "' is not a non-negative integer");
-  return static_cast<std::size_t>(d);
+  return krr::parseCountOption(flag, v);
 }
 
 struct Args {
@@ -124,11 +108,11 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    if (a.repo.empty()) a.repo = exists("config/navigation.yaml") ? "." : sourceRepo();
+    a.repo = krr::findRepositoryRoot(a.repo);
     krr::kb::NavTransferOptions o;
     const std::string default_options = a.repo + "/config/nav_transfer.yaml";
     if (!a.options.empty()) o = krr::kb::loadNavTransferOptions(a.options);
-    else if (exists(default_options)) o = krr::kb::loadNavTransferOptions(default_options);
+    else if (std::ifstream(default_options).good()) o = krr::kb::loadNavTransferOptions(default_options);
     for (const auto& [f, v] : a.overrides) applyOverride(o, f, v);
     o.validate();
     if (a.config.empty()) a.config = a.repo + "/config/navigation.yaml";

@@ -13,6 +13,7 @@
 #include <string>
 #include <thread>
 
+#include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/resources.h"
@@ -31,17 +32,11 @@ const char* kUsage =
     "or this program). Flags override the options file.\n";
 
 double toNumber(const std::string& flag, const std::string& v) {
-  char* end = nullptr;
-  const double d = std::strtod(v.c_str(), &end);
-  if (v.empty() || *end) throw krr::ConfigError("option " + flag + ": '" + v + "' is not a number");
-  return d;
+  return krr::parseNumberOption(flag, v);
 }
 
 std::size_t toCount(const std::string& flag, const std::string& v) {
-  const double d = toNumber(flag, v);
-  if (d < 0 || d != static_cast<double>(static_cast<std::size_t>(d)))
-    throw krr::ConfigError("option " + flag + ": '" + v + "' is not a non-negative integer");
-  return static_cast<std::size_t>(d);
+  return krr::parseCountOption(flag, v);
 }
 
 }  // namespace
