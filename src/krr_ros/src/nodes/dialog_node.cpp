@@ -39,6 +39,7 @@
 #include "krr_core/dialog/dialog_session.h"
 #include "krr_core/dialog/language.h"
 #include "krr_core/kb/navigation_knowledge.h"
+#include "krr_core/dialog/delivery_experiment.h"
 #include "krr_core/pomdp/point_based_solver.h"
 #include "krr_ros/conversions.h"
 #include "krr_ros/nav_kb.h"
@@ -196,13 +197,15 @@ class DialogNode {
     m->pomdp = std::make_unique<krr::pomdp::DialogPomdp>(buildSpec(&m->reach));
     m->language = std::make_unique<krr::dialog::LanguageFrontEnd>(*m->pomdp, language_config_,
                                                                   p_.language_config);
-    krr::pomdp::SolverOptions opt;
-    opt.precision = p_.solver_precision;
-    opt.timeout = p_.solver_time;
-    krr::pomdp::PointBasedSolver solver(m->pomdp->model(), m->pomdp->model().initialBelief(), opt);
-    solver.solve();
-    m->policy = solver.policy();
-    m->bounds = solver.report();
+    // The same solving as the delivery experiments (incl. the exact serve-at-once vectors, so
+    // that serving is compared with asking correctly at every belief), bounded by ~solver_time.
+    krr::dialog::DialogConfig solve_config = config_;
+    solve_config.solver_precision = p_.solver_precision;
+    solve_config.solver_timeout = p_.solver_time;
+    solve_config.solver_max_trials = 0;
+    krr::dialog::PreparationReport prep;
+    m->policy = krr::dialog::solveDialogPolicy(*m->pomdp, solve_config, "", &prep);
+    m->bounds = prep.bounds;
     session_.reset();
     model_ = std::move(m);
     session_ = std::make_unique<krr::dialog::DialogSession>(*model_->pomdp, *model_->language,
