@@ -1,13 +1,11 @@
+#include "krr_core/common/parallel.h"
 #include "krr_core/dialog/belief_entropy_survey.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <exception>
-#include <mutex>
 #include <random>
-#include <thread>
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/random.h"
@@ -71,29 +69,9 @@ EntropySample BeliefEntropySurvey::sample(std::size_t index) const {
 
 std::vector<EntropySample> BeliefEntropySurvey::run(std::size_t begin, std::size_t count,
                                                     std::size_t threads) const {
-  std::vector<EntropySample> out(count);
-  threads = std::max<std::size_t>(1, std::min(threads, count));
-  std::atomic<std::size_t> next{0};
-  std::exception_ptr failure;
-  std::mutex mu;
-  auto worker = [&]() {
-    try {
-      for (std::size_t k = next++; k < count; k = next++) out[k] = sample(begin + k);
-    } catch (...) {
-      std::lock_guard<std::mutex> lock(mu);
-      if (!failure) failure = std::current_exception();
-      next = count;
-    }
-  };
-  if (threads == 1) {
-    worker();
-  } else {
-    std::vector<std::thread> pool;
-    for (std::size_t t = 0; t < threads; ++t) pool.emplace_back(worker);
-    for (auto& t : pool) t.join();
-  }
-  if (failure) std::rethrow_exception(failure);
-  return out;
+  return runParallelTrials<EntropySample>(count, threads, [&]() {
+    return [&](std::size_t k) { return sample(begin + k); };
+  });
 }
 
 std::string BeliefEntropySurvey::csvHeader() {

@@ -1,15 +1,13 @@
+#include "krr_core/common/parallel.h"
 #include "krr_core/dialog/delivery_experiment.h"
 
 #include <sys/stat.h>
 
-#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <exception>
 #include <limits>
-#include <mutex>
 #include <sstream>
-#include <thread>
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/resources.h"
@@ -266,29 +264,9 @@ DeliveryTrialResult DeliveryExperiment::runTrial(std::size_t index, long fixed_r
 std::vector<DeliveryTrialResult> DeliveryExperiment::runTrials(std::size_t begin,
                                                                std::size_t count,
                                                                std::size_t threads) const {
-  std::vector<DeliveryTrialResult> out(count);
-  threads = std::max<std::size_t>(1, std::min(threads, count));
-  std::atomic<std::size_t> next{0};
-  std::exception_ptr failure;
-  std::mutex mu;
-  auto worker = [&]() {
-    try {
-      for (std::size_t k = next++; k < count; k = next++) out[k] = runTrial(begin + k);
-    } catch (...) {
-      std::lock_guard<std::mutex> lock(mu);
-      if (!failure) failure = std::current_exception();
-      next = count;
-    }
-  };
-  if (threads == 1) {
-    worker();
-  } else {
-    std::vector<std::thread> pool;
-    for (std::size_t t = 0; t < threads; ++t) pool.emplace_back(worker);
-    for (auto& t : pool) t.join();
-  }
-  if (failure) std::rethrow_exception(failure);
-  return out;
+  return runParallelTrials<DeliveryTrialResult>(count, threads, [&]() {
+    return [&](std::size_t k) { return runTrial(begin + k); };
+  });
 }
 
 std::string deliveryCsvHeader() {

@@ -1,14 +1,12 @@
+#include "krr_core/common/parallel.h"
 #include "krr_core/kb/new_circumstances.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <exception>
 #include <memory>
-#include <mutex>
 #include <set>
-#include <thread>
 
 #include "experiment_yaml.h"
 #include "krr_core/common/errors.h"
@@ -200,27 +198,12 @@ std::vector<NewCircumstancesTrial> runNewCircumstances(const NavDomain& dom,
                                                        std::size_t count, std::size_t threads) {
   o.validate();
   if (count == 0) throw ConfigError("new circumstances: trials must be at least 1");
-  threads = std::max<std::size_t>(1, std::min(threads, count));
-  std::vector<NewCircumstancesTrial> results(count);
-  std::atomic<std::size_t> next{0};
-  std::exception_ptr failure;
-  std::mutex failure_mutex;
-  auto worker = [&]() {
-    try {
-      NavigationKnowledge kb(*dom.grid, dom.knowledge_files);
-      for (std::size_t i = next++; i < count; i = next++)
-        results[i] = runNewCircumstancesTrial(dom, kb, o, seed, begin + i);
-    } catch (...) {
-      std::lock_guard<std::mutex> lock(failure_mutex);
-      if (!failure) failure = std::current_exception();
-      next = count;
-    }
-  };
-  std::vector<std::thread> pool;
-  for (std::size_t k = 0; k < threads; ++k) pool.emplace_back(worker);
-  for (auto& th : pool) th.join();
-  if (failure) std::rethrow_exception(failure);
-  return results;
+  return runParallelTrials<NewCircumstancesTrial>(count, threads, [&]() {
+    auto kb = std::make_shared<NavigationKnowledge>(*dom.grid, dom.knowledge_files);
+    return [&, kb](std::size_t i) {
+      return runNewCircumstancesTrial(dom, *kb, o, seed, begin + i);
+    };
+  });
 }
 
 MeanCi meanCi(const std::vector<double>& x) {
