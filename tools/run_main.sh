@@ -25,4 +25,9 @@ grep -E "delivery [0-9]+ ended|hidden request|I am delivering" "$OUT/sim/roslaun
   | sed -e 's/\x1b\[[0-9;]*m//g' -e 's/^/  /' || echo "  (no delivery finished: see the log)"
 
 echo "== evaluation (tools/evaluate.py, output in $OUT/eval)"
-/usr/bin/python3 "$ROOT/tools/evaluate.py" --out "$OUT/eval" "$@"
+# The dialog policies are not certified to config/dialog.yaml's precision (no solver we have,
+# ours or SARSOP, closes the bound gap of the three-factor dialog): report them anyway, with
+# their certified bounds (report.md, exp2_policies).
+echo "   (--allow-unconverged: Table I/II rest on dialog policies with certified bounds, not on"
+echo "    certified optimal ones; their gaps are in report.md)"
+/usr/bin/python3 "$ROOT/tools/evaluate.py" --out "$OUT/eval" --allow-unconverged "$@"

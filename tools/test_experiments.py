@@ -157,3 +157,38 @@ class ContextTest(unittest.TestCase):
 
 if __name__ == "__main__":
     unittest.main()
+
+
+class PolicyReportTest(unittest.TestCase):
+    """The dialog policies behind delivery trial sets: certified bounds and forced serves."""
+
+    @staticmethod
+    def table(lower, upper, forced):
+        rows = "".join("%d,%s,%s,%d\n" % (i, lower, upper, f) for i, f in enumerate(forced))
+        return TrialTable.from_text("trial,policy_lower,policy_upper,forced\n" + rows)
+
+    def test_certified_policies_are_reported(self):
+        prec = experiments.solver_precision()
+        ctx = experiments.Context("/tmp", None)
+        t = experiments.policy_report(ctx, "exp2", {"br 0.1 learned": self.table(
+            10.0, 10.0 + prec / 2, [0] * 99 + [1])})
+        self.assertEqual(t.rows[0][4], "yes")
+        rec = ctx.params["exp2"]["policies"]["br 0.1 learned"]
+        self.assertAlmostEqual(rec["gap"], prec / 2)
+        self.assertAlmostEqual(rec["forced_rate"], 0.01)
+        self.assertIn("exceeded by br 0.1 learned", t.note)  # 1 % is not below 1 %
+        self.assertNotIn("NOT CERTIFIED", t.note)
+
+    def test_unconverged_policies_are_refused_unless_allowed(self):
+        prec = experiments.solver_precision()
+        sets = {"br 0.7 outdated": self.table(-30.0, -30.0 + 2 * prec + 5, [0] * 10)}
+        with self.assertRaises(experiments.UnconvergedPolicy) as e:
+            experiments.policy_report(experiments.Context("/tmp", None), "exp2", sets)
+        self.assertIn("br 0.7 outdated", str(e.exception))
+        self.assertIn("--allow-unconverged", str(e.exception))
+        ctx = experiments.Context("/tmp", None, allow_unconverged=True)
+        t = experiments.policy_report(ctx, "exp2", sets)
+        self.assertEqual(t.rows[0][4], "no")
+        self.assertIn("NOT CERTIFIED", t.note)
+        self.assertIn("met in every set", t.note)
+        self.assertFalse(ctx.params["exp2"]["policies"]["br 0.7 outdated"]["certified"])

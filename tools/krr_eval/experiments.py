@@ -13,8 +13,9 @@ import math
 import os
 
 import numpy as np
+import yaml
 
-from . import navigation, plots, stats
+from . import navigation, paths, plots, stats
 from .report import Claim, Est, P, Result, Table
 from .runner import TrialSpec
 
@@ -45,7 +46,9 @@ DEFAULTS = {
     # target_episodes None: the CLI's config/nav_transfer.yaml decides (100)
     "exp1": {"trials": 1000, "target_episodes": None, "window": 10, "early_episodes": 30,
              "domains": ["small", "large"]},
-    "exp2": {"trials": 10000, "brs": [0.1, 0.5, 0.7], "paper_subsample": 100},
+    "exp2": {"trials": 10000, "brs": [0.1, 0.5, 0.7], "paper_subsample": 100,
+             # the serve reward's wrong-delivery penalty set to 0 (learned knowledge)
+             "ablation_trials": 2000},
     "exp3": {"rooms": ["room2", "room4"]},
     # The paper does not say how many random beliefs it drew: we use 10,000 per rate.
     "exp4": {"trials": 10000, "brs": [0.1, 0.5, 0.7], "rooms": ["room1", "room2", "room5"],
@@ -56,7 +59,8 @@ DEFAULTS = {
     "exp6": {"utterances": ["a coke for Bob to office2", "a coke", "yes", "yes"], "args": []},
 }
 # --quick: a smoke run of every experiment (CI); effects are usually not significant.
-QUICK = {"exp1": {"trials": 4, "target_episodes": 20}, "exp2": {"trials": 500},
+QUICK = {"exp1": {"trials": 4, "target_episodes": 20},
+         "exp2": {"trials": 500, "ablation_trials": 300},
          "exp4": {"trials": 2000}, "exp5": {"trials": 6}}
 TITLES = collections.OrderedDict([
     ("exp1", "1. Navigation transfer (learn shop-room1, apply to shop-room2)"),
@@ -76,12 +80,13 @@ class Context(object):
     recorded: the `experiments` section of a replayed params.json (its values win)."""
 
     def __init__(self, out_dir, runner, seed=1, scale=1.0, trials=None, quick=False,
-                 alpha=0.05, recorded=None, log=print):
+                 alpha=0.05, recorded=None, log=print, allow_unconverged=False):
         if scale <= 0:
             raise ValueError("trials scale must be positive, got %r" % (scale,))
         self.out_dir, self.runner, self.seed, self.scale = out_dir, runner, int(seed), scale
         self.overrides, self.quick, self.alpha = dict(trials or {}), quick, alpha
         self.recorded, self.log = recorded, log
+        self.allow_unconverged = allow_unconverged
         self.params = collections.OrderedDict()
 
     def setting(self, exp, key, default=None):
@@ -122,6 +127,63 @@ def norm_room(name):
 
 def _sub(values, mask):
     return [v for v, m in zip(values, mask) if m]
+
+
+# ---------------------------------------------------------------------------------------------
+# Dialog policies behind the delivery experiments: certified, and never forced to serve
+class UnconvergedPolicy(RuntimeError):
+    """A table would rest on a dialog policy whose certified bound gap exceeds the precision."""
+
+
+def solver_precision():
+    """config/dialog.yaml's solver.precision: the bound gap a policy must be certified to."""
+    with open(paths.repo("config", "dialog.yaml")) as f:
+        return float(yaml.safe_load(f).get("solver", {}).get("precision", 1.0))
+
+
+FORCED_LIMIT = 0.01  # serves forced by the turn limit, per trial set
+
+
+def policy_report(ctx, exp, sets):
+    """The policies behind trial sets {label: TrialTable}: certified bounds at the prior
+    (policy_lower / policy_upper columns of delivery_trials) and the rate of serves forced by
+    the turn limit. Recorded in params.json; returns a Table. Refuses (UnconvergedPolicy) when a
+    gap exceeds config/dialog.yaml's precision, unless ctx.allow_unconverged."""
+    precision = solver_precision()
+    rows, record, unconverged, forced_high = [], collections.OrderedDict(), [], []
+    for label, t in sets.items():
+        lower = float(t.floats("policy_lower")[0]) if t.has("policy_lower") and len(t) else None
+        upper = float(t.floats("policy_upper")[0]) if t.has("policy_upper") and len(t) else None
+        gap = upper - lower if lower is not None and upper is not None else None
+        forced = float(np.mean(t.floats("forced"))) if t.has("forced") and len(t) else None
+        certified = gap is not None and gap <= precision
+        if gap is not None and not certified:
+            unconverged.append("%s (gap %.2f)" % (label, gap))
+        if forced is not None and forced >= FORCED_LIMIT:
+            forced_high.append("%s (%.2f%%)" % (label, 100 * forced))
+        record[label] = {"lower": lower, "upper": upper, "gap": gap, "certified": certified,
+                         "forced_rate": forced}
+        rows.append([label, lower, upper, gap, "yes" if certified else "no", forced])
+    ctx.params.setdefault(exp, collections.OrderedDict())["policies"] = record
+    ctx.params[exp]["solver_precision"] = precision
+    if unconverged and not ctx.allow_unconverged:
+        raise UnconvergedPolicy(
+            "the dialog policies of %s are not certified to the precision %g of "
+            "config/dialog.yaml: %s. Rerun with --allow-unconverged to report them anyway "
+            "(the report then says so)." % (exp, precision, ", ".join(unconverged)))
+    note = ("Bounds on the optimal value at the prior, certified by the turn-limited solver "
+            "(config/dialog.yaml: precision %g, trial budget). " % precision)
+    if unconverged:
+        note += ("NOT CERTIFIED (reported because of --allow-unconverged): %s. The policy earns "
+                 "at least its lower bound; how far it is from the optimum is only known to "
+                 "lie within the gap." % ", ".join(unconverged))
+    note += (" Forced serves (20-turn limit) must stay below %.0f%% of the trials: %s."
+             % (100 * FORCED_LIMIT, "exceeded by " + ", ".join(forced_high) if forced_high
+                else "met in every set"))
+    return Table("%s_policies" % exp, "Dialog policies behind the trials",
+                 ["trial set", "lower", "upper", "gap", "certified", "forced-serve rate"], rows,
+                 formats={"lower": "%.2f", "upper": "%.2f", "gap": "%.2f",
+                          "forced-serve rate": "%.4f"}, note=note)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -227,6 +289,8 @@ def exp2_table1(ctx):
     tables = ctx.runner.run(list(specs.values()), label="exp2")
     rows, sig = [], []
     data = {}
+    res.tables.append(policy_report(ctx, "exp2", collections.OrderedDict(
+        ("br %g %s" % (br, c), tables[s.name]) for (br, c), s in specs.items())))
     for (br, c), s in specs.items():
         t = tables[s.name]
         data[br, c] = (t.floats("reward"), t.bools("fulfilled"), t.floats("qa_cost"),
@@ -286,7 +350,45 @@ def exp2_table1(ctx):
                  "d QA cost": "%+.2f"},
         note="The paper's p-values come from %d randomly selected trials per condition; we "
              "report that (seeded subsample) and the test over all trials." % k))
+    res.tables.append(serve_reward_ablation(ctx, tables, specs))
     return res
+
+
+def serve_reward_ablation(ctx, tables, specs):
+    """What the wrong-delivery penalty of the serve reward does: the learned condition's trials
+    against the same trials with the penalty set to 0 (delivery_trials
+    --wrong-delivery-penalty 0; the navigation cost of the trips driven stays)."""
+    n = ctx.setting("exp2", "ablation_trials")
+    brs = ctx.params["exp2"]["brs"]
+    abl = collections.OrderedDict(
+        (br, TrialSpec("delivery_br%g_learned_no_penalty" % br, "delivery_trials",
+                       ["--br", "%g" % br, "--condition", "learned",
+                        "--wrong-delivery-penalty", "0"], ctx.seed, n,
+                       min_chunk=CHEAP_TRIALS_CHUNK)) for br in brs)
+    got = ctx.runner.run(list(abl.values()), label="exp2 ablation")
+    rows = []
+    for br in brs:
+        for label, t in (("0", got[abl[br].name]),
+                         ("default", tables[specs[br, "learned"].name])):
+            t = t.head(n)
+            ident = t.bools("correct") if t.has("correct") else None
+            room = [norm_room(r) for r in t.strings("served_room")] if t.has("served_room") else []
+            ent = t.floats("entropy") if t.has("entropy") else []
+            easy = _sub(ent, [r in ("room1", "room4") for r in room]) if room else []
+            rows.append(["%g" % br, label, len(t),
+                         float(np.mean(ident)) if ident is not None else None,
+                         float(np.mean(t.floats("turns"))) if t.has("turns") else None,
+                         float(np.mean(easy)) if easy else None,
+                         float(np.mean(t.floats("reward")))])
+    return Table("exp2_serve_reward", "Effect of the wrong-delivery penalty (learned knowledge)",
+                 ["br", "penalty", "trials", "identified", "questions",
+                  "entropy at serve, room1/room4", "reward"], rows,
+                 formats={"identified": "%.3f", "questions": "%.2f",
+                          "entropy at serve, room1/room4": "%.3f", "reward": "%.2f"},
+                 note="penalty 0: the robot may serve an always-reachable room (room1, room4: "
+                      "P^N = 1) as a probe, since a wrong delivery there costs only a round "
+                      "trip; 'default' is config/dialog.yaml's penalty (the first trials of "
+                      "the Table I set). Rewards include the penalty where it applies.")
 
 
 def exp3_cdf(ctx):
@@ -294,6 +396,8 @@ def exp3_cdf(ctx):
     specs = delivery_specs(ctx)
     rooms = ctx.setting("exp3", "rooms")
     tables = ctx.runner.run(list(specs.values()), label="exp3")
+    policy_report(ctx, "exp3", collections.OrderedDict(  # the check only: exp2 shows the table
+        ("br %g %s" % (br, c), tables[s.name]) for (br, c), s in specs.items()))
     data = collections.OrderedDict()
     rows = []
     for (br, c), s in specs.items():
@@ -379,6 +483,8 @@ def exp4_table2(ctx):
                        ["--br", "%g" % br, "--condition", cond], ctx.seed, n,
                        min_chunk=CHEAP_TRIALS_CHUNK)) for br in brs)
     tables = ctx.runner.run(list(specs.values()), label="exp4")
+    res.tables.append(policy_report(ctx, "exp4", collections.OrderedDict(
+        ("br %g %s" % (br, cond), tables[s.name]) for br, s in specs.items())))
     ent = {}
     rows = []
     for br, s in specs.items():

@@ -149,8 +149,11 @@ class Claim(object):
     """One claim of the paper, our evidence, and the verdict."""
 
     def __init__(self, experiment, claim, paper, ours, direction_ok, p=None, alpha=0.05,
-                 too_few=None):
+                 too_few=None, reason=None):
+        """reason: for a claim this run does not support, one or two sentences, generated
+        from the measured numbers, saying why (shown with the claim in report.md)."""
         self.experiment, self.claim, self.paper, self.ours = experiment, claim, paper, ours
+        self.reason = reason
         self.direction_ok, self.p = bool(direction_ok), p
         self.verdict = verdict(direction_ok, p, alpha)
         if too_few:
@@ -169,7 +172,8 @@ class Claim(object):
     def as_dict(self):
         return {"experiment": self.experiment, "claim": self.claim, "paper": self.paper,
                 "ours": self.ours, "direction_ok": self.direction_ok,
-                "p": None if self.p is None else float(self.p), "verdict": self.verdict}
+                "p": None if self.p is None else float(self.p), "verdict": self.verdict,
+                "reason": self.reason}
 
 
 def claims_table(claims):
@@ -199,6 +203,13 @@ def write_report(path, header_lines, results, times, cpu=None):
     out += ["", "## Claims at a glance", "",
             "%d of %d claims supported (direction as in the paper and, where tested, p < alpha)."
             % (n_ok, len(claims)), "", claims_table(claims).markdown(), ""]
+    unsupported = [(i + 1, c) for i, c in enumerate(claims) if not c.supported]
+    if unsupported:
+        out += ["### Why claims are not supported", ""]
+        out += ["- #%d %s (%s): %s" % (i, c.claim, c.experiment,
+                                       c.reason or "no reason measured for this claim")
+                for i, c in unsupported]
+        out += [""]
     for r in results:
         out += ["## %s" % r.title, ""]
         out += r.notes + ([""] if r.notes else [])

@@ -34,7 +34,7 @@ examples:
 """ % ", ".join("%s (%s)" % (k, v.split(". ", 1)[1].split(":")[0].split(" (")[0])
                 for k, v in experiments.TITLES.items())
 
-FLAGS = ("quick", "ros", "no-ros", "no-progress")
+FLAGS = ("quick", "ros", "no-ros", "no-progress", "allow-unconverged")
 
 
 def parse_trials(values, parser):
@@ -78,6 +78,9 @@ def build_parser():
     ap.add_argument("--chunks-per-worker", type=int, default=4)
     ap.add_argument("--replay", metavar="DIR", help="recompute from DIR/trials/*.csv")
     ap.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    ap.add_argument("--allow-unconverged", action="store_true",
+                    help="report tables resting on dialog policies not certified to "
+                         "config/dialog.yaml's precision (the report says so)")
     g = ap.add_mutually_exclusive_group()
     g.add_argument("--ros", action="store_true", help="run as a ROS node (needs a master)")
     g.add_argument("--no-ros", action="store_true", help="never start a ROS node")
@@ -200,10 +203,12 @@ def main(argv=None, stdout=sys.stdout, stderr=sys.stderr):
         stderr.write("evaluate.py: %s\n" % e)
         return 2
     ctx = experiments.Context(out, runner, seed=a.seed, scale=a.trials_scale, trials=trials,
-                              quick=a.quick, alpha=a.alpha, recorded=recorded, log=say)
+                              quick=a.quick, alpha=a.alpha, recorded=recorded, log=say,
+                              allow_unconverged=a.allow_unconverged)
     params = collections.OrderedDict([
         ("tool", "tools/evaluate.py"), ("argv", argv), ("seed", a.seed), ("alpha", a.alpha),
         ("trials_scale", a.trials_scale), ("trials_overrides", trials), ("quick", a.quick),
+        ("allow_unconverged", a.allow_unconverged),
         ("workers", a.workers), ("scheduler", a.scheduler),
         ("chunks_per_worker", a.chunks_per_worker), ("replayed_from", a.replay),
         ("experiments", ctx.params), ("completed", []), ("failed", {}),

@@ -138,6 +138,10 @@ class TrialTable(object):
                           [r for r in self.rows if predicate(dict(zip(self.header, r)))],
                           self.source)
 
+    def head(self, n):
+        """The first n rows."""
+        return TrialTable(self.header, self.rows[:n], self.source)
+
     def trial_column(self):
         """Name of the trial index column (the first)."""
         if not self.header:

@@ -1,91 +1,32 @@
-// delivery_trials: the paper's delivery experiment (Sec. IV, Table I), headless. Dialog with a
-// simulated person, navigation in the blockage simulator, the redelivery rule; knowledge
-// learned at the trial's br ("learned") or at 0.3 ("outdated"). One CSV row per trial; trial i
-// depends only on (seed, i), never on --threads or --trial-begin.
+// delivery_trials: the paper's delivery experiment (Sec. IV, Table I), headless. The robot's
+// DeliveryManager with a simulated person and the blockage simulator; knowledge learned at the
+// trial's br ("learned") or at 0.3 ("outdated"). One CSV row per trial; trial i depends only
+// on (seed, i), never on --threads or --trial-begin.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
 #include <sstream>
 #include <string>
-#include <thread>
 
 #include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/dialog/delivery_experiment.h"
-#include "krr_core/dialog/experiment_paths.h"
+#include "krr_core/dialog/experiment_cli.h"
 
 namespace {
 
 const char* kUsage =
-    "usage: delivery_trials --br B --condition learned|outdated --trials N [--trial-begin K]\n"
-    "         --seed S [--threads T] [--domain office_30x30] [--learned-cache DIR|none]\n"
-    "         [--out trials.csv] [--export-pomdp FILE] [--root DIR] [--outdated-br 0.3]\n"
-    "         [--serve-cost none|expected|tasks] [--serve-cost-weight W]\n"
-    "         [--solver-trials N] [--solver-timeout S]\n"
-    "  One CSV row per trial (trial index first). reward = delivery (+80 fulfilled / -80)\n"
-    "  - qa_cost - nav_cost (step cost x moves driven + failure penalty if a trip failed).\n"
-    "  --learned-cache: learned knowledge and solved policies (default $KRR_CACHE_DIR or\n"
-    "  ~/.cache/krr_rl/delivery); 'none' learns and solves in-process every run.\n";
-
-struct Args {
-  double br = -1;
-  std::string condition;
-  long trials = -1;
-  std::size_t begin = 0, threads = 1;
-  std::uint64_t seed = 0;
-  bool have_seed = false;
-  std::string domain = "office_30x30", cache, out, export_pomdp, root, serve_cost;
-  bool have_cache = false;
-  double outdated_br = 0.3, weight = -1, solver_timeout = -1;
-  long solver_trials = -1;
-};
-
-double toNumber(const std::string& flag, const std::string& v) {
-  return krr::parseNumberOption(flag, v);
-}
-
-std::size_t toCount(const std::string& flag, const std::string& v) {
-  return krr::parseCountOption(flag, v);
-}
-
-Args parse(int argc, char** argv) {
-  Args a;
-  for (int i = 1; i < argc; ++i) {
-    const std::string f = argv[i];
-    if (f == "-h" || f == "--help") {
-      std::cout << kUsage;
-      std::exit(0);
-    }
-    if (i + 1 >= argc) throw krr::ConfigError("option " + f + " needs a value");
-    const std::string v = argv[++i];
-    if (f == "--br") a.br = toNumber(f, v);
-    else if (f == "--condition") a.condition = v;
-    else if (f == "--trials") a.trials = static_cast<long>(toCount(f, v));
-    else if (f == "--trial-begin") a.begin = toCount(f, v);
-    else if (f == "--seed") a.seed = toCount(f, v), a.have_seed = true;
-    else if (f == "--threads") a.threads = toCount(f, v);
-    else if (f == "--domain") a.domain = v;
-    else if (f == "--learned-cache") a.cache = v, a.have_cache = true;
-    else if (f == "--out") a.out = v;
-    else if (f == "--export-pomdp") a.export_pomdp = v;
-    else if (f == "--root") a.root = v;
-    else if (f == "--outdated-br") a.outdated_br = toNumber(f, v);
-    else if (f == "--serve-cost") a.serve_cost = v;
-    else if (f == "--serve-cost-weight") a.weight = toNumber(f, v);
-    else if (f == "--solver-trials") a.solver_trials = static_cast<long>(toCount(f, v));
-    else if (f == "--solver-timeout") a.solver_timeout = toNumber(f, v);
-    else throw krr::ConfigError("unknown option " + f);
-  }
-  if (a.br < 0) throw krr::ConfigError("--br is required");
-  if (a.condition.empty()) throw krr::ConfigError("--condition is required");
-  if (a.trials < 0) throw krr::ConfigError("--trials is required");
-  if (!a.have_seed) throw krr::ConfigError("--seed is required");
-  if (a.threads == 0) throw krr::ConfigError("option --threads: must be at least 1");
-  return a;
-}
+    "usage: delivery_trials --trials N [--export-pomdp FILE]\n"
+    "                       (shared options below)\n";
+const char* kHelp =
+    "  One CSV row per trial (trial index first). reward = +80 fulfilled / -80, minus the\n"
+    "  questions' costs, the navigation cost driven and the wrong-delivery penalty\n"
+    "  (config/dialog.yaml, serve_cost). policy_lower / policy_upper: the certified bounds of\n"
+    "  the dialog policy at the prior. --learned-cache: learned knowledge and solved policies\n"
+    "  (default $KRR_CACHE_DIR or ~/.cache/krr_rl/delivery); 'none' learns and solves every run.\n";
 
 struct Mean {
   double sum = 0, sq = 0;
@@ -102,92 +43,89 @@ struct Mean {
 }  // namespace
 
 int main(int argc, char** argv) {
-  Args a;
+  krr::dialog::ExperimentCli cli;
+  long trials = -1;
+  std::string exportPomdp;
   try {
-    a = parse(argc, argv);
+    for (int i = 1; i < argc; ++i) {
+      const std::string f = argv[i];
+      if (f == "-h" || f == "--help") {
+        std::cout << kUsage << krr::dialog::kExperimentCliUsage << kHelp;
+        return 0;
+      }
+      if (i + 1 >= argc) throw krr::ConfigError("option " + f + " needs a value");
+      const std::string v = argv[++i];
+      if (cli.take(f, v)) continue;
+      if (f == "--trials") trials = static_cast<long>(krr::parseCountOption(f, v));
+      else if (f == "--export-pomdp") exportPomdp = v;
+      else throw krr::ConfigError("unknown option " + f);
+    }
+    if (trials < 0) throw krr::ConfigError("--trials is required");
+    cli.finish();
   } catch (const krr::Error& e) {
-    std::cerr << "delivery_trials: error: " << e.what() << "\n" << kUsage;
+    std::cerr << "delivery_trials: error: " << e.what() << "\n" << kUsage << krr::dialog::kExperimentCliUsage;
     return 2;
   }
   try {
     using namespace krr::dialog;
-    DeliveryExperimentOptions o;
-    o.blocking_rate = a.br;
-    o.condition = conditionFromString(a.condition);
-    o.outdated_rate = a.outdated_br;
-    o.seed = a.seed;
-    o.domain_name = a.domain;
-    o.cache_dir = a.have_cache ? (a.cache == "none" ? "" : a.cache) : defaultCacheDir();
-    o.validate();
-    const ServeCostMode mode = a.serve_cost.empty() ? ServeCostMode::kTasks
-                                                    : serveCostModeFromString(a.serve_cost);
-    const ExperimentPaths paths = ExperimentPaths::find(a.root, a.domain);
-    DialogConfig config = loadDialogConfig(paths.dialog_yaml);
-    if (!a.serve_cost.empty()) config.serve_cost_mode = mode;
-    if (a.weight >= 0) config.serve_cost_weight = a.weight;
-    if (a.solver_trials >= 0) config.solver_max_trials = static_cast<std::size_t>(a.solver_trials);
-    if (a.solver_timeout >= 0) config.solver_timeout = a.solver_timeout;
-    config.validate();
-
+    const ExperimentPaths paths = cli.paths();
+    const DialogConfig config = cli.config(paths);
     krr::Stopwatch clock;
     const krr::kb::NavDomain domain = krr::kb::NavDomain::load(
-        paths.navigation_yaml, a.domain, paths.geometry, paths.navigation_plog);
-    DeliveryExperiment ex(domain, config, o);
+        paths.navigation_yaml, cli.experiment.domain_name, paths.geometry, paths.navigation_plog);
+    DeliveryExperiment ex(domain, config, cli.experiment);
     const PreparationReport& p = ex.preparation();
     const double prepSeconds = clock.seconds();
-    if (!a.export_pomdp.empty()) krr::writeFileAtomic(a.export_pomdp, ex.dialog().exportCassandra());
+    if (!exportPomdp.empty()) krr::writeFileAtomic(exportPomdp, ex.dialog().exportCassandra());
 
     clock.reset();
-    const auto results = ex.runTrials(a.begin, static_cast<std::size_t>(a.trials), a.threads);
+    const auto results = ex.runTrials(cli.begin, static_cast<std::size_t>(trials), cli.threads);
     const double trialSeconds = clock.seconds();
-    if (!a.out.empty()) {
+    if (!cli.out.empty()) {
       std::ostringstream csv;
       csv << deliveryCsvHeader() << "\n";
-      for (const auto& r : results) csv << deliveryCsvRow(ex.dialog(), r) << "\n";
-      krr::writeFileAtomic(a.out, csv.str());
+      for (const auto& r : results) csv << deliveryCsvRow(ex.dialog(), r, p.policy.bounds) << "\n";
+      krr::writeFileAtomic(cli.out, csv.str());
     }
-
     std::printf("delivery_trials: br %.3g, condition %s (knowledge learned at br %.3g: %zu pairs, "
-                "%s %.1f s), seed %llu, serve cost %s x %g\n",
-                a.br, a.condition.c_str(), p.knowledge_br, p.learning.pairs,
-                p.learning.from_cache ? "cached" : "learned in", p.learning.seconds,
-                static_cast<unsigned long long>(a.seed), toString(config.serve_cost_mode).c_str(),
-                config.serve_cost_weight);
+                "%s %.1f s), seed %llu, serve cost %s x %g, wrong delivery %g\n",
+                cli.experiment.blocking_rate, toString(cli.experiment.condition).c_str(),
+                p.knowledge_br, p.learning.pairs, p.learning.from_cache ? "cached" : "learned in",
+                p.learning.seconds, static_cast<unsigned long long>(cli.experiment.seed),
+                toString(config.serve_cost_mode).c_str(), config.serve_cost_weight,
+                config.wrong_delivery_penalty);
     std::printf("  P^N(shop, room) / P^N(room, shop):");
     for (std::size_t r = 0; r < ex.navigation().numRooms(); ++r)
       std::printf(" %s %.3f/%.3f", ex.navigation().options().rooms[r].c_str(),
                   ex.navigation().toRoom(r).reach, ex.navigation().toShop(r).reach);
-    std::printf("\n  models: navigation %.3f s, dialog %.3f s; policy: %s", p.nav_model_seconds,
-                p.dialog_model_seconds, p.policy_from_cache ? "cached" : "solved");
-    if (!p.policy_from_cache)
-      std::printf(" in %.1f s, %zu trials, bounds at b0 [%.2f, %.2f]%s", p.solve_seconds,
-                  p.bounds.trials, p.bounds.lower, p.bounds.upper,
-                  p.reproducible ? "" : " (stopped by the timeout: NOT reproducible)");
-    std::printf(", %zu alpha vectors; preparation %.1f s\n", ex.policy().size(), prepSeconds);
+    const PolicyReport& pol = p.policy;
+    std::printf("\n  models: navigation %.3f s, dialog %.3f s; policy: %s in %.2f s, bounds at the "
+                "prior [%.2f, %.2f] (gap %.2f, %zu trials%s), %zu vectors; preparation %.1f s\n",
+                p.nav_model_seconds, p.dialog_model_seconds, pol.from_cache ? "cached" : "solved",
+                pol.seconds, pol.bounds.lower, pol.bounds.upper, pol.bounds.gap(),
+                pol.bounds.trials, pol.reproducible ? "" : ", stopped by the timeout: NOT reproducible",
+                ex.policy().size(), prepSeconds);
     if (!results.empty()) {
-      Mean reward, fulfilled, qa, turns, correct, entropy, nav;
+      Mean reward, fulfilled, qa, turns, correct, entropy, forced;
       for (const auto& r : results) {
-        reward.add(r.reward);
+        reward.add(r.reward.total());
         fulfilled.add(r.fulfilled);
-        qa.add(r.qa_cost);
-        turns.add(r.turns);
+        qa.add(r.delivery.qa_cost);
+        turns.add(r.delivery.turns);
         correct.add(r.correct);
-        entropy.add(r.entropy);
-        nav.add(r.nav_cost);
+        entropy.add(r.delivery.entropy);
+        forced.add(r.delivery.forced);
       }
       std::printf("  %zu trials [%zu, %zu): reward %.2f +- %.2f, fulfilled %.3f +- %.3f, "
-                  "QA cost %.2f +- %.2f, turns %.2f, correct %.3f, entropy at serve %.3f, "
-                  "nav cost %.1f (95%% CI)\n",
-                  results.size(), a.begin, a.begin + results.size(), reward.mean(), reward.ci(),
+                  "QA cost %.2f +- %.2f, turns %.2f, identified %.3f, entropy at serve %.3f, "
+                  "forced serves %.4f (95%% CI)\n",
+                  results.size(), cli.begin, cli.begin + results.size(), reward.mean(), reward.ci(),
                   fulfilled.mean(), fulfilled.ci(), qa.mean(), qa.ci(), turns.mean(),
-                  correct.mean(), entropy.mean(), nav.mean());
+                  correct.mean(), entropy.mean(), forced.mean());
       std::printf("  %.3f ms per trial (%zu threads)\n",
-                  1000.0 * trialSeconds / static_cast<double>(results.size()), a.threads);
+                  1000.0 * trialSeconds / static_cast<double>(results.size()), cli.threads);
     }
     return 0;
-  } catch (const krr::Error& e) {
-    std::cerr << "delivery_trials: error: " << e.what() << "\n";
-    return 1;
   } catch (const std::exception& e) {
     std::cerr << "delivery_trials: error: " << e.what() << "\n";
     return 1;

@@ -15,128 +15,76 @@
 #include "krr_core/common/resources.h"
 #include "krr_core/dialog/belief_entropy_survey.h"
 #include "krr_core/dialog/delivery_experiment.h"
-#include "krr_core/dialog/experiment_paths.h"
+#include "krr_core/dialog/experiment_cli.h"
 
 namespace {
 
 const char* kUsage =
-    "usage: dialog_entropy --br B --condition learned|outdated --samples N [--trial-begin K]\n"
-    "         --seed S [--threads T] [--domain office_30x30] [--learned-cache DIR|none]\n"
-    "         [--out entropy.csv] [--root DIR] [--outdated-br 0.3] [--alpha-min 0.005]\n"
-    "         [--alpha-max 0.5] [--serve-cost none|expected|tasks] [--serve-cost-weight W]\n"
-    "         [--solver-trials N] [--solver-timeout S]\n"
-    "  (--trials is a synonym of --samples.) One CSV row per sample: trial, action, room\n"
-    "  (of the delivery, empty otherwise), entropy (nats), entropy_bits, max_probability.\n"
-    "  Beliefs: Dirichlet(alpha) over the requests, alpha log-uniform in [alpha-min, alpha-max].\n";
-
-struct Args {
-  double br = -1;
-  std::string condition;
-  long samples = -1;
-  std::size_t begin = 0, threads = 1;
-  std::uint64_t seed = 0;
-  bool have_seed = false;
-  std::string domain = "office_30x30", cache, out, root, serve_cost;
-  bool have_cache = false;
-  double outdated_br = 0.3, weight = -1, solver_timeout = -1;
-  long solver_trials = -1;
-  krr::dialog::BeliefSamplerOptions sampler;
-};
-
-double toNumber(const std::string& flag, const std::string& v) {
-  return krr::parseNumberOption(flag, v);
-}
-
-std::size_t toCount(const std::string& flag, const std::string& v) {
-  return krr::parseCountOption(flag, v);
-}
-
-Args parse(int argc, char** argv) {
-  Args a;
-  for (int i = 1; i < argc; ++i) {
-    const std::string f = argv[i];
-    if (f == "-h" || f == "--help") {
-      std::cout << kUsage;
-      std::exit(0);
-    }
-    if (i + 1 >= argc) throw krr::ConfigError("option " + f + " needs a value");
-    const std::string v = argv[++i];
-    if (f == "--br") a.br = toNumber(f, v);
-    else if (f == "--condition") a.condition = v;
-    else if (f == "--samples" || f == "--trials") a.samples = static_cast<long>(toCount(f, v));
-    else if (f == "--trial-begin") a.begin = toCount(f, v);
-    else if (f == "--seed") a.seed = toCount(f, v), a.have_seed = true;
-    else if (f == "--threads") a.threads = toCount(f, v);
-    else if (f == "--domain") a.domain = v;
-    else if (f == "--learned-cache") a.cache = v, a.have_cache = true;
-    else if (f == "--out") a.out = v;
-    else if (f == "--root") a.root = v;
-    else if (f == "--outdated-br") a.outdated_br = toNumber(f, v);
-    else if (f == "--alpha-min") a.sampler.alpha_min = toNumber(f, v);
-    else if (f == "--alpha-max") a.sampler.alpha_max = toNumber(f, v);
-    else if (f == "--serve-cost") a.serve_cost = v;
-    else if (f == "--serve-cost-weight") a.weight = toNumber(f, v);
-    else if (f == "--solver-trials") a.solver_trials = static_cast<long>(toCount(f, v));
-    else if (f == "--solver-timeout") a.solver_timeout = toNumber(f, v);
-    else throw krr::ConfigError("unknown option " + f);
-  }
-  if (a.br < 0) throw krr::ConfigError("--br is required");
-  if (a.condition.empty()) throw krr::ConfigError("--condition is required");
-  if (a.samples < 0) throw krr::ConfigError("--samples is required");
-  if (!a.have_seed) throw krr::ConfigError("--seed is required");
-  if (a.threads == 0) throw krr::ConfigError("option --threads: must be at least 1");
-  a.sampler.validate();
-  return a;
-}
+    "usage: dialog_entropy --samples N [--alpha-min 0.005] [--alpha-max 0.5]\n"
+    "                      (shared options below; --trials is a synonym of --samples)\n";
+const char* kHelp =
+    "  One CSV row per sample: trial, action, room (of the delivery, empty otherwise), entropy\n"
+    "  (nats), entropy_bits, max_probability, served, policy_lower, policy_upper (the dialog\n"
+    "  policy's certified bounds at the prior). Beliefs: Dirichlet(alpha) over the\n"
+    "  requests, alpha log-uniform in [alpha-min, alpha-max]; the action is the policy's at\n"
+    "  the start of a dialog.\n";
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  Args a;
+  krr::dialog::ExperimentCli cli;
+  long count = -1;
+  krr::dialog::BeliefSamplerOptions sampler;
   try {
-    a = parse(argc, argv);
+    for (int i = 1; i < argc; ++i) {
+      const std::string f = argv[i];
+      if (f == "-h" || f == "--help") {
+        std::cout << kUsage << krr::dialog::kExperimentCliUsage << kHelp;
+        return 0;
+      }
+      if (i + 1 >= argc) throw krr::ConfigError("option " + f + " needs a value");
+      const std::string v = argv[++i];
+      if (cli.take(f, v)) continue;
+      if (f == "--samples" || f == "--trials") count = static_cast<long>(krr::parseCountOption(f, v));
+      else if (f == "--alpha-min") sampler.alpha_min = krr::parseNumberOption(f, v);
+      else if (f == "--alpha-max") sampler.alpha_max = krr::parseNumberOption(f, v);
+      else throw krr::ConfigError("unknown option " + f);
+    }
+    if (count < 0) throw krr::ConfigError("--samples is required");
+    cli.finish();
+    sampler.validate();
   } catch (const krr::Error& e) {
-    std::cerr << "dialog_entropy: error: " << e.what() << "\n" << kUsage;
+    std::cerr << "dialog_entropy: error: " << e.what() << "\n" << kUsage << krr::dialog::kExperimentCliUsage;
     return 2;
   }
   try {
     using namespace krr::dialog;
-    DeliveryExperimentOptions o;
-    o.blocking_rate = a.br;
-    o.condition = conditionFromString(a.condition);
-    o.outdated_rate = a.outdated_br;
-    o.seed = a.seed;
-    o.domain_name = a.domain;
-    o.cache_dir = a.have_cache ? (a.cache == "none" ? "" : a.cache) : defaultCacheDir();
-    o.validate();
-    const ServeCostMode mode = a.serve_cost.empty() ? ServeCostMode::kTasks
-                                                    : serveCostModeFromString(a.serve_cost);
-    const ExperimentPaths paths = ExperimentPaths::find(a.root, a.domain);
-    DialogConfig config = loadDialogConfig(paths.dialog_yaml);
-    if (!a.serve_cost.empty()) config.serve_cost_mode = mode;
-    if (a.weight >= 0) config.serve_cost_weight = a.weight;
-    if (a.solver_trials >= 0) config.solver_max_trials = static_cast<std::size_t>(a.solver_trials);
-    if (a.solver_timeout >= 0) config.solver_timeout = a.solver_timeout;
-    config.validate();
-
+    const ExperimentPaths paths = cli.paths();
+    const DialogConfig config = cli.config(paths);
     const krr::kb::NavDomain domain = krr::kb::NavDomain::load(
-        paths.navigation_yaml, a.domain, paths.geometry, paths.navigation_plog);
-    DeliveryExperiment ex(domain, config, o);
-    BeliefEntropySurvey survey(ex.dialog(), ex.policy(), a.sampler, a.seed);
+        paths.navigation_yaml, cli.experiment.domain_name, paths.geometry, paths.navigation_plog);
+    DeliveryExperiment ex(domain, config, cli.experiment);
+    BeliefEntropySurvey survey(ex.dialog(), ex.policy(), sampler, cli.experiment.seed);
     krr::Stopwatch clock;
-    const auto samples = survey.run(a.begin, static_cast<std::size_t>(a.samples), a.threads);
-    if (!a.out.empty()) {
+    const auto samples = survey.run(cli.begin, static_cast<std::size_t>(count), cli.threads);
+    if (!cli.out.empty()) {
       std::ostringstream csv;
-      csv << BeliefEntropySurvey::csvHeader() << "\n";
-      for (const auto& s : samples) csv << survey.csvRow(s) << "\n";
-      krr::writeFileAtomic(a.out, csv.str());
+      // The policy's certified bounds at the prior on every row (the evaluation checks them).
+      char bounds[64];
+      std::snprintf(bounds, sizeof(bounds), ",%.10g,%.10g", ex.preparation().policy.bounds.lower,
+                    ex.preparation().policy.bounds.upper);
+      csv << BeliefEntropySurvey::csvHeader() << ",policy_lower,policy_upper\n";
+      for (const auto& s : samples) csv << survey.csvRow(s) << bounds << "\n";
+      krr::writeFileAtomic(cli.out, csv.str());
     }
     const PreparationReport& p = ex.preparation();
     std::printf("dialog_entropy: br %.3g, condition %s (knowledge learned at br %.3g), seed %llu, "
-                "policy %s%s\n",
-                a.br, a.condition.c_str(), p.knowledge_br, static_cast<unsigned long long>(a.seed),
-                p.policy_from_cache ? "cached" : "solved",
-                p.reproducible ? "" : " (stopped by the timeout: NOT reproducible)");
+                "policy %s, bounds at the prior [%.2f, %.2f]%s\n",
+                cli.experiment.blocking_rate, toString(cli.experiment.condition).c_str(),
+                p.knowledge_br, static_cast<unsigned long long>(cli.experiment.seed),
+                p.policy.from_cache ? "cached" : "solved", p.policy.bounds.lower,
+                p.policy.bounds.upper,
+                p.policy.reproducible ? "" : " (stopped by the timeout: NOT reproducible)");
     std::map<std::string, std::vector<double>> byRoom;
     std::size_t serves = 0;
     for (const auto& s : samples)

@@ -1,27 +1,28 @@
-// dialog_script: replay a scripted dialog and print the belief per turn (paper, Figure 4).
+// dialog_script: talk to the robot's dialog manager from the command line, without ROS.
 //
 //   dialog_script --utterance "a coke for Bob to office2" --utterance coke --utterance yes
-//                 --utterance yes [--question ask_item ...] [--out turns.csv] [--json]
-//                 [--language config/language.yaml] [--knowledge config/office.plog
-//                 [--speech config/dialog.plog]]
-//                 [--reach 0.95,0.65,0.75,0.95,0.5] [--p-general 0.8] [--p-yesno 0.8]
-//                 [--turn-limit 20] [--solve-time 2] [--precision 0.5] [--no-policy]
+//                 [--question ask_item ...] [--no-policy] [--deliver [--check TEXT ...]
+//                 [--legs ok,ok,fail]] [--out turns.csv] [--json] [--reach r1,...,r5
+//                 [--reach-back b1,...,b5]] [--dialog-config F] [--language F]
+//                 [--domain office_30x30] [--root DIR] [--cache DIR|none]
 //
-// The model is the 30-request delivery dialog POMDP: items coke, coffee, soda; rooms
-// room1..room5; persons john, bob; prior: people ask for deliveries to their own office
-// (config/office.plog: place(john, room5), place(bob, room2)) with probability 0.8, or the
-// prior computed by P-log from --knowledge (P(request(I,R,P)) for every request) and, with
-// --speech, the speech accuracies reasoned from that model (dialog::DialogKnowledge, replacing
-// --p-general / --p-yesno); delivery
-// success by the paper's equation from the reach probabilities shop -> room1..room5 (--reach).
-// The robot's questions come from the policy of the point-based solver (--solve-time seconds,
-// --precision) unless scripted with --question (one per utterance after the first; "none"
-// for no question); --no-policy requires a question for every such utterance.
-// Output: a transcript with the marginals per turn on stdout (JSON with --json) and the CSV
-// of scriptToCsv with --out. Errors: message on stderr, exit 1; bad arguments exit 2.
+// The model is the robot's: DialogKnowledge::buildSpec over config/dialog.yaml and the
+// knowledge base (prior and speech model by P-log), with P^N and trip costs from the
+// navigation knowledge base (Procedure 2 on config/navigation.plog and the domain's geometry,
+// human knowledge only) or, with --reach, from the given reach probabilities; the policy is
+// solveDialogPolicy's (the same cache as dialog_node and the experiments).
+//   - default: Figure 4. Turn 0 is the prior; the user speaks first; before each further
+//     utterance the robot asks the next --question or the policy's question; per-turn marginals
+//     (text, --json, CSV with --out).
+//   - --deliver: the whole delivery through the robot's DeliveryManager (the class dialog_node
+//     drives): the utterances answer the questions, the legs end as --legs says (default: all
+//     arrive), at the room the person says the --check texts in order; prints the decisions
+//     (JSON with --json), the same log dialog_node's rostests compare against.
+// Errors: message on stderr, exit 1; bad arguments exit 2.
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
+#include <memory>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -29,32 +30,35 @@
 #include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
+#include "krr_core/dialog/delivery_navigation.h"
 #include "krr_core/dialog/dialog_knowledge.h"
+#include "krr_core/dialog/dialog_policy.h"
 #include "krr_core/dialog/dialog_script.h"
-#include "krr_core/dialog/request_prior.h"
-#include "krr_core/plog/reasoner.h"
-#include "krr_core/pomdp/point_based_solver.h"
+#include "krr_core/dialog/experiment_paths.h"
 
 namespace {
 
 const char* kUsage =
     "usage: dialog_script --utterance TEXT [--utterance TEXT ...] [--question ACTION ...]\n"
-    "         [--out turns.csv] [--json] [--language config/language.yaml]\n"
-    "         [--knowledge office.plog [--speech dialog.plog]] [--reach r1,r2,r3,r4,r5]\n"
-    "         [--p-general 0.8] [--p-yesno 0.8] [--turn-limit 20] [--solve-time 2]\n"
-    "         [--precision 0.5] [--no-policy]\n";
+    "         [--no-policy] [--deliver [--check TEXT ...] [--legs ok,ok,fail]]\n"
+    "         [--out turns.csv] [--json] [--reach r1,...,r5 [--reach-back b1,...,b5]]\n"
+    "         [--dialog-config config/dialog.yaml] [--language config/language.yaml]\n"
+    "         [--domain office_30x30] [--root DIR] [--cache DIR|none]\n";
 
 struct Args {
-  std::vector<std::string> utterances, questions;
-  std::string out, language = "config/language.yaml", knowledge, speech;
-  bool json = false, noPolicy = false;
-  std::vector<double> reach{0.95, 0.65, 0.75, 0.95, 0.5};
-  double pGeneral = 0.8, pYesNo = 0.8, solveTime = 2.0, precision = 0.5;
-  int turnLimit = 20;
+  std::vector<std::string> utterances, questions, checks;
+  std::vector<bool> legs;
+  std::string out, dialogConfig, language, domain = "office_30x30", root, cache;
+  bool json = false, noPolicy = false, deliver = false, haveCache = false;
+  std::vector<double> reach, reachBack;
 };
 
-double toNumber(const std::string& flag, const std::string& v) {
-  return krr::parseNumberOption(flag, v);
+std::vector<double> numbers(const std::string& flag, const std::string& v) {
+  std::vector<double> out;
+  std::stringstream ss(v);
+  std::string item;
+  while (std::getline(ss, item, ',')) out.push_back(krr::parseNumberOption(flag, item));
+  return out;
 }
 
 Args parse(int argc, char** argv) {
@@ -67,70 +71,40 @@ Args parse(int argc, char** argv) {
     }
     if (f == "--json") { a.json = true; continue; }
     if (f == "--no-policy") { a.noPolicy = true; continue; }
+    if (f == "--deliver") { a.deliver = true; continue; }
     if (i + 1 >= argc) throw krr::ConfigError("option " + f + " needs a value");
     const std::string v = argv[++i];
     if (f == "--utterance") a.utterances.push_back(v);
     else if (f == "--question") a.questions.push_back(v);
+    else if (f == "--check") a.checks.push_back(v);
     else if (f == "--out") a.out = v;
+    else if (f == "--dialog-config") a.dialogConfig = v;
     else if (f == "--language") a.language = v;
-    else if (f == "--knowledge") a.knowledge = v;
-    else if (f == "--speech") a.speech = v;
-    else if (f == "--p-general") a.pGeneral = toNumber(f, v);
-    else if (f == "--p-yesno") a.pYesNo = toNumber(f, v);
-    else if (f == "--solve-time") a.solveTime = toNumber(f, v);
-    else if (f == "--precision") a.precision = toNumber(f, v);
-    else if (f == "--turn-limit") {
-      const double t = toNumber(f, v);
-      if (t < 0 || t != static_cast<int>(t))
-        throw krr::ConfigError("option --turn-limit: '" + v + "' is not a non-negative integer");
-      a.turnLimit = static_cast<int>(t);
-    } else if (f == "--reach") {
-      a.reach.clear();
+    else if (f == "--domain") a.domain = v;
+    else if (f == "--root") a.root = v;
+    else if (f == "--cache") a.cache = v, a.haveCache = true;
+    else if (f == "--reach") a.reach = numbers(f, v);
+    else if (f == "--reach-back") a.reachBack = numbers(f, v);
+    else if (f == "--legs") {
       std::stringstream ss(v);
       std::string item;
-      while (std::getline(ss, item, ',')) a.reach.push_back(toNumber(f, item));
+      while (std::getline(ss, item, ',')) {
+        if (item != "ok" && item != "fail")
+          throw krr::ConfigError("option --legs: '" + item + "' must be ok or fail");
+        a.legs.push_back(item == "ok");
+      }
     } else {
       throw krr::ConfigError("unknown option " + f);
     }
   }
   if (a.utterances.empty()) throw krr::ConfigError("at least one --utterance is required");
-  if (!a.speech.empty() && a.knowledge.empty())
-    throw krr::ConfigError("--speech needs --knowledge (the office knowledge base)");
-  if (!(a.solveTime > 0)) throw krr::ConfigError("--solve-time must be positive");
-  if (!(a.precision > 0)) throw krr::ConfigError("--precision must be positive");
+  if (a.deliver && (a.noPolicy || !a.questions.empty()))
+    throw krr::ConfigError("--deliver runs the robot's policy: no --question / --no-policy");
+  if (!a.deliver && (!a.checks.empty() || !a.legs.empty()))
+    throw krr::ConfigError("--check and --legs need --deliver");
+  if (!a.reachBack.empty() && a.reach.empty())
+    throw krr::ConfigError("--reach-back needs --reach");
   return a;
-}
-
-/// The dialog model of the paper's office: the prior from the KB file or the 0.8 own-office rule.
-krr::pomdp::DialogSpec makeSpec(const Args& a) {
-  krr::pomdp::DialogSpec spec;
-  spec.pGeneral = a.pGeneral;
-  spec.pYesNo = a.pYesNo;
-  if (!a.speech.empty()) {
-    krr::dialog::DialogKnowledge kb(a.knowledge, a.speech);
-    spec = kb.base();
-    spec.pGeneral = kb.speech().p_general;
-    spec.pYesNo = kb.speech().p_yesno;
-  } else if (!a.knowledge.empty()) {
-    krr::plog::Reasoner kb;
-    kb.loadFile(a.knowledge);
-    spec = krr::dialog::dialogSpecFromKnowledge(kb, a.knowledge);
-    spec.pGeneral = a.pGeneral;
-    spec.pYesNo = a.pYesNo;
-  } else {
-    // config/office.plog: place(john, room5), place(bob, room2); pr(...) = 8/10.
-    spec.persons = {"john", "bob"};
-    spec.prior = krr::pomdp::ownOfficePrior(3, 5, {4, 1}, 0.8);
-  }
-  spec.turnLimit = a.turnLimit;
-  if (a.reach.size() != spec.rooms.size())
-    throw krr::ConfigError("--reach has " + std::to_string(a.reach.size()) +
-                           " values, the model has " + std::to_string(spec.rooms.size()) +
-                           " rooms");
-  Eigen::VectorXd reach(static_cast<Eigen::Index>(a.reach.size()));
-  for (std::size_t r = 0; r < a.reach.size(); ++r) reach(static_cast<Eigen::Index>(r)) = a.reach[r];
-  spec.delivery = krr::pomdp::deliveryMatrix(spec.items.size(), reach, spec.persons.size());
-  return spec;
 }
 
 }  // namespace
@@ -144,28 +118,53 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    krr::pomdp::DialogPomdp dialog(makeSpec(a));
-    krr::dialog::LanguageFrontEnd language(dialog, krr::dialog::loadLanguageConfig(a.language),
-                                           a.language);
-    krr::pomdp::AlphaVectorPolicy policy;
-    const krr::pomdp::AlphaVectorPolicy* policyPtr = nullptr;
-    if (!a.noPolicy) {
-      krr::pomdp::SolverOptions opt;
-      opt.precision = a.precision;
-      opt.timeout = a.solveTime;
-      krr::pomdp::PointBasedSolver solver(dialog.model(), dialog.model().initialBelief(), opt);
-      solver.solve();
-      const auto rep = solver.report();
-      std::fprintf(stderr, "# policy: %.3f s, bounds at the prior [%.3f, %.3f] (gap %.3f), %zu alpha vectors\n",
-                   rep.time, rep.lower, rep.upper, rep.gap(), rep.alphas);
-      policy = solver.policy();
-      policyPtr = &policy;
+    using namespace krr::dialog;
+    const std::string root = krr::findRepositoryRoot(a.root, "config/dialog.yaml");
+    const DialogConfig config =
+        loadDialogConfig(a.dialogConfig.empty() ? root + "/config/dialog.yaml" : a.dialogConfig);
+    const std::string languageFile = a.language.empty() ? root + "/config/language.yaml" : a.language;
+    const DialogKnowledge knowledge(config.office_plog, config.speech_plog);
+    TripTable trips;
+    if (!a.reach.empty()) {
+      trips = TripTable::fromReach(knowledge.base().rooms, a.reach, a.reachBack, config.failure_penalty);
+    } else {
+      const ExperimentPaths paths = ExperimentPaths::find(root, a.domain);
+      const krr::kb::NavDomain domain = krr::kb::NavDomain::load(
+          paths.navigation_yaml, a.domain, paths.geometry, paths.navigation_plog);
+      krr::kb::NavigationKnowledge nav(*domain.grid, domain.knowledge_files);
+      trips = deliveryNavigationFromKnowledge(domain, nav, config, knowledge.base().rooms)->trips();
     }
-    const auto result =
-        krr::dialog::runDialogScript(dialog, language, policyPtr, a.questions, a.utterances);
-    std::cout << (a.json ? krr::dialog::scriptToJson(dialog, result)
-                         : krr::dialog::scriptToText(dialog, result));
-    if (!a.out.empty()) krr::writeFileAtomic(a.out, krr::dialog::scriptToCsv(dialog, result));
+    const krr::pomdp::DialogPomdp dialog(knowledge.buildSpec(trips, config));
+    const LanguageFrontEnd language(dialog, loadLanguageConfig(languageFile), languageFile);
+    std::fprintf(stderr, "# P^N(shop, room):");
+    for (std::size_t r = 0; r < trips.rooms.size(); ++r)
+      std::fprintf(stderr, " %s %.3f", trips.rooms[r].c_str(), trips.to_room[r].reach);
+    std::fprintf(stderr, "\n");
+    krr::pomdp::TurnLimitedPolicy policy;
+    if (!a.noPolicy) {
+      PolicyReport rep;
+      const std::string cache = a.haveCache ? (a.cache == "none" ? "" : a.cache) : defaultCacheDir();
+      policy = solveDialogPolicy(dialog, config, cache, &rep);
+      std::fprintf(stderr, "# policy: %s in %.2f s, bounds at the prior [%.3f, %.3f] (gap %.3f), "
+                   "%zu trials, %zu vectors\n", rep.from_cache ? "loaded" : "solved", rep.seconds,
+                   rep.bounds.lower, rep.bounds.upper, rep.bounds.gap(), rep.bounds.trials,
+                   policy.size());
+    }
+    if (a.deliver) {
+      const ScriptedDelivery d =
+          runScriptedDelivery(dialog, language, policy, config, {a.utterances, a.checks, a.legs});
+      if (a.json) {
+        std::cout << scriptedDeliveryToJson(dialog, d);
+      } else {
+        for (const auto& s : d.decisions) std::cout << s << "\n";
+        if (!d.completed) std::cout << "(the script ended before the delivery did)\n";
+      }
+      return 0;
+    }
+    const auto result = runDialogScript(dialog, language, a.noPolicy ? nullptr : &policy,
+                                        a.questions, a.utterances);
+    std::cout << (a.json ? scriptToJson(dialog, result) : scriptToText(dialog, result));
+    if (!a.out.empty()) krr::writeFileAtomic(a.out, scriptToCsv(dialog, result));
   } catch (const krr::Error& e) {
     std::cerr << "dialog_script: " << e.what() << "\n";
     return 1;

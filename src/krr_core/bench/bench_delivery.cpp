@@ -46,16 +46,10 @@ int main(int argc, char** argv) {
       k = std::make_unique<DialogKnowledge>(cfg.office_plog, cfg.speech_plog);
       tKnowledge += c.seconds() / reps;
       c.reset();
-      const kb::NavModel model = nk.buildModel({cfg.time}, cfg.nav_discount);
-      DeliveryNavigationOptions o;
-      o.rooms = k->base().rooms;
-      o.step_limit = static_cast<std::size_t>(dom.domain.step_limit);
-      o.reward = mdp::NavigationReward{cfg.step_cost, cfg.rmax};
-      o.failure_penalty = cfg.failure_penalty;
-      nav = std::make_unique<DeliveryNavigation>(*dom.space, model.dynamics, o);
+      nav = deliveryNavigationFromKnowledge(dom, nk, cfg, k->base().rooms);
       tNav += c.seconds() / reps;
       c.reset();
-      d = std::make_unique<pomdp::DialogPomdp>(k->buildSpec(*nav, cfg));
+      d = std::make_unique<pomdp::DialogPomdp>(k->buildSpec(nav->trips(), cfg));
       tSpec += c.seconds() / reps;
     }
     std::printf("dialog knowledge by reasoning (prior + speech model): %8.2f ms\n", 1e3 * tKnowledge);
@@ -64,7 +58,7 @@ int main(int argc, char** argv) {
                 d->model().getS(), 1e3 * tSpec);
     std::printf("dialog model from the KB, total:                       %8.2f ms\n",
                 1e3 * (tKnowledge + tNav + tSpec));
-    PreparationReport rep;
+    PolicyReport rep;
     Stopwatch c;
     solveDialogPolicy(*d, cfg, "", &rep);
     std::printf("solve (%zu trials): %.2f s, bounds at b0 [%.2f, %.2f]\n", rep.bounds.trials,
@@ -77,12 +71,12 @@ int main(int argc, char** argv) {
     const auto res = ex.runTrials(0, trials, 1);
     const double per = c.seconds() / static_cast<double>(trials);
     double turns = 0;
-    for (const auto& r : res) turns += r.turns;
+    for (const auto& r : res) turns += r.delivery.turns;
     std::printf("delivery trial (br %.2f, 1 thread): %.3f ms per trial (%.1f questions, %zu trials)\n",
                 br, 1e3 * per, turns / static_cast<double>(trials), trials);
     std::printf("experiment preparation: learning %.2f s, navigation %.3f s, dialog %.3f s, solve %.2f s\n",
                 ex.preparation().learning.seconds, ex.preparation().nav_model_seconds,
-                ex.preparation().dialog_model_seconds, ex.preparation().solve_seconds);
+                ex.preparation().dialog_model_seconds, ex.preparation().policy.seconds);
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "bench_delivery: error: %s\n", e.what());

@@ -1,150 +1,165 @@
-// Benchmark: anytime bounds and simulated return of the point-based solver on the 30-request
-// delivery-dialog POMDP of the KRR-RL paper (3 items x 5 rooms x 2 persons + terminal).
+// Benchmark: the turn-limited point-based solver on the dialog models the experiments use
+// (Table I: br 0.1 / 0.5 / 0.7 x learned / outdated knowledge, built from the knowledge base
+// exactly as delivery_trials builds them).
 //
-// Usage: bench_dialog_pomdp [--out dialog.pomdp] [--episodes 10000] [--seed 1]
-//                           [--precision 0.01] [--timeout 10] [--discount 0.99]
-//                           [--p-general 0.8] [--p-yesno 0.8] [--trial-gap-factor f]
-//                           [--trial-weight-cutoff c] [--no-sawtooth] [--no-witness-pruning]
-// Prints one line per checkpoint (0.1, 0.25, 0.5, 1, 2, 5, 10, 20, 60 s of solver time, up
-// to --timeout, or until the gap is below --precision): time, lower and upper bound at the
-// prior, gap, #alphas, #points, #trials, and the discounted return of the current policy over
-// seeded simulated dialogs (mean +- 95% CI; the same seeds at every checkpoint); then the
-// first time the gap fell below 4, 2, 1, 0.5, 0.1, and the 0.5 s policy against the final
-// one. Writes the exact model as a Cassandra .pomdp file for SARSOP comparisons. For the
-// long-run reference policy: --timeout 60 --precision 1e-4.
-#include <algorithm>
+// Usage: bench_dialog_pomdp [--timeout 8] [--trials 2000] [--seed 1] [--root DIR]
+//                           [--learned-cache DIR|none] [--models 0.1:learned,0.7:outdated]
+//                           [--export DIR]
+// Per model: bounds at the prior at checkpoints of solver time, the first time the certified
+// gap fell to <= 4, 2 and 1 reward, the bounds at config/dialog.yaml's trial budget (the policy
+// the experiments and dialog_node use) and that policy in --trials delivery trials: mean
+// reward, identification rate and forced-serve rate (serves forced by the 20-turn limit).
+// --export writes each model as Cassandra .pomdp, plain and with the turn counter in the
+// state (pomdp::withTurnCounter), for comparisons with SARSOP.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
+#include <sstream>
 #include <string>
+#include <utility>
+#include <vector>
 
+#include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
+#include "krr_core/common/files.h"
+#include "krr_core/common/format.h"
 #include "krr_core/common/resources.h"
+#include "krr_core/dialog/delivery_experiment.h"
+#include "krr_core/dialog/experiment_paths.h"
 #include "krr_core/pomdp/cassandra_io.h"
-#include "krr_core/pomdp/dialog_pomdp.h"
-#include "krr_core/pomdp/point_based_solver.h"
+#include "krr_core/pomdp/turn_counter_model.h"
+#include "krr_core/pomdp/turn_limited_solver.h"
 
 using namespace krr;
-using namespace krr::pomdp;
+using namespace krr::dialog;
 
 int main(int argc, char** argv) {
-  std::string out = "./dialog.pomdp";
-  std::size_t episodes = 10000;
+  double timeout = 8.0;
+  std::size_t trials = 2000;
   std::uint64_t seed = 1;
-  double precision = 0.01, timeout = 10.0;
-  DialogSpec spec;
-  bool sawtooth = true, witness = true;
-  double trialGapFactor = SolverOptions().trialGapFactor;
-  double trialWeightCutoff = SolverOptions().trialWeightCutoff;
-  for (int i = 1; i < argc; ++i) {
-    std::string a = argv[i];
-    auto val = [&]() -> std::string {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "%s needs a value\n", a.c_str());
-        std::exit(2);
-      }
-      return argv[++i];
-    };
-    if (a == "--out") out = val();
-    else if (a == "--episodes") episodes = std::stoul(val());
-    else if (a == "--seed") seed = std::stoull(val());
-    else if (a == "--precision") precision = std::stod(val());
-    else if (a == "--timeout") timeout = std::stod(val());
-    else if (a == "--no-sawtooth") sawtooth = false;
-    else if (a == "--no-witness-pruning") witness = false;
-    else if (a == "--trial-gap-factor") trialGapFactor = std::stod(val());
-    else if (a == "--trial-weight-cutoff") trialWeightCutoff = std::stod(val());
-    else if (a == "--discount") spec.discount = std::stod(val());
-    else if (a == "--p-general") spec.pGeneral = std::stod(val());
-    else if (a == "--p-yesno") spec.pYesNo = std::stod(val());
-    else {
-      std::fprintf(stderr, "unknown argument %s\n", a.c_str());
-      return 2;
-    }
-  }
+  std::string root, cache, exportDir;
+  bool haveCache = false;
+  std::vector<std::pair<double, KnowledgeCondition>> models;
   try {
-    // alice's office is room1, bob's is room2; 0.8 own-office prior (paper, Sec. III-B).
-    spec.prior = ownOfficePrior(3, 5, {0, 1}, 0.8);
-    Eigen::VectorXd reach(5);
-    reach << 0.95, 0.65, 0.75, 0.95, 0.5;
-    spec.delivery = deliveryMatrix(3, reach, 2);
-    DialogPomdp dialog(spec);
-    const Model& m = dialog.model();
-    saveCassandra(out, m);
-    std::printf("# dialog POMDP: %zu states, %zu actions, %zu observations, discount %.3f, "
-                "pGeneral %.2f, pYesNo %.2f; model written to %s\n",
-                m.getS(), m.getA(), m.getO(), m.getDiscount(), spec.pGeneral, spec.pYesNo,
-                out.c_str());
-    SolverOptions opt;
-    opt.precision = precision;
-    opt.sawtooth = sawtooth;
-    opt.witnessPruning = witness;
-    opt.trialGapFactor = trialGapFactor;
-    opt.trialWeightCutoff = trialWeightCutoff;
-    Stopwatch wall;
-    PointBasedSolver solver(m, m.initialBelief(), opt);
-    std::printf("# init (FIB + blind policies): %.4f s\n", solver.report().time);
-    std::printf("%8s %10s %10s %8s %7s %7s %8s %10s %8s %7s %7s\n", "time_s", "lower", "upper",
-                "gap", "alphas", "points", "trials", "sim_return", "ci95", "fulfil", "questions");
-    // The solver runs in small steps so that the first time the gap falls below each
-    // threshold is known to 0.02 s; the policy is simulated at the checkpoints only.
-    const double checkpoints[] = {0.0, 0.1, 0.25, 0.5, 1, 2, 5, 10, 20, 60, 300};
-    const double gapMarks[] = {4.0, 2.0, 1.0, 0.5, 0.1};
-    double gapReached[5] = {-1, -1, -1, -1, -1};
-    DialogStats at05, last;
-    bool have05 = false;
-    double t = 0.0;
-    std::size_t printedTrials = 0;
-    for (double ck : checkpoints) {
-      if (ck > timeout) break;
-      bool conv = solver.converged();
-      while (!conv && t < ck) {
-        t = std::min(ck, t + 0.02);
-        conv = solver.runUntil(t);
+    for (int i = 1; i < argc; ++i) {
+      const std::string f = argv[i];
+      if (f == "-h" || f == "--help") {
+        std::printf("usage: bench_dialog_pomdp [--timeout 8] [--trials 2000] [--seed 1] "
+                    "[--root DIR] [--learned-cache DIR|none] [--models 0.1:learned,...] "
+                    "[--export DIR]\n");
+        return 0;
+      }
+      if (i + 1 >= argc) throw ConfigError("option " + f + " needs a value");
+      const std::string v = argv[++i];
+      if (f == "--timeout") timeout = parseNumberOption(f, v);
+      else if (f == "--trials") trials = parseCountOption(f, v);
+      else if (f == "--seed") seed = parseCountOption(f, v);
+      else if (f == "--root") root = v;
+      else if (f == "--learned-cache") cache = v, haveCache = true;
+      else if (f == "--export") exportDir = v;
+      else if (f == "--models") {
+        std::stringstream ss(v);
+        std::string item;
+        while (std::getline(ss, item, ',')) {
+          const auto colon = item.find(':');
+          if (colon == std::string::npos) throw ConfigError("--models: '" + item + "' is not br:condition");
+          models.push_back({parseNumberOption(f, item.substr(0, colon)),
+                            conditionFromString(item.substr(colon + 1))});
+        }
+      } else {
+        throw ConfigError("unknown option " + f);
+      }
+    }
+  } catch (const Error& e) {
+    std::fprintf(stderr, "bench_dialog_pomdp: %s\n", e.what());
+    return 2;
+  }
+  if (models.empty())
+    for (double br : {0.1, 0.5, 0.7})
+      for (auto c : {KnowledgeCondition::kLearned, KnowledgeCondition::kOutdated}) models.push_back({br, c});
+  try {
+    const ExperimentPaths paths = ExperimentPaths::find(root, "office_30x30");
+    const DialogConfig cfg = loadDialogConfig(paths.dialog_yaml);
+    const kb::NavDomain dom = kb::NavDomain::load(paths.navigation_yaml, "office_30x30",
+                                                  paths.geometry, paths.navigation_plog);
+    std::printf("# turn limit %d, precision %g, trial budget %zu (config/dialog.yaml); "
+                "solver timeout %g s per model; %zu delivery trials per model\n",
+                cfg.turn_limit, cfg.solver_precision, cfg.solver_max_trials, timeout, trials);
+    const double checkpoints[] = {0.25, 0.5, 1, 2, 4, 8, 16, 32, 64, 128, 256};
+    const double marks[] = {4.0, 2.0, 1.0};
+    for (const auto& [br, condition] : models) {
+      DeliveryExperimentOptions o;
+      o.blocking_rate = br;
+      o.condition = condition;
+      o.seed = seed;
+      o.cache_dir = haveCache ? (cache == "none" ? "" : cache) : defaultCacheDir();
+      DeliveryExperiment ex(dom, cfg, o, false);
+      const pomdp::DialogPomdp& d = ex.dialog();
+      const std::string name = "br" + formatNumber(br, 3) + "_" + toString(condition);
+      std::printf("\n## %s: %zu states, %zu actions, P^N(shop, room):", name.c_str(),
+                  d.model().getS(), d.model().getA());
+      for (std::size_t r = 0; r < ex.navigation().numRooms(); ++r)
+        std::printf(" %.3f", ex.navigation().toRoom(r).reach);
+      std::printf("\n");
+      if (!exportDir.empty()) {
+        makeDirectories(exportDir);
+        pomdp::saveCassandra(exportDir + "/dialog_" + name + ".pomdp", d.model());
+        pomdp::saveCassandra(exportDir + "/dialog_" + name + "_turns.pomdp",
+                             pomdp::withTurnCounter(d.model(), d.model().initialBelief(), cfg.turn_limit));
+      }
+      // The configured solve (what solveDialogPolicy runs), then on to the timeout.
+      pomdp::TurnLimitedSolverOptions so = dialogSolverOptions(cfg);
+      so.timeout = 1e9;
+      pomdp::TurnLimitedSolver solver(d.model(), d.model().initialBelief(), cfg.turn_limit, so);
+      solver.solve();
+      const pomdp::BoundsReport budget = solver.report();
+      ex.setPolicy(solver.policy());
+      solver.setMaxTrials(0);
+      double reached[3] = {-1, -1, -1};
+      auto mark = [&](const pomdp::BoundsReport& r) {
+        for (int k = 0; k < 3; ++k)
+          if (reached[k] < 0 && r.gap() <= marks[k]) reached[k] = r.time;
+      };
+      mark(budget);
+      std::printf("%9s %10s %10s %8s %8s %8s\n", "time_s", "lower", "upper", "gap", "trials", "vectors");
+      std::printf("%9.3f %10.3f %10.3f %8.3f %8zu %8zu   <- configured budget\n", budget.time,
+                  budget.lower, budget.upper, budget.gap(), budget.trials, budget.alphas);
+      for (double ck : checkpoints) {
+        if (ck > timeout) break;
+        if (ck <= solver.report().time) continue;
+        while (solver.report().time < ck && !solver.converged()) {
+          solver.runUntil(std::min(ck, solver.report().time + 0.05));
+          mark(solver.report());
+        }
         const auto r = solver.report();
-        for (int k = 0; k < 5; ++k)
-          if (gapReached[k] < 0 && r.gap() <= gapMarks[k]) gapReached[k] = r.time;
+        std::printf("%9.3f %10.3f %10.3f %8.3f %8zu %8zu\n", r.time, r.lower, r.upper, r.gap(),
+                    r.trials, r.alphas);
+        std::fflush(stdout);
+        if (solver.converged()) break;
       }
-      conv = conv || solver.runUntil(ck);
-      auto r = solver.report();
-      for (int k = 0; k < 5; ++k)
-        if (gapReached[k] < 0 && r.gap() <= gapMarks[k]) gapReached[k] = r.time;
-      if (r.trials == printedTrials && ck > 0.0) continue;  // nothing new since the last line
-      printedTrials = r.trials;
-      DialogStats st = simulateDialogs(dialog, solver.policy(), episodes, seed);
-      if (ck <= 0.5) {
-        at05 = st;
-        have05 = true;
+      for (int k = 0; k < 3; ++k) {
+        if (reached[k] >= 0) std::printf("# %s: gap <= %g after %.3f s\n", name.c_str(), marks[k], reached[k]);
+        else std::printf("# %s: gap <= %g not reached in %.1f s (gap %.3f)\n", name.c_str(), marks[k],
+                         solver.report().time, solver.report().gap());
       }
-      last = st;
-      std::printf("%8.3f %10.4f %10.4f %8.4f %7zu %7zu %8zu %10.4f %8.4f %7.4f %7.3f%s\n", r.time,
-                  r.lower, r.upper, r.gap(), r.alphas, r.points, r.trials, st.meanReturn, st.ci95,
-                  st.fulfilledRate, st.meanQuestions, conv ? "  (certified)" : "");
-      std::fflush(stdout);
-      if (conv) break;
+      const auto res = ex.runTrials(0, trials, 1);
+      double reward = 0, sq = 0, forced = 0, correct = 0;
+      for (const auto& r : res) {
+        reward += r.reward.total();
+        sq += r.reward.total() * r.reward.total();
+        forced += r.delivery.forced;
+        correct += r.correct;
+      }
+      const double n = static_cast<double>(res.size());
+      const double mean = reward / n;
+      const double ci = 1.96 * std::sqrt(std::max(0.0, sq / n - mean * mean) / n);
+      std::printf("# %s: configured policy in %zu trials: reward %.2f +- %.2f, identified %.3f, "
+                  "forced serves %.4f%s\n", name.c_str(), res.size(), mean, ci, correct / n,
+                  forced / n, forced / n < 0.01 ? "" : "  (ABOVE 1%)");
     }
-    for (int k = 0; k < 5; ++k) {
-      if (gapReached[k] >= 0)
-        std::printf("# gap <= %.1f first reached at %.3f s of solver time\n", gapMarks[k],
-                    gapReached[k]);
-      else
-        std::printf("# gap <= %.1f not reached\n", gapMarks[k]);
-    }
-    if (have05) {
-      // Same seeds for every checkpoint (common random numbers): equal policies give equal
-      // returns; otherwise compare the difference with the confidence intervals.
-      std::printf("# policy at <= 0.5 s: return %.4f +- %.4f; final policy (%.3f s): %.4f +- %.4f;"
-                  " difference %.4f (%s the final CI)\n",
-                  at05.meanReturn, at05.ci95, solver.report().time, last.meanReturn, last.ci95,
-                  at05.meanReturn - last.meanReturn,
-                  std::abs(at05.meanReturn - last.meanReturn) <= last.ci95 ? "within"
-                                                                            : "OUTSIDE");
-    }
-    std::printf("# wall time including simulations: %.2f s, peak RSS %.1f MiB\n", wall.seconds(),
-                peakRssMiB());
-  } catch (const krr::Error& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
+    std::printf("\n# peak RSS %.1f MiB\n", peakRssMiB());
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_dialog_pomdp: error: %s\n", e.what());
     return 1;
   }
   return 0;

@@ -147,12 +147,17 @@ class DialogNodeTest(unittest.TestCase):
         q = self.wait_for(self.utterances, lambda m: m.kind in QUESTIONS + (RobotUtterance.SERVE,),
                           nu)
         self.assertEqual(q.dialog_id, 2)
+        # Dialog 2 ends too (serve, then no navigation), so the next test starts from idle.
+        _, _, ns = self.counts()
+        self.converse({"item": "soda", "room": "room5", "person": "john"})
+        self.wait_for(self.statuses, lambda m: m.dialog_id == 2 and m.status in FINAL, ns,
+                      timeout=15)
 
     def test_4_bad_parameters_are_refused_with_their_name(self):
         root = rospy.get_param("~root")
         node = roslib.packages.find_node("krr_ros", "dialog_node")
         self.assertTrue(node, "dialog_node executable not found")
-        for bad, value, expect in (("solver_time", -1.0, "solver_time"),
+        for bad, value, expect in (("navigation_timeout", -1.0, "navigation_timeout"),
                                    ("colour", "red", "colour"),
                                    ("model_source", "magic", "model_source"),
                                    ("reach_probabilities", [0.9, 1.5, 0.9, 0.9, 0.9],

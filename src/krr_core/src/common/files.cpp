@@ -114,4 +114,31 @@ std::string findRepositoryRoot(const std::string& hint, const std::string& marke
                     searched + "; pass its path or set KRR_ROOT");
 }
 
+void makeDirectories(const std::string& dir) {
+  if (dir.empty()) return;
+  std::string path;
+  std::size_t pos = 0;
+  while (pos != std::string::npos) {
+    pos = dir.find('/', pos + 1);
+    path = dir.substr(0, pos);
+    if (path.empty()) continue;
+    struct stat st;
+    if (::stat(path.c_str(), &st) == 0) {
+      if (!S_ISDIR(st.st_mode)) throw IoError("directory: " + path + " is not a directory");
+      continue;
+    }
+    if (::mkdir(path.c_str(), 0755) != 0 && errno != EEXIST)
+      throw IoError("directory: cannot create " + path + ": " + std::strerror(errno));
+  }
+}
+
+std::uint64_t stableHash(const std::string& text) {
+  std::uint64_t h = 14695981039346656037ULL;  // FNV-1a 64-bit offset basis
+  for (unsigned char c : text) {
+    h ^= c;
+    h *= 1099511628211ULL;
+  }
+  return h;
+}
+
 }  // namespace krr

@@ -1,5 +1,6 @@
 #include "krr_core/common/parallel.h"
 #include "krr_core/dialog/belief_entropy_survey.h"
+#include "krr_core/dialog/dialog_session.h"
 
 #include <algorithm>
 #include <cmath>
@@ -23,7 +24,7 @@ void BeliefSamplerOptions::validate() const {
 }
 
 BeliefEntropySurvey::BeliefEntropySurvey(const pomdp::DialogPomdp& dialog,
-                                         const pomdp::AlphaVectorPolicy& policy,
+                                         const pomdp::TurnLimitedPolicy& policy,
                                          const BeliefSamplerOptions& options, std::uint64_t seed)
     : dialog_(dialog), policy_(policy), options_(options), seed_(seed) {
   options_.validate();
@@ -58,7 +59,7 @@ EntropySample BeliefEntropySurvey::sample(std::size_t index) const {
   const pomdp::Belief b = belief(index);
   EntropySample s;
   s.index = index;
-  s.action = policy_.bestAction(b);
+  s.action = decideAction(dialog_, policy_, b, 0);  // the robot at the start of a dialog
   s.serve = dialog_.isServe(s.action);
   if (s.serve) s.request = dialog_.requestOfServe(s.action);
   s.entropy = pomdp::entropy(b, pomdp::EntropyUnit::kNats);

@@ -1,18 +1,12 @@
 #include "krr_core/common/parallel.h"
 #include "krr_core/dialog/delivery_experiment.h"
 
-#include <sys/stat.h>
-
 #include <cmath>
 #include <cstdio>
-#include <exception>
-#include <limits>
-#include <sstream>
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/pomdp/belief.h"
-#include "krr_core/pomdp/tiger.h"
 
 namespace krr {
 namespace dialog {
@@ -39,11 +33,6 @@ void DeliveryExperimentOptions::validate() const {
 
 namespace {
 
-bool fileExists(const std::string& path) {
-  struct stat st;
-  return ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
-}
-
 std::size_t sample(const Eigen::VectorXd& p, Rng& rng) {
   double u = uniform01(rng);
   for (Eigen::Index k = 0; k < p.size(); ++k) {
@@ -56,92 +45,64 @@ std::size_t sample(const Eigen::VectorXd& p, Rng& rng) {
   return 0;
 }
 
-/// A fingerprint of the solver's behaviour (its policy on the Tiger problem after a fixed
-/// number of trials), part of the policy cache key: a changed solver does not reuse policies
-/// cached by an older one.
-std::uint64_t solverFingerprint() {
-  static const std::uint64_t fp = [] {
-    const pomdp::Model tiger = pomdp::makeTiger();
-    pomdp::SolverOptions so;
-    so.precision = 1e-12;
-    so.timeout = 1e9;
-    so.maxTrials = 25;
-    so.initTimeLimit = std::numeric_limits<double>::infinity();
-    pomdp::PointBasedSolver solver(tiger, tiger.initialBelief(), so);
-    solver.solve();
-    return stableHash(solver.policy().toText());
-  }();
-  return fp;
-}
+/// The person of a trial: answers through the speech model, knows their request at the room.
+class SimulatedPerson : public DeliveryPerson {
+ public:
+  SimulatedPerson(const pomdp::DialogPomdp& d, std::size_t request, Rng& rng)
+      : d_(d), request_(request), rng_(rng) {}
+  bool answer(DeliveryManager& m, std::size_t question) override {
+    const auto& row = d_.model().observationRow(request_, question);
+    double u = uniform01(rng_);
+    std::size_t o = row.back().first;
+    for (const auto& e : row) {
+      if (u < e.second) {
+        o = e.first;
+        break;
+      }
+      u -= e.second;
+    }
+    m.observe(question, o);
+    return true;
+  }
+  bool check(DeliveryManager& m) override {
+    m.checkRequest(request_);
+    return true;
+  }
+
+ private:
+  const pomdp::DialogPomdp& d_;
+  std::size_t request_;
+  Rng& rng_;
+};
+
+/// Legs in the blockage simulator; the robot starts every delivery at the shop.
+class SimulatedNavigator : public DeliveryNavigator {
+ public:
+  SimulatedNavigator(const DeliveryNavigation& nav, const nav::BlockageSimulator& sim,
+                     const nav::Context& context, Rng& rng)
+      : nav_(nav), sim_(sim), context_(context), rng_(rng) {}
+  LegRecord drive(const Leg& leg) override {
+    LegRecord r{leg, true, 0, ""};
+    if (leg.kind == Leg::Kind::kPickup) return r;  // already at the shop
+    const TripResult t = nav_.execute(sim_, leg.room, leg.kind == Leg::Kind::kToRoom, context_, rng_);
+    r.reached = t.reached;
+    r.moves = t.moves;
+    if (!t.reached) r.why = t.trapped ? "trapped" : "step limit";
+    return r;
+  }
+
+ private:
+  const DeliveryNavigation& nav_;
+  const nav::BlockageSimulator& sim_;
+  const nav::Context& context_;
+  Rng& rng_;
+};
 
 }  // namespace
 
-pomdp::AlphaVectorPolicy solveDialogPolicy(const pomdp::DialogPomdp& dialog,
-                                           const DialogConfig& config,
-                                           const std::string& cache_dir,
-                                           PreparationReport* report) {
-  Stopwatch clock;
-  std::string file;
-  if (!cache_dir.empty()) {
-    std::ostringstream key;
-    key.precision(17);
-    key << "v2|" << solverFingerprint() << "|" << config.solver_precision << "|"
-        << config.solver_max_trials << "|" << dialog.exportCassandra();
-    char name[64];
-    std::snprintf(name, sizeof(name), "policy_%016llx.txt",
-                  static_cast<unsigned long long>(stableHash(key.str())));
-    file = cache_dir + "/" + name;
-    if (report) report->policy_file = file;
-    if (fileExists(file)) {
-      pomdp::AlphaVectorPolicy p = pomdp::AlphaVectorPolicy::load(file);
-      if (p.numStates() != dialog.model().getS())
-        throw ConfigError(file + ": cached policy has " + std::to_string(p.numStates()) +
-                          " states, the dialog model " + std::to_string(dialog.model().getS()));
-      if (report) {
-        report->policy_from_cache = true;
-        report->reproducible = true;  // only reproducible policies are cached
-        report->solve_seconds = clock.seconds();
-      }
-      return p;
-    }
-  }
-  pomdp::SolverOptions so;
-  so.precision = config.solver_precision;
-  so.timeout = config.solver_timeout;
-  so.maxTrials = config.solver_max_trials;
-  so.initTimeLimit = std::numeric_limits<double>::infinity();  // bounded by iterations only
-  pomdp::PointBasedSolver solver(dialog.model(), dialog.model().initialBelief(), so);
-  const bool converged = solver.solve();
-  const pomdp::BoundsReport bounds = solver.report();
-  const bool reproducible =
-      converged || (so.maxTrials > 0 && bounds.trials >= so.maxTrials && bounds.time < so.timeout);
-  pomdp::AlphaVectorPolicy policy = solver.policy();
-  // Complete the lower bound with the exact value of serving at once (serving ends the
-  // episode, so R(., serve a) is a valid alpha vector): point-based pruning drops serve vectors
-  // that are not best at the beliefs the trials visited, and without them the policy compares
-  // serving with asking arbitrarily at other beliefs (e.g. Table II's random beliefs).
-  const pomdp::Model& m = dialog.model();
-  for (std::size_t r = 0; r < dialog.numRequests(); ++r) {
-    const std::size_t a = dialog.serveAction(r);
-    Eigen::VectorXd alpha = m.rewardMatrix().col(static_cast<Eigen::Index>(a));
-    alpha(static_cast<Eigen::Index>(dialog.terminalState())) = 0.0;
-    policy.add(alpha, a);
-  }
-  if (report) {
-    report->converged = converged;
-    report->reproducible = reproducible;
-    report->bounds = bounds;
-    report->solve_seconds = clock.seconds();
-  }
-  if (!file.empty() && reproducible) {
-    makeDirectories(cache_dir);
-    policy.save(file);
-  }
-  return policy;
-}
-
 DeliveryExperiment::DeliveryExperiment(const kb::NavDomain& domain, const DialogConfig& config,
-                                       const DeliveryExperimentOptions& options)
+                                       const DeliveryExperimentOptions& options,
+                                       bool solve_policy)
     : domain_(domain), config_(config), options_(options) {
   options_.validate();
   config_.validate();
@@ -163,38 +124,31 @@ DeliveryExperiment::DeliveryExperiment(const kb::NavDomain& domain, const Dialog
 
   // 2. Procedure 2 and the navigation side of deliveries.
   clock.reset();
-  const kb::NavModel model = navKnowledge_->buildModel({config_.time}, config_.nav_discount);
-  DeliveryNavigationOptions no;
-  no.shop = config_.shop;
-  no.rooms = knowledge_->base().rooms;
-  no.reward = mdp::NavigationReward{config_.step_cost, config_.rmax};
-  no.discount = config_.nav_discount;
-  no.step_limit = static_cast<std::size_t>(domain.domain.step_limit);
-  no.failure_penalty = config_.failure_penalty;
-  nav_ = std::make_unique<DeliveryNavigation>(*domain.space, model.dynamics, no);
+  nav_ = deliveryNavigationFromKnowledge(domain, *navKnowledge_, config_, knowledge_->base().rooms);
   prep_.nav_model_seconds = clock.seconds();
 
   // 3. The dialog POMDP and its policy.
   clock.reset();
-  dialog_ = std::make_unique<pomdp::DialogPomdp>(knowledge_->buildSpec(*nav_, config_));
+  dialog_ = std::make_unique<pomdp::DialogPomdp>(knowledge_->buildSpec(nav_->trips(), config_));
   prep_.dialog_model_seconds = dialogReasoning + clock.seconds();
-  policy_ = solveDialogPolicy(*dialog_, config_, options_.cache_dir, &prep_);
+  if (solve_policy) policy_ = solveDialogPolicy(*dialog_, config_, options_.cache_dir, &prep_.policy);
 
   context_.time_of_day = domain.simulator->timeOfDayIndex(config_.time);
   context_.blocking_rate = options_.blocking_rate;
 }
 
-void DeliveryExperiment::setPolicy(const pomdp::AlphaVectorPolicy& policy) {
-  if (policy.numStates() != dialog_->model().getS())
+void DeliveryExperiment::setPolicy(const pomdp::TurnLimitedPolicy& policy) {
+  if (policy.numStates() != dialog_->model().getS() ||
+      policy.turnLimit() != dialog_->spec().turnLimit)
     throw ConfigError("delivery experiment: policy has " + std::to_string(policy.numStates()) +
-                      " states, the dialog model " + std::to_string(dialog_->model().getS()));
+                      " states and turn limit " + std::to_string(policy.turnLimit()) +
+                      ", the dialog model " + std::to_string(dialog_->model().getS()) + " and " +
+                      std::to_string(dialog_->spec().turnLimit));
   policy_ = policy;
 }
 
 DeliveryTrialResult DeliveryExperiment::runTrial(std::size_t index, long fixed_request) const {
   const pomdp::DialogPomdp& d = *dialog_;
-  const pomdp::Model& m = d.model();
-  const pomdp::DialogSpec& spec = d.spec();
   if (fixed_request >= static_cast<long>(d.numRequests()))
     throw ConfigError("delivery trial: request " + std::to_string(fixed_request) +
                       " out of range");
@@ -203,61 +157,20 @@ DeliveryTrialResult DeliveryExperiment::runTrial(std::size_t index, long fixed_r
   const std::uint64_t seed = options_.seed;
   {
     Rng rng = makeRng(seed, "delivery/request", index);
-    r.request = sample(spec.prior, rng);  // drawn even when fixed: same streams either way
+    r.request = sample(d.spec().prior, rng);  // drawn even when fixed: same streams either way
   }
   if (fixed_request >= 0) r.request = static_cast<std::size_t>(fixed_request);
-
-  // Dialog.
-  Rng dlg = makeRng(seed, "delivery/dialog", index);
-  pomdp::DialogController ctl(d, policy_);
-  while (!ctl.finished()) {
-    const bool limit = ctl.atTurnLimit();
-    const std::size_t a = ctl.nextAction();
-    if (d.isServe(a)) {
-      r.served = d.requestOfServe(a);
-      r.forced = limit;
-      r.entropy = ctl.entropy(pomdp::EntropyUnit::kNats);
-      r.served_probability = ctl.belief()(static_cast<Eigen::Index>(r.served));
-      ctl.observe(a, d.obsNone());
-      break;
-    }
-    // The person answers through the speech model (questions keep the request).
-    double u = uniform01(dlg);
-    std::size_t o = d.obsNone();
-    const auto& row = m.observationRow(r.request, a);
-    for (const auto& e : row) {
-      o = e.first;
-      if (u < e.second) break;
-      u -= e.second;
-    }
-    r.qa_cost -= m.getExpectedReward(r.request, a);
-    ctl.observe(a, o);
-  }
-  r.turns = ctl.turns();
-  r.correct = r.served == r.request;
-
-  // Delivery: the navigation layer in the world at the trial's br.
+  Rng dialogRng = makeRng(seed, "delivery/dialog", index);
   Rng navRng = makeRng(seed, "delivery/navigation", index);
-  const std::size_t servedRoom = knowledge_->roomOf(r.served);
-  const std::size_t goalRoom = knowledge_->roomOf(r.request);
-  const nav::BlockageSimulator& sim = *domain_.simulator;
-  auto drive = [&](std::size_t room, bool toRoom) {
-    const TripResult t = nav_->execute(sim, room, toRoom, context_, navRng);
-    ++r.trips;
-    r.nav_moves += t.moves;
-    if (!t.reached) r.nav_failed = true;
-    return t.reached;
-  };
-  bool ok = drive(servedRoom, true);
-  if (ok && !r.correct) {
-    r.redelivered = true;  // back to the shop, learn the right request, deliver again
-    ok = drive(servedRoom, false) && drive(goalRoom, true);
-  }
-  r.fulfilled = ok;
-  r.delivery_reward = ok ? spec.successReward : spec.failureReward;
-  r.nav_cost = config_.step_cost * static_cast<double>(r.nav_moves) +
-               (r.nav_failed ? config_.failure_penalty : 0.0);
-  r.reward = r.delivery_reward - r.qa_cost - r.nav_cost;
+  SimulatedPerson person(d, r.request, dialogRng);
+  SimulatedNavigator navigator(*nav_, *domain_.simulator, context_, navRng);
+  if (policy_.size() == 0) throw ConfigError("delivery trial: no dialog policy (setPolicy first)");
+  DeliveryManager manager(d, policy_, nullptr, config_);
+  runDelivery(manager, person, navigator);
+  r.delivery = manager.record();
+  r.correct = r.delivery.served == r.request;
+  r.fulfilled = r.delivery.outcome == DeliveryOutcome::kFulfilled;
+  r.reward = deliveryReward(r.delivery, r.request, config_);
   return r;
 }
 
@@ -271,20 +184,25 @@ std::vector<DeliveryTrialResult> DeliveryExperiment::runTrials(std::size_t begin
 
 std::string deliveryCsvHeader() {
   return "trial,room,reward,fulfilled,qa_cost,turns,entropy,request,served,served_room,correct,"
-         "forced,served_probability,trips,nav_moves,nav_failed,redelivered,delivery_reward,"
-         "nav_cost";
+         "forced,served_probability,max_probability,trips,nav_moves,nav_failed,redelivered,"
+         "delivery_reward,nav_cost,penalty,policy_lower,policy_upper";
 }
 
-std::string deliveryCsvRow(const pomdp::DialogPomdp& d, const DeliveryTrialResult& r) {
+std::string deliveryCsvRow(const pomdp::DialogPomdp& d, const DeliveryTrialResult& r,
+                           const pomdp::BoundsReport& policy) {
   const auto& rooms = d.spec().rooms;
-  char buf[512];
+  const DeliveryRecord& x = r.delivery;
+  char buf[640];
   std::snprintf(buf, sizeof(buf),
-                "%zu,%s,%.6g,%d,%.6g,%d,%.6g,%s,%s,%s,%d,%d,%.6g,%d,%zu,%d,%d,%.6g,%.6g", r.trial,
-                rooms[d.requestParts(r.request)[1]].c_str(), r.reward, r.fulfilled ? 1 : 0,
-                r.qa_cost, r.turns, r.entropy, d.requestName(r.request).c_str(),
-                d.requestName(r.served).c_str(), rooms[d.requestParts(r.served)[1]].c_str(),
-                r.correct ? 1 : 0, r.forced ? 1 : 0, r.served_probability, r.trips, r.nav_moves,
-                r.nav_failed ? 1 : 0, r.redelivered ? 1 : 0, r.delivery_reward, r.nav_cost);
+                "%zu,%s,%.6g,%d,%.6g,%d,%.6g,%s,%s,%s,%d,%d,%.6g,%.6g,%zu,%zu,%d,%d,%.6g,%.6g,%.6g,"
+                "%.10g,%.10g",
+                r.trial, rooms[d.requestParts(r.request)[1]].c_str(), r.reward.total(),
+                r.fulfilled ? 1 : 0, x.qa_cost, x.turns, x.entropy, d.requestName(r.request).c_str(),
+                d.requestName(x.served).c_str(), rooms[d.requestParts(x.served)[1]].c_str(),
+                r.correct ? 1 : 0, x.forced ? 1 : 0, x.served_probability, x.max_probability,
+                x.legs.empty() ? 0 : x.legs.size() - 1, x.navMoves(), x.navFailed() ? 1 : 0,
+                x.redelivered ? 1 : 0, r.reward.delivery, r.reward.navigation, r.reward.penalty,
+                policy.lower, policy.upper);
   return buf;
 }
 

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "krr_core/common/errors.h"
+#include "krr_core/common/files.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/nav/grid_astar.h"
 
@@ -80,33 +81,6 @@ bool fileExists(const std::string& path) {
 }
 
 }  // namespace
-
-void makeDirectories(const std::string& dir) {
-  if (dir.empty()) return;
-  std::string path;
-  std::size_t pos = 0;
-  while (pos != std::string::npos) {
-    pos = dir.find('/', pos + 1);
-    path = dir.substr(0, pos);
-    if (path.empty()) continue;
-    struct stat st;
-    if (::stat(path.c_str(), &st) == 0) {
-      if (!S_ISDIR(st.st_mode)) throw IoError("cache directory: " + path + " is not a directory");
-      continue;
-    }
-    if (::mkdir(path.c_str(), 0755) != 0 && errno != EEXIST)
-      throw IoError("cache directory: cannot create " + path + ": " + std::strerror(errno));
-  }
-}
-
-std::uint64_t stableHash(const std::string& text) {
-  std::uint64_t h = 1469598103934665603ULL;
-  for (unsigned char c : text) {
-    h ^= c;
-    h *= 1099511628211ULL;
-  }
-  return h;
-}
 
 std::string learnedCacheName(const kb::NavDomain& domain, const DialogConfig& c,
                              const std::vector<std::string>& rooms, double br, std::uint64_t seed,

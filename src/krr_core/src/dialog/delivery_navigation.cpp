@@ -30,6 +30,19 @@ void DeliveryNavigationOptions::validate() const {
     bad("failure_penalty", std::to_string(failure_penalty));
 }
 
+DeliveryNavigationOptions DeliveryNavigationOptions::fromConfig(const DialogConfig& c,
+                                                                std::vector<std::string> rooms,
+                                                                std::size_t step_limit) {
+  DeliveryNavigationOptions o;
+  o.shop = c.shop;
+  o.rooms = std::move(rooms);
+  o.reward = mdp::NavigationReward{c.step_cost, c.rmax};
+  o.discount = c.nav_discount;
+  o.step_limit = step_limit;
+  o.failure_penalty = c.failure_penalty;
+  return o;
+}
+
 DeliveryNavigation::DeliveryNavigation(const kb::NavStateSpace& space,
                                        const mdp::SparseModel& dynamics,
                                        const DeliveryNavigationOptions& options)
@@ -117,16 +130,40 @@ std::size_t DeliveryNavigation::roomIndex(const std::string& room) const {
   throw UnknownSymbolError("delivery navigation: no room '" + room + "'");
 }
 
-Eigen::VectorXd DeliveryNavigation::reachFromShop() const {
-  Eigen::VectorXd v(static_cast<Eigen::Index>(to_room_.size()));
-  for (std::size_t r = 0; r < to_room_.size(); ++r) v(static_cast<Eigen::Index>(r)) = to_room_[r].reach;
+TripTable DeliveryNavigation::trips() const { return {options_.rooms, to_room_, to_shop_}; }
+
+Eigen::VectorXd TripTable::reachFromShop() const {
+  Eigen::VectorXd v(static_cast<Eigen::Index>(to_room.size()));
+  for (std::size_t r = 0; r < to_room.size(); ++r) v(static_cast<Eigen::Index>(r)) = to_room[r].reach;
   return v;
 }
 
-Eigen::VectorXd DeliveryNavigation::reachBack() const {
-  Eigen::VectorXd v(static_cast<Eigen::Index>(to_shop_.size()));
-  for (std::size_t r = 0; r < to_shop_.size(); ++r) v(static_cast<Eigen::Index>(r)) = to_shop_[r].reach;
+Eigen::VectorXd TripTable::reachBack() const {
+  Eigen::VectorXd v(static_cast<Eigen::Index>(to_shop.size()));
+  for (std::size_t r = 0; r < to_shop.size(); ++r) v(static_cast<Eigen::Index>(r)) = to_shop[r].reach;
   return v;
+}
+
+TripTable TripTable::fromReach(const std::vector<std::string>& rooms, const std::vector<double>& reach,
+                               const std::vector<double>& back, double failure_penalty) {
+  if (reach.size() != rooms.size() || (!back.empty() && back.size() != rooms.size()))
+    throw ConfigError("trip table: need one P^N(shop, room) per room (" + std::to_string(rooms.size()) +
+                      "), got " + std::to_string(reach.size()) +
+                      (back.empty() ? "" : " and " + std::to_string(back.size()) + " P^N(room, shop)"));
+  if (!(failure_penalty >= 0.0) || !std::isfinite(failure_penalty))
+    throw ConfigError("trip table: failure penalty " + std::to_string(failure_penalty) + " must be >= 0");
+  TripTable t;
+  t.rooms = rooms;
+  auto trip = [&](double p, const std::string& what) {
+    if (!(p >= 0.0 && p <= 1.0))
+      throw ConfigError("trip table: " + what + " = " + std::to_string(p) + " is not a probability");
+    return TripEstimate{p, 0.0, failure_penalty * (1.0 - p)};
+  };
+  for (std::size_t r = 0; r < rooms.size(); ++r) {
+    t.to_room.push_back(trip(reach[r], "P^N(shop, " + rooms[r] + ")"));
+    t.to_shop.push_back(trip(back.empty() ? reach[r] : back[r], "P^N(" + rooms[r] + ", shop)"));
+  }
+  return t;
 }
 
 TripResult DeliveryNavigation::execute(const nav::BlockageSimulator& sim, std::size_t r,
@@ -154,6 +191,17 @@ TripResult DeliveryNavigation::execute(const nav::BlockageSimulator& sim, std::s
     }
   }
   return t;
+}
+
+std::unique_ptr<DeliveryNavigation> deliveryNavigationFromKnowledge(
+    const kb::NavDomain& domain, kb::NavigationKnowledge& knowledge, const DialogConfig& config,
+    const std::vector<std::string>& rooms) {
+  if (!domain.space) throw ConfigError("delivery navigation: the navigation domain is not loaded");
+  const kb::NavModel model = knowledge.buildModel({config.time}, config.nav_discount);
+  return std::make_unique<DeliveryNavigation>(
+      *domain.space, model.dynamics,
+      DeliveryNavigationOptions::fromConfig(config, rooms,
+                                            static_cast<std::size_t>(domain.domain.step_limit)));
 }
 
 }  // namespace dialog

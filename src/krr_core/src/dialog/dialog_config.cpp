@@ -112,7 +112,6 @@ std::string toString(ServeCostMode mode) {
   switch (mode) {
     case ServeCostMode::kNone: return "none";
     case ServeCostMode::kExpected: return "expected";
-    case ServeCostMode::kTasks: return "tasks";
   }
   return "?";
 }
@@ -120,8 +119,7 @@ std::string toString(ServeCostMode mode) {
 ServeCostMode serveCostModeFromString(const std::string& text) {
   if (text == "none") return ServeCostMode::kNone;
   if (text == "expected") return ServeCostMode::kExpected;
-  if (text == "tasks") return ServeCostMode::kTasks;
-  throw ConfigError("serve_cost.mode: value '" + text + "' must be none, expected or tasks");
+  throw ConfigError("serve_cost.mode: value '" + text + "' must be none or expected");
 }
 
 mdp::RMaxParams DialogConfig::rmaxParams() const {
@@ -147,8 +145,11 @@ void DialogConfig::validate() const {
   if (!(failure_reward < success_reward))
     bad("dialog.failure_reward", num(failure_reward), "must be below dialog.success_reward");
   if (turn_limit < 0 || turn_limit > 1000) bad("dialog.turn_limit", std::to_string(turn_limit), "must be in [0, 1000]");
-  if (!(discount > 0 && discount < 1)) bad("dialog.discount", num(discount), "must be in (0, 1)");
+  if (!(discount > 0 && discount <= 1)) bad("dialog.discount", num(discount), "must be in (0, 1]");
+  if (max_redeliveries < 0 || max_redeliveries > 100)
+    bad("dialog.max_redeliveries", std::to_string(max_redeliveries), "must be in [0, 100]");
   nonneg(serve_cost_weight, "serve_cost.weight");
+  nonneg(wrong_delivery_penalty, "serve_cost.wrong_delivery_penalty");
   if (shop.empty()) bad("navigation.shop", "\"\"", "must be a place name");
   if (time.empty()) bad("navigation.time", "\"\"", "must be a time of day");
   nonneg(step_cost, "navigation.step_cost");
@@ -187,7 +188,7 @@ DialogConfig loadDialogConfig(const std::string& path) {
   if (top.has("dialog")) {
     Section s(top.get("dialog"), path, "dialog",
               {"general_question_cost", "confirm_question_cost", "success_reward",
-               "failure_reward", "turn_limit", "discount"});
+               "failure_reward", "turn_limit", "discount", "max_redeliveries"});
     c.general_cost = s.number("general_question_cost", c.general_cost, 0, kInf);
     c.confirm_cost = s.number("confirm_question_cost", c.confirm_cost, 0, kInf);
     c.success_reward = s.number("success_reward", c.success_reward, -kInf, kInf);
@@ -197,20 +198,20 @@ DialogConfig loadDialogConfig(const std::string& path) {
                         " must be below dialog.success_reward (" + num(c.success_reward) + ")");
     c.turn_limit = static_cast<int>(s.integer("turn_limit", c.turn_limit, 0, 1000));
     c.discount = s.number("discount", c.discount, 0, 1, true);
-    if (c.discount >= 1)
-      throw ConfigError(path + ": field 'dialog.discount': value " + num(c.discount) +
-                        " must be below 1 (the point-based solver needs a discount < 1)");
+    c.max_redeliveries = static_cast<int>(s.integer("max_redeliveries", c.max_redeliveries, 0, 100));
   }
   if (top.has("serve_cost")) {
-    Section s(top.get("serve_cost"), path, "serve_cost", {"mode", "weight"});
+    Section s(top.get("serve_cost"), path, "serve_cost", {"mode", "weight", "wrong_delivery_penalty"});
     const std::string mode = s.string("mode", toString(c.serve_cost_mode));
     try {
       c.serve_cost_mode = serveCostModeFromString(mode);
     } catch (const ConfigError&) {
       throw ConfigError(path + ": field 'serve_cost.mode': value '" + mode +
-                        "' must be none, expected or tasks");
+                        "' must be none or expected");
     }
     c.serve_cost_weight = s.number("weight", c.serve_cost_weight, 0, kInf);
+    c.wrong_delivery_penalty =
+        s.number("wrong_delivery_penalty", c.wrong_delivery_penalty, 0, kInf);
   }
   if (top.has("navigation")) {
     Section s(top.get("navigation"), path, "navigation",

@@ -108,42 +108,36 @@ void DialogKnowledge::reasonSpeech() {
   speech_.p_yesno = pYesNo;
 }
 
-void DialogKnowledge::checkRooms(const DeliveryNavigation& nav) const {
-  if (nav.options().rooms != base_.rooms) {
+void DialogKnowledge::checkRooms(const TripTable& trips) const {
+  if (trips.rooms != base_.rooms || trips.to_room.size() != base_.rooms.size() ||
+      trips.to_shop.size() != base_.rooms.size()) {
     std::string a, b;
-    for (const auto& r : nav.options().rooms) a += (a.empty() ? "" : ",") + r;
+    for (const auto& r : trips.rooms) a += (a.empty() ? "" : ",") + r;
     for (const auto& r : base_.rooms) b += (b.empty() ? "" : ",") + r;
     throw ConfigError("dialog knowledge: the navigation rooms {" + a +
                       "} are not the knowledge base's rooms {" + b + "} (same order)");
   }
 }
 
-Eigen::MatrixXd DialogKnowledge::serveCosts(const DeliveryNavigation& nav, ServeCostMode mode) const {
-  checkRooms(nav);
+Eigen::MatrixXd DialogKnowledge::serveCosts(const TripTable& trips, ServeCostMode mode) const {
+  checkRooms(trips);
   const auto n = static_cast<Eigen::Index>(numRequests());
   Eigen::MatrixXd k = Eigen::MatrixXd::Zero(n, n);
   if (mode == ServeCostMode::kNone) return k;
   for (Eigen::Index s = 0; s < n; ++s)
     for (Eigen::Index a = 0; a < n; ++a) {
-      const TripEstimate& out = nav.toRoom(roomOf(static_cast<std::size_t>(a)));
-      const TripEstimate& back = nav.toShop(roomOf(static_cast<std::size_t>(a)));
-      const TripEstimate& redo = nav.toRoom(roomOf(static_cast<std::size_t>(s)));
-      double c = out.cost;
-      if (s != a) {
-        if (mode == ServeCostMode::kTasks)
-          c += back.cost + redo.cost;
-        else
-          c += out.reach * (back.cost + back.reach * redo.cost);
-      }
-      k(s, a) = c;
+      const TripEstimate& out = trips.to_room[roomOf(static_cast<std::size_t>(a))];
+      const TripEstimate& back = trips.to_shop[roomOf(static_cast<std::size_t>(a))];
+      const TripEstimate& redo = trips.to_room[roomOf(static_cast<std::size_t>(s))];
+      k(s, a) = out.cost + (s == a ? 0.0 : out.reach * (back.cost + back.reach * redo.cost));
     }
   return k;
 }
 
-pomdp::DialogSpec DialogKnowledge::buildSpec(const DeliveryNavigation& nav,
+pomdp::DialogSpec DialogKnowledge::buildSpec(const TripTable& trips,
                                              const DialogConfig& config) const {
   config.validate();
-  checkRooms(nav);
+  checkRooms(trips);
   pomdp::DialogSpec spec = base_;
   spec.pGeneral = speech_.p_general;
   spec.pYesNo = speech_.p_yesno;
@@ -153,10 +147,12 @@ pomdp::DialogSpec DialogKnowledge::buildSpec(const DeliveryNavigation& nav,
   spec.failureReward = config.failure_reward;
   spec.discount = config.discount;
   spec.turnLimit = config.turn_limit;
-  spec.delivery = pomdp::deliveryMatrix(base_.items.size(), nav.reachFromShop(),
-                                        base_.persons.size(), nav.reachBack());
-  if (config.serve_cost_mode != ServeCostMode::kNone && config.serve_cost_weight > 0)
-    spec.serveCost = config.serve_cost_weight * serveCosts(nav, config.serve_cost_mode);
+  spec.delivery = pomdp::deliveryMatrix(base_.items.size(), trips.reachFromShop(),
+                                        base_.persons.size(), trips.reachBack());
+  const auto n = static_cast<Eigen::Index>(numRequests());
+  spec.serveCost = config.serve_cost_weight * serveCosts(trips, config.serve_cost_mode) +
+                   config.wrong_delivery_penalty *
+                       (Eigen::MatrixXd::Ones(n, n) - Eigen::MatrixXd::Identity(n, n));
   return spec;
 }
 

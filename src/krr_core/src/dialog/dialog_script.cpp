@@ -69,7 +69,7 @@ long actionByName(const pomdp::DialogPomdp& dialog, const std::string& name) {
 }
 
 ScriptResult runDialogScript(const pomdp::DialogPomdp& dialog, const LanguageFrontEnd& language,
-                             const pomdp::AlphaVectorPolicy* policy,
+                             const pomdp::TurnLimitedPolicy* policy,
                              const std::vector<std::string>& questions,
                              const std::vector<std::string>& utterances) {
   if (utterances.empty()) throw ConfigError("dialog script: no user utterance");
@@ -80,7 +80,7 @@ ScriptResult runDialogScript(const pomdp::DialogPomdp& dialog, const LanguageFro
                       " utterances need " + std::to_string(utterances.size() - 1) +
                       " robot questions without a policy, got " +
                       std::to_string(scripted.size()));
-  DialogSession session(dialog, language, policy);
+  DialogSession session(dialog, &language, policy);
   ScriptResult r;
   // The action before utterance k (k >= 1, 0-based), or the one after the last utterance.
   auto actionBefore = [&](std::size_t k) -> long {
@@ -127,6 +127,84 @@ ScriptResult runDialogScript(const pomdp::DialogPomdp& dialog, const LanguageFro
     r.servedRequest = session.servedRequest();
   }
   return r;
+}
+
+namespace {
+
+class ScriptedPerson : public DeliveryPerson {
+ public:
+  explicit ScriptedPerson(const DeliveryScript& s) : s_(s) {}
+  void open(DeliveryManager& m) override {
+    if (u_ < s_.utterances.size()) m.hear(s_.utterances[u_++]);
+  }
+  bool answer(DeliveryManager& m, std::size_t) override {
+    if (u_ >= s_.utterances.size()) return false;
+    m.hear(s_.utterances[u_++]);
+    return true;
+  }
+  bool check(DeliveryManager& m) override {
+    if (c_ >= s_.checks.size()) return false;
+    m.check(s_.checks[c_++]);
+    return true;
+  }
+  std::vector<std::string> unused() const {
+    return {s_.utterances.begin() + static_cast<long>(u_), s_.utterances.end()};
+  }
+
+ private:
+  const DeliveryScript& s_;
+  std::size_t u_ = 0, c_ = 0;
+};
+
+class ScriptedNavigator : public DeliveryNavigator {
+ public:
+  explicit ScriptedNavigator(const std::vector<bool>& legs) : legs_(legs) {}
+  LegRecord drive(const Leg& leg) override {
+    const bool ok = k_ >= legs_.size() || legs_[k_];
+    ++k_;
+    return {leg, ok, 0, ok ? "" : "scripted failure"};
+  }
+
+ private:
+  const std::vector<bool>& legs_;
+  std::size_t k_ = 0;
+};
+
+}  // namespace
+
+ScriptedDelivery runScriptedDelivery(const pomdp::DialogPomdp& dialog,
+                                     const LanguageFrontEnd& language,
+                                     const pomdp::TurnLimitedPolicy& policy,
+                                     const DialogConfig& config, const DeliveryScript& script) {
+  if (script.utterances.empty()) throw ConfigError("scripted delivery: no user utterance");
+  DeliveryManager m(dialog, policy, &language, config);
+  ScriptedPerson person(script);
+  ScriptedNavigator nav(script.legs);
+  ScriptedDelivery d;
+  d.completed = runDelivery(m, person, nav);
+  d.record = m.record();
+  d.decisions = m.decisions();
+  d.unusedUtterances = person.unused();
+  return d;
+}
+
+std::string scriptedDeliveryToJson(const pomdp::DialogPomdp& dialog, const ScriptedDelivery& d) {
+  const DeliveryRecord& r = d.record;
+  std::ostringstream out;
+  const bool served = r.attempts > 0;
+  out << "{\"completed\": " << (d.completed ? "true" : "false")
+      << ", \"decisions\": " << jsonList(d.decisions)
+      << ", \"outcome\": " << jsonString(toString(r.outcome))
+      << ", \"served\": " << (served ? jsonString(dialog.requestName(r.served)) : "null")
+      << ", \"delivered\": " << (served ? jsonString(dialog.requestName(r.delivering)) : "null")
+      << ", \"turns\": " << r.turns << ", \"qa_cost\": " << jsonNumber(r.qa_cost)
+      << ", \"forced\": " << (r.forced ? "true" : "false")
+      << ", \"served_probability\": " << jsonNumber(r.served_probability)
+      << ", \"max_probability\": " << jsonNumber(r.max_probability)
+      << ", \"entropy\": " << jsonNumber(r.entropy)
+      << ", \"message\": " << jsonString(r.message)
+      << ", \"unused_utterances\": " << jsonList(d.unusedUtterances) << "}\n";
+  return out.str();
 }
 
 std::string scriptToCsv(const pomdp::DialogPomdp& dialog, const ScriptResult& r) {

@@ -19,12 +19,16 @@ BeliefSummary summarizeBelief(const pomdp::DialogPomdp& dialog, const pomdp::Bel
   return s;
 }
 
-DialogSession::DialogSession(const pomdp::DialogPomdp& dialog, const LanguageFrontEnd& language,
-                             const pomdp::AlphaVectorPolicy* policy)
+DialogSession::DialogSession(const pomdp::DialogPomdp& dialog, const LanguageFrontEnd* language,
+                             const pomdp::TurnLimitedPolicy* policy)
     : dialog_(dialog), language_(language), policy_(policy) {
   if (policy_ && policy_->numStates() != dialog_.model().getS())
     throw ConfigError("dialog session: policy has " + std::to_string(policy_->numStates()) +
                       " states, the dialog model has " + std::to_string(dialog_.model().getS()));
+  if (policy_ && policy_->turnLimit() != dialog_.spec().turnLimit)
+    throw ConfigError("dialog session: policy was solved for a turn limit of " +
+                      std::to_string(policy_->turnLimit()) + ", the dialog model has " +
+                      std::to_string(dialog_.spec().turnLimit));
   reset();
 }
 
@@ -36,11 +40,42 @@ void DialogSession::reset() {
   served_ = 0;
 }
 
+std::size_t decideAction(const pomdp::DialogPomdp& d, const pomdp::TurnLimitedPolicy& policy,
+                         const pomdp::Belief& b, int turns) {
+  const std::size_t a = policy.bestAction(b, turns);
+  const auto mostLikely = [&] {
+    Eigen::Index best = 0;
+    b.head(static_cast<Eigen::Index>(d.numRequests())).maxCoeff(&best);
+    return d.serveAction(static_cast<std::size_t>(best));
+  };
+  if (turns >= d.spec().turnLimit) {
+    if (!d.isServe(a))
+      throw ConfigError("dialog: the policy asks '" + d.model().actionNames()[a] + "' after " +
+                        std::to_string(turns) + " questions, at the turn limit where it must " +
+                        "serve (was it solved without the limit?)");
+    return mostLikely();
+  }
+  if (!d.isServe(a)) return a;
+  const double serve = policy.lookahead(d.model(), b, a, turns, true);
+  std::size_t best = a;
+  double bestValue = serve;
+  for (std::size_t q = 0; q < d.model().getA() && d.isQuestion(q); ++q) {
+    const double v = policy.lookahead(d.model(), b, q, turns, false);
+    if (v > bestValue + 1e-9) {
+      bestValue = v;
+      best = q;
+    }
+  }
+  return best;
+}
+
 std::size_t DialogSession::nextAction() const {
   if (finished_) throw ConfigError("dialog session: the dialog has ended");
-  if (atTurnLimit()) return dialog_.serveAction(summary().mostLikely);
-  if (!policy_) throw ConfigError("dialog session: no policy to choose the next action");
-  return policy_->bestAction(belief_);
+  if (!policy_) {
+    if (atTurnLimit()) return dialog_.serveAction(summary().mostLikely);
+    throw ConfigError("dialog session: no policy to choose the next action");
+  }
+  return decideAction(dialog_, *policy_, belief_, turns_);
 }
 
 void DialogSession::act(std::size_t a) {
@@ -64,7 +99,8 @@ HearResult DialogSession::hear(const std::string& text) {
     r.notes.push_back("the dialog has ended: utterance ignored");
     return r;
   }
-  Interpretation in = language_.understand(text, dialog_, lastQuestion_);
+  if (!language_) throw ConfigError("dialog session: no language front end to understand text");
+  Interpretation in = language_->understand(text, dialog_, lastQuestion_);
   r.unknownWords = std::move(in.unknownWords);
   r.notes = std::move(in.notes);
   for (const DialogObservation& o : in.observations) {
@@ -79,6 +115,18 @@ HearResult DialogSession::hear(const std::string& text) {
     }
   }
   return r;
+}
+
+bool DialogSession::observe(std::size_t question, std::size_t observation) {
+  if (finished_) throw ConfigError("dialog session: the dialog has ended");
+  if (question >= dialog_.model().getA() || !dialog_.isQuestion(question))
+    throw ConfigError("dialog session: action " + std::to_string(question) + " is not a question");
+  if (observation >= dialog_.model().getO())
+    throw ConfigError("dialog session: observation " + std::to_string(observation) + " out of range");
+  pomdp::Belief next;
+  if (!pomdp::tryUpdateBelief(dialog_.model(), belief_, question, observation, next)) return false;
+  belief_ = std::move(next);
+  return true;
 }
 
 BeliefSummary DialogSession::summary() const { return summarizeBelief(dialog_, belief_); }

@@ -1,78 +1,22 @@
 #include "krr_core/pomdp/alpha_policy.h"
 
-#include <cctype>
-#include <cerrno>
-#include <cstdlib>
 #include <sstream>
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
+#include "policy_text.h"
 
 namespace krr {
 namespace pomdp {
 
 namespace {
 
-SourceLocation locationOf(const std::string& text, std::size_t offset, const std::string& file) {
-  SourceLocation loc{file, 1, 1};
-  for (std::size_t i = 0; i < offset && i < text.size(); ++i) {
-    if (text[i] == '\n') {
-      ++loc.line;
-      loc.column = 1;
-    } else {
-      ++loc.column;
-    }
-  }
-  return loc;
-}
-
-/// Whitespace tokenizer remembering each token's offset.
-struct Tok {
-  std::string text;
-  std::size_t offset;
-};
-
-std::vector<Tok> tokenize(const std::string& text, std::size_t begin, std::size_t end) {
-  std::vector<Tok> out;
-  std::size_t i = begin;
-  while (i < end) {
-    while (i < end && std::isspace(static_cast<unsigned char>(text[i]))) ++i;
-    if (i >= end) break;
-    std::size_t j = i;
-    while (j < end && !std::isspace(static_cast<unsigned char>(text[j]))) ++j;
-    out.push_back({text.substr(i, j - i), i});
-    i = j;
-  }
-  return out;
-}
-
-double parseDouble(const Tok& t, const std::string& text, const std::string& file) {
-  const char* p = t.text.c_str();
-  char* e = nullptr;
-  errno = 0;
-  double v = std::strtod(p, &e);
-  if (e == p || *e != '\0' || errno == ERANGE)
-    throw ParseError(locationOf(text, t.offset, file), "expected a number, got '" + t.text + "'");
-  return v;
-}
-
-long parseInt(const Tok& t, const std::string& text, const std::string& file) {
-  const char* p = t.text.c_str();
-  char* e = nullptr;
-  errno = 0;
-  long v = std::strtol(p, &e, 10);
-  if (e == p || *e != '\0' || errno == ERANGE || v < 0)
-    throw ParseError(locationOf(text, t.offset, file),
-                     "expected a non-negative integer, got '" + t.text + "'");
-  return v;
-}
-
-std::string fmt(double v) {
-  std::ostringstream ss;
-  ss.precision(17);
-  ss << v;
-  return ss.str();
-}
+using detail::fmt;
+using detail::locationOf;
+using detail::parseDouble;
+using detail::parseInt;
+using detail::Tok;
+using detail::tokenize;
 
 /// Value of attribute name inside the tag text [tagBegin, tagEnd); npos if missing.
 std::string attribute(const std::string& text, std::size_t tagBegin, std::size_t tagEnd,
@@ -130,38 +74,22 @@ std::string AlphaVectorPolicy::toText() const {
 }
 
 AlphaVectorPolicy AlphaVectorPolicy::fromText(const std::string& text, const std::string& file) {
-  auto toks = tokenize(text, 0, text.size());
-  std::size_t i = 0;
-  auto need = [&](const char* what) -> const Tok& {
-    if (i >= toks.size())
-      throw ParseError(locationOf(text, text.size(), file),
-                       std::string("unexpected end of file, expected ") + what);
-    return toks[i++];
-  };
-  auto keyword = [&](const char* kw) {
-    const Tok& t = need(kw);
-    if (t.text != kw)
-      throw ParseError(locationOf(text, t.offset, file),
-                       std::string("expected '") + kw + "', got '" + t.text + "'");
-  };
-  keyword("krr-alpha-policy");
-  const Tok& ver = need("version");
-  if (parseInt(ver, text, file) != 1)
-    throw ParseError(locationOf(text, ver.offset, file), "unsupported version '" + ver.text + "'");
-  keyword("states");
-  std::size_t s = static_cast<std::size_t>(parseInt(need("state count"), text, file));
-  keyword("vectors");
-  std::size_t n = static_cast<std::size_t>(parseInt(need("vector count"), text, file));
+  detail::TokenReader in(text, file);
+  in.keyword("krr-alpha-policy");
+  const Tok& ver = in.need("version");
+  if (parseInt(ver, text, file) != 1) throw in.errorAt(ver, "unsupported version '" + ver.text + "'");
+  in.keyword("states");
+  const auto s = static_cast<std::size_t>(in.count("state count"));
+  in.keyword("vectors");
+  const auto n = static_cast<std::size_t>(in.count("vector count"));
   AlphaVectorPolicy p(s);
   for (std::size_t v = 0; v < n; ++v) {
-    std::size_t a = static_cast<std::size_t>(parseInt(need("action"), text, file));
+    const auto a = static_cast<std::size_t>(in.integer("action"));
     Eigen::VectorXd alpha(static_cast<Eigen::Index>(s));
-    for (std::size_t k = 0; k < s; ++k) alpha(k) = parseDouble(need("value"), text, file);
+    for (std::size_t k = 0; k < s; ++k) alpha(static_cast<Eigen::Index>(k)) = in.number("value");
     p.add(alpha, a);
   }
-  if (i < toks.size())
-    throw ParseError(locationOf(text, toks[i].offset, file),
-                     "unexpected trailing token '" + toks[i].text + "'");
+  in.finish();
   return p;
 }
 

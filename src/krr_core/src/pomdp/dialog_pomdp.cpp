@@ -4,7 +4,6 @@
 #include <set>
 
 #include "krr_core/common/errors.h"
-#include "krr_core/common/random.h"
 #include "krr_core/pomdp/cassandra_io.h"
 
 namespace krr {
@@ -230,115 +229,6 @@ std::array<Eigen::VectorXd, 3> DialogPomdp::marginals(const Belief& b) const {
 }
 
 std::string DialogPomdp::exportCassandra() const { return writeCassandra(model_); }
-
-DialogController::DialogController(const DialogPomdp& dialog, const AlphaVectorPolicy& policy)
-    : dialog_(dialog), policy_(policy) {
-  if (policy.numStates() != dialog.model().getS())
-    throw ConfigError("dialog controller: policy has " + std::to_string(policy.numStates()) +
-                      " states, model has " + std::to_string(dialog.model().getS()));
-  reset();
-}
-
-void DialogController::reset() {
-  belief_ = dialog_.model().initialBelief();
-  turns_ = 0;
-  finished_ = false;
-}
-
-std::size_t DialogController::nextAction() const {
-  if (finished_) throw ConfigError("dialog controller: the dialog has ended");
-  if (atTurnLimit()) {
-    Eigen::Index best = 0;
-    belief_.head(static_cast<Eigen::Index>(dialog_.numRequests())).maxCoeff(&best);
-    return dialog_.serveAction(static_cast<std::size_t>(best));
-  }
-  return policy_.bestAction(belief_);
-}
-
-void DialogController::observe(std::size_t a, std::size_t o) {
-  if (finished_) throw ConfigError("dialog controller: the dialog has ended");
-  if (dialog_.isServe(a)) {
-    finished_ = true;
-    return;
-  }
-  belief_ = updateBelief(dialog_.model(), belief_, a, o);
-  ++turns_;
-}
-
-double DialogController::entropy(EntropyUnit unit) const {
-  return pomdp::entropy(belief_, unit);
-}
-
-DialogStats simulateDialogs(const DialogPomdp& dialog, const AlphaVectorPolicy& policy,
-                            std::size_t episodes, std::uint64_t seed, long fixedRequest) {
-  const Model& m = dialog.model();
-  const DialogSpec& spec = dialog.spec();
-  if (fixedRequest >= static_cast<long>(dialog.numRequests()))
-    throw ConfigError("simulateDialogs: request " + std::to_string(fixedRequest) +
-                      " out of range");
-  DialogController ctl(dialog, policy);
-  DialogStats st;
-  st.episodes = episodes;
-  double sum = 0.0, sumSq = 0.0;
-  std::size_t fulfilled = 0, correct = 0, questions = 0, forced = 0;
-  double qaCost = 0.0;
-  const double g = m.getDiscount();
-  for (std::size_t e = 0; e < episodes; ++e) {
-    Rng rng = makeRng(seed, "dialog", e);
-    std::size_t s = 0;
-    if (fixedRequest >= 0) {
-      s = static_cast<std::size_t>(fixedRequest);
-    } else {
-      double u = uniform01(rng);
-      s = dialog.numRequests() - 1;
-      for (std::size_t k = 0; k < dialog.numRequests(); ++k) {
-        if (u < spec.prior(k)) {
-          s = k;
-          break;
-        }
-        u -= spec.prior(k);
-      }
-    }
-    ctl.reset();
-    double ret = 0.0, disc = 1.0;
-    while (!ctl.finished()) {
-      const bool limit = ctl.atTurnLimit();
-      const std::size_t a = ctl.nextAction();
-      if (dialog.isServe(a)) {
-        const std::size_t req = dialog.requestOfServe(a);
-        const bool ok = uniform01(rng) < spec.delivery(s, req);
-        ret += disc * (ok ? spec.successReward : spec.failureReward);
-        if (spec.serveCost.size() != 0)
-          ret -= disc * spec.serveCost(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(req));
-        fulfilled += ok;
-        correct += req == s;
-        forced += limit;
-        ctl.observe(a, dialog.obsNone());
-      } else {
-        auto sor = m.sampleSOR(s, a, rng);
-        ret += disc * std::get<2>(sor);
-        qaCost -= std::get<2>(sor);
-        ++questions;
-        ctl.observe(a, std::get<1>(sor));
-      }
-      disc *= g;
-    }
-    sum += ret;
-    sumSq += ret * ret;
-  }
-  const double n = static_cast<double>(episodes);
-  if (episodes > 0) {
-    st.meanReturn = sum / n;
-    const double var = episodes > 1 ? std::max(0.0, (sumSq - n * st.meanReturn * st.meanReturn) / (n - 1)) : 0.0;
-    st.ci95 = 1.96 * std::sqrt(var / n);
-    st.fulfilledRate = fulfilled / n;
-    st.correctRate = correct / n;
-    st.meanQuestions = questions / n;
-    st.meanQaCost = qaCost / n;
-    st.forcedRate = forced / n;
-  }
-  return st;
-}
 
 }  // namespace pomdp
 }  // namespace krr

@@ -41,6 +41,32 @@ TEST(Files, FailedWriteKeepsOldContentAndNamesTheFile) {
   std::system(("rm -rf " + dir).c_str());
 }
 
+TEST(Files, MakeDirectoriesCreatesParentsAndRefusesFilesInThePath) {
+  const std::string dir = tempDir();
+  const std::string nested = dir + "/a/b/c";
+  krr::makeDirectories(nested);
+  krr::makeDirectories(nested);  // existing directories are fine
+  krr::writeFileAtomic(nested + "/file", "x");
+  EXPECT_EQ(krr::readFile(nested + "/file"), "x");
+  EXPECT_NO_THROW(krr::makeDirectories(""));
+  // A file where a directory should be: IoError naming it.
+  try {
+    krr::makeDirectories(nested + "/file/sub");
+    ADD_FAILURE() << "expected IoError";
+  } catch (const krr::IoError& e) {
+    EXPECT_NE(std::string(e.what()).find(nested + "/file"), std::string::npos) << e.what();
+  }
+  std::system(("rm -rf " + dir).c_str());
+}
+
+TEST(Files, StableHashIsFnv1a) {
+  EXPECT_EQ(krr::stableHash("policy text"), krr::stableHash(std::string("policy ") + "text"));
+  EXPECT_NE(krr::stableHash("policy text"), krr::stableHash("policy texT"));
+  // FNV-1a 64 test vectors: the offset basis for "", and "a".
+  EXPECT_EQ(krr::stableHash(""), 14695981039346656037ULL);
+  EXPECT_EQ(krr::stableHash("a"), 0xaf63dc4c8601ec8cULL);
+}
+
 TEST(Json, EscapesControlCharactersAndQuotes) {
   EXPECT_EQ(krr::jsonString("a\"b\\c\n\x01"), "\"a\\\"b\\\\c\\n\\u0001\"");
   EXPECT_EQ(krr::jsonNumber(0.5), "0.5");

@@ -6,7 +6,9 @@
 
 #include "krr_core/common/errors.h"
 #include "krr_core/dialog/belief_entropy_survey.h"
+#include "krr_core/dialog/dialog_session.h"
 #include "krr_core/pomdp/belief.h"
+#include "krr_core/pomdp/turn_limited_solver.h"
 
 namespace {
 
@@ -21,23 +23,43 @@ pomdp::DialogPomdp tinyDialog() {
   return pomdp::DialogPomdp(spec);
 }
 
-pomdp::AlphaVectorPolicy always(const pomdp::DialogPomdp& d, std::size_t a) {
-  pomdp::AlphaVectorPolicy p(d.model().getS());
-  p.add(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(d.model().getS())), a);
+/// A policy that asks question a before the turn limit (and, as it must, serves at the limit).
+pomdp::TurnLimitedPolicy always(const pomdp::DialogPomdp& d, std::size_t a) {
+  const int limit = d.spec().turnLimit;
+  pomdp::TurnLimitedPolicy p(d.model().getS(), limit);
+  p.add(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(d.model().getS())), a, limit - 1);
+  p.add(Eigen::VectorXd::Constant(static_cast<Eigen::Index>(d.model().getS()), -1000.0),
+        d.serveAction(0), limit);
   return p;
 }
 
-/// Serve the mode when it has at least 0.9, else ask: a threshold policy as alpha vectors.
-pomdp::AlphaVectorPolicy threshold(const pomdp::DialogPomdp& d) {
+/// Serve the mode when it has at least 0.9, else ask: a threshold policy as alpha vectors
+/// (serves usable at every turn, the question before the limit). Serving is worth 80 in
+/// tinyDialog (T^D = 1), so decideAction's lookahead never prefers a question to its serves.
+pomdp::TurnLimitedPolicy threshold(const pomdp::DialogPomdp& d) {
   const auto S = static_cast<Eigen::Index>(d.model().getS());
-  pomdp::AlphaVectorPolicy p(d.model().getS());
-  p.add(Eigen::VectorXd::Zero(S), d.askItem());
+  const int limit = d.spec().turnLimit;
+  pomdp::TurnLimitedPolicy p(d.model().getS(), limit);
+  p.add(Eigen::VectorXd::Zero(S), d.askItem(), limit - 1);
   for (std::size_t s = 0; s < d.numRequests(); ++s) {
     Eigen::VectorXd a = Eigen::VectorXd::Constant(S, -9.0);  // value 10 b(s) - 9 (1 - b(s))
     a(static_cast<Eigen::Index>(s)) = 1.0;
-    p.add(a, d.serveAction(s));
+    p.add(a, d.serveAction(s), limit);
   }
   return p;
+}
+
+/// The tiny dialog with room2 hard to reach and wrong deliveries penalised, so that asking
+/// pays off at diffuse beliefs; solved with a small trial budget.
+pomdp::DialogPomdp penalisedTinyDialog() {
+  pomdp::DialogSpec spec;
+  spec.items = {"coke", "soda"};
+  spec.rooms = {"room1", "room2"};
+  spec.persons = {"ann", "ben"};
+  spec.delivery = pomdp::deliveryMatrix(2, Eigen::Vector2d(1.0, 0.6), 2);
+  spec.serveCost = 60.0 * (Eigen::MatrixXd::Ones(8, 8) - Eigen::MatrixXd::Identity(8, 8));
+  spec.turnLimit = 6;
+  return pomdp::DialogPomdp(spec);
 }
 
 TEST(BeliefEntropySurvey, BeliefsAreDistributionsOverRequests) {
@@ -85,6 +107,36 @@ TEST(BeliefEntropySurvey, RecordsTheEntropyOfBeliefsUnderWhichThePolicyDelivers)
   EXPECT_LT(serves, 280u);
 }
 
+TEST(BeliefEntropySurvey, SuggestsTheRobotsActionAtTheStartOfADialog) {
+  const auto d = penalisedTinyDialog();
+  pomdp::TurnLimitedSolverOptions o;
+  o.maxTrials = 60;
+  pomdp::TurnLimitedSolver solver(d.model(), d.model().initialBelief(), d.spec().turnLimit, o);
+  solver.solve();
+  const pomdp::TurnLimitedPolicy pol = solver.policy();
+  BeliefEntropySurvey survey(d, pol, BeliefSamplerOptions(), 5);
+  double serveEntropy = 0, askEntropy = 0;
+  std::size_t serves = 0, asks = 0;
+  for (const EntropySample& s : survey.run(0, 300, 2)) {
+    // The robot's decision rule with no question asked yet (lookahead included).
+    const pomdp::Belief b = survey.belief(s.index);
+    EXPECT_EQ(s.action, decideAction(d, pol, b, 0)) << s.index;
+    EXPECT_EQ(s.serve, d.isServe(s.action));
+    if (s.serve) {
+      EXPECT_EQ(d.serveAction(s.request), s.action);
+      serveEntropy += s.entropy;
+      ++serves;
+    } else {
+      askEntropy += s.entropy;
+      ++asks;
+    }
+  }
+  // The policy delivers at certain beliefs and asks at diffuse ones.
+  ASSERT_GT(serves, 10u);
+  ASSERT_GT(asks, 10u);
+  EXPECT_LT(serveEntropy / static_cast<double>(serves), askEntropy / static_cast<double>(asks));
+}
+
 TEST(BeliefEntropySurvey, SamplesDependOnlyOnSeedAndIndex) {
   const auto d = tinyDialog();
   const auto pol = threshold(d);
@@ -109,7 +161,8 @@ TEST(BeliefEntropySurvey, RejectsBadOptions) {
   o = BeliefSamplerOptions();
   o.alpha_max = o.alpha_min / 2;
   EXPECT_THROW(BeliefEntropySurvey(d, pol, o, 1), ConfigError);
-  EXPECT_THROW(BeliefEntropySurvey(d, pomdp::AlphaVectorPolicy(4), BeliefSamplerOptions(), 1),
+  EXPECT_THROW(BeliefEntropySurvey(d, pomdp::TurnLimitedPolicy(4, d.spec().turnLimit),
+                                   BeliefSamplerOptions(), 1),
                ConfigError);
 }
 

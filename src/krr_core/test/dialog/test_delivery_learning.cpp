@@ -85,8 +85,13 @@ TEST(DeliveryLearning, LearnsOnceAndReloadsFromTheCache) {
 
   EXPECT_THROW(prepareLearnedKnowledge(d, kb3, c, {"room1", "room2"}, 1.5, 7, "", "corridor"),
                ConfigError);
+  // A cache directory that cannot be created (a file in its path) is an IoError, not a
+  // silent relearn (makeDirectories itself is tested in common/test_files).
   writeFileAtomic(cache + "/file", "x");
-  EXPECT_THROW(makeDirectories(cache + "/file/sub"), IoError);
+  kb::NavigationKnowledge kb4(*d.grid, d.knowledge_files);
+  EXPECT_THROW(prepareLearnedKnowledge(d, kb4, c, {"room1", "room2"}, 0.5, 7, cache + "/file/sub",
+                                       "corridor"),
+               IoError);
 }
 
 TEST(DeliveryLearning, HigherBlockingRatesAreLearnedAsHarderNavigation) {

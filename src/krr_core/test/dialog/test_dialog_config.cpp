@@ -19,7 +19,11 @@ TEST(DialogConfig, BundledConfigHasThePapersNumbers) {
   EXPECT_DOUBLE_EQ(c.success_reward, 80.0);
   EXPECT_DOUBLE_EQ(c.failure_reward, -80.0);
   EXPECT_EQ(c.turn_limit, 20);
-  EXPECT_EQ(c.serve_cost_mode, ServeCostMode::kTasks);
+  EXPECT_DOUBLE_EQ(c.discount, 0.99);
+  EXPECT_EQ(c.max_redeliveries, 1);  // the paper's redelivery rule: one more trip
+  EXPECT_EQ(c.serve_cost_mode, ServeCostMode::kExpected);
+  EXPECT_DOUBLE_EQ(c.serve_cost_weight, 1.0);
+  EXPECT_DOUBLE_EQ(c.wrong_delivery_penalty, 120.0);
   // Knowledge files are resolved against the YAML's directory and exist.
   EXPECT_NO_THROW(krr::readFile(c.office_plog));
   EXPECT_NO_THROW(krr::readFile(c.speech_plog));
@@ -34,6 +38,24 @@ TEST(DialogConfig, DefaultsWhenSectionsAreMissing) {
   EXPECT_EQ(c.turn_limit, 7);
   EXPECT_DOUBLE_EQ(c.general_cost, 2.0);
   EXPECT_EQ(c.office_plog, dir + "/office.plog");
+  // The struct's defaults for the fields not given.
+  EXPECT_EQ(c.max_redeliveries, 1);
+  EXPECT_EQ(c.serve_cost_mode, ServeCostMode::kExpected);
+  EXPECT_DOUBLE_EQ(c.wrong_delivery_penalty, 120.0);
+}
+
+TEST(DialogConfig, NewFieldsAreRead) {
+  const std::string dir = delivery_test::tempDir("dialog_cfg");
+  krr::writeFileAtomic(dir + "/d.yaml",
+                       "dialog: {discount: 1.0, max_redeliveries: 0}\n"
+                       "serve_cost: {mode: none, wrong_delivery_penalty: 35.5}\n");
+  const DialogConfig c = loadDialogConfig(dir + "/d.yaml");
+  EXPECT_DOUBLE_EQ(c.discount, 1.0);  // undiscounted dialogs are allowed (finite horizon)
+  EXPECT_EQ(c.max_redeliveries, 0);
+  EXPECT_EQ(c.serve_cost_mode, ServeCostMode::kNone);
+  EXPECT_DOUBLE_EQ(c.wrong_delivery_penalty, 35.5);
+  krr::writeFileAtomic(dir + "/d.yaml", "dialog: {max_redeliveries: 3}\n");
+  EXPECT_EQ(loadDialogConfig(dir + "/d.yaml").max_redeliveries, 3);
 }
 
 TEST(DialogConfig, BadValuesNameTheField) {
@@ -43,10 +65,16 @@ TEST(DialogConfig, BadValuesNameTheField) {
       {"dialog: {confirm_question_cost: abc}\n", "dialog.confirm_question_cost"},
       {"dialog: {turn_limit: -1}\n", "dialog.turn_limit"},
       {"dialog: {turn_limit: 2.5}\n", "dialog.turn_limit"},
-      {"dialog: {discount: 1.0}\n", "dialog.discount"},
+      {"dialog: {discount: 0}\n", "dialog.discount"},
+      {"dialog: {discount: 1.01}\n", "dialog.discount"},
+      {"dialog: {max_redeliveries: -1}\n", "dialog.max_redeliveries"},
+      {"dialog: {max_redeliveries: 1.5}\n", "dialog.max_redeliveries"},
       {"dialog: {success_reward: 10, failure_reward: 20}\n", "dialog.failure_reward"},
       {"dialog: {speech_accuracy: 0.8}\n", "dialog.speech_accuracy"},
       {"serve_cost: {mode: sometimes}\n", "serve_cost.mode"},
+      {"serve_cost: {mode: tasks}\n", "serve_cost.mode"},  // removed mode
+      {"serve_cost: {wrong_delivery_penalty: -1}\n", "serve_cost.wrong_delivery_penalty"},
+      {"serve_cost: {wrong_delivery_penalty: lots}\n", "serve_cost.wrong_delivery_penalty"},
       {"serve_cost: {weight: -1}\n", "serve_cost.weight"},
       {"navigation: {rmax: 0}\n", "navigation.rmax"},
       {"navigation: {step_cost: 50}\n", "navigation.step_cost"},
@@ -85,12 +113,30 @@ TEST(DialogConfig, ValidateChecksConfigsBuiltInCode) {
   EXPECT_NO_THROW(c.validate());
   c.discount = 1.5;
   EXPECT_THROW(c.validate(), krr::ConfigError);
+  c.discount = 1.0;
+  EXPECT_NO_THROW(c.validate());
+  c.discount = 0.0;
+  EXPECT_THROW(c.validate(), krr::ConfigError);
+  c = DialogConfig();
+  c.wrong_delivery_penalty = -1.0;
+  try {
+    c.validate();
+    ADD_FAILURE() << "accepted a negative wrong_delivery_penalty";
+  } catch (const krr::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("wrong_delivery_penalty"), std::string::npos) << e.what();
+  }
+  c = DialogConfig();
+  c.max_redeliveries = -1;
+  EXPECT_THROW(c.validate(), krr::ConfigError);
   c = DialogConfig();
   c.learning_rounds = 0;
   EXPECT_THROW(c.validate(), krr::ConfigError);
   EXPECT_EQ(serveCostModeFromString("expected"), ServeCostMode::kExpected);
   EXPECT_EQ(toString(ServeCostMode::kNone), "none");
+  EXPECT_EQ(toString(ServeCostMode::kExpected), "expected");
+  EXPECT_EQ(serveCostModeFromString(toString(ServeCostMode::kNone)), ServeCostMode::kNone);
   EXPECT_THROW(serveCostModeFromString("all"), krr::ConfigError);
+  EXPECT_THROW(serveCostModeFromString("tasks"), krr::ConfigError);  // removed mode
 }
 
 }  // namespace

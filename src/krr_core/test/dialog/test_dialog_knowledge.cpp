@@ -1,14 +1,22 @@
 // DialogKnowledge: the dialog POMDP constructed by reasoning. Prior and speech model from P-log,
-// T^D by the delivery equation and serve costs against hand computation, and on the real
-// office model: the policy asks more questions when the requested room is harder to reach.
+// T^D and the serve reward against hand computation, and the behaviour of the robot on the
+// office knowledge base that the serve reward is designed for: it serves the request that was
+// said, always the most likely one, and asks before harder deliveries.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
 
+#include <map>
+#include <string>
+#include <vector>
+
 #include "krr_core/common/errors.h"
-#include "krr_core/dialog/delivery_experiment.h"
+#include "krr_core/common/random.h"
+#include "krr_core/dialog/belief_entropy_survey.h"
+#include "krr_core/dialog/delivery_manager.h"
 #include "krr_core/dialog/dialog_knowledge.h"
+#include "krr_core/dialog/dialog_policy.h"
 #include "delivery_test_support.h"
 
 namespace {
@@ -58,7 +66,7 @@ TEST(DialogKnowledge, SpeechModelComesFromPlog) {
   const kb::NavStateSpace sp(grid);
   const DeliveryNavigation nav = chainNavigation(sp);
   DialogConfig cfg;
-  const pomdp::DialogPomdp d(k.buildSpec(nav, cfg));
+  const pomdp::DialogPomdp d(k.buildSpec(nav.trips(), cfg));
   const std::size_t s = d.requestIndex(1, 0, 1);  // soda, room1, ben
   EXPECT_NEAR(d.model().getObservationProbability(s, d.askItem(), d.obsItem(1)), 0.9, 1e-12);
   EXPECT_NEAR(d.model().getObservationProbability(s, d.askItem(), d.obsItem(0)), 0.1, 1e-12);
@@ -77,16 +85,17 @@ TEST(DialogKnowledge, SpeechModelsThePomdpCannotRepresentAreRefused) {
   EXPECT_THROW(DialogKnowledge(data("tiny_office.plog"), data("tiny_office.plog")), Error);
 }
 
-TEST(DialogKnowledge, DeliveryEquationAndServeCostsMatchHandComputation) {
+TEST(DialogKnowledge, DeliveryEquationAndServeRewardMatchHandComputation) {
   const DialogKnowledge k(data("tiny_office.plog"), repo("config/dialog.plog"));
   const nav::NavGrid grid = delivery_test::chain();
   const kb::NavStateSpace sp(grid);
-  const DeliveryNavigation nav = chainNavigation(sp);
+  const TripTable trips = chainNavigation(sp).trips();
   // P^N(shop, room1) = P^N(room1, shop) = 0.9; P^N(shop, room2) = P^N(room2, shop) = 0.729.
   // C(shop, room1) = 1 + 40 * 0.1 = 5; C(shop, room2) = 2.71 + 40 * 0.271 = 13.55.
   DialogConfig cfg;
-  cfg.serve_cost_mode = ServeCostMode::kNone;
-  const pomdp::DialogPomdp paper(k.buildSpec(nav, cfg));
+  cfg.serve_cost_mode = ServeCostMode::kNone;  // the paper's formula alone
+  cfg.wrong_delivery_penalty = 0.0;
+  const pomdp::DialogPomdp paper(k.buildSpec(trips, cfg));
   const std::size_t s = paper.requestIndex(0, 1, 0);  // coke, room2, ann
   const std::size_t a = paper.requestIndex(1, 0, 0);  // soda, room1, ann
   const std::size_t a2 = paper.requestIndex(1, 1, 0);  // soda, room2, ann
@@ -98,74 +107,238 @@ TEST(DialogKnowledge, DeliveryEquationAndServeCostsMatchHandComputation) {
   const double rPaper = 80 * 0.59049 - 80 * (1 - 0.59049);
   EXPECT_NEAR(paper.model().getExpectedReward(s, paper.serveAction(a)), rPaper, 1e-9);
 
-  const Eigen::MatrixXd tasks = k.serveCosts(nav, ServeCostMode::kTasks);
-  EXPECT_NEAR(tasks(s, s), 13.55, 1e-9);             // one task: shop -> room2
-  EXPECT_NEAR(tasks(s, a), 5 + 5 + 13.55, 1e-9);     // three tasks: shop->room1->shop->room2
-  const Eigen::MatrixXd expected = k.serveCosts(nav, ServeCostMode::kExpected);
-  EXPECT_NEAR(expected(s, s), 13.55, 1e-9);
-  EXPECT_NEAR(expected(s, a), 5 + 0.9 * (5 + 0.9 * 13.55), 1e-9);  // later trips if arrived
-  EXPECT_EQ(k.serveCosts(nav, ServeCostMode::kNone).norm(), 0.0);
+  // N(s, a): the trips driven, a later one only if the earlier ones arrived.
+  const Eigen::MatrixXd n = k.serveCosts(trips, ServeCostMode::kExpected);
+  EXPECT_NEAR(n(s, s), 13.55, 1e-9);
+  EXPECT_NEAR(n(s, a), 5 + 0.9 * (5 + 0.9 * 13.55), 1e-9);
+  EXPECT_EQ(k.serveCosts(trips, ServeCostMode::kNone).norm(), 0.0);
 
-  cfg.serve_cost_mode = ServeCostMode::kTasks;
+  cfg.serve_cost_mode = ServeCostMode::kExpected;
   cfg.serve_cost_weight = 0.5;
-  const pomdp::DialogPomdp ext(k.buildSpec(nav, cfg));
-  EXPECT_NEAR(ext.model().getExpectedReward(s, ext.serveAction(a)), rPaper - 0.5 * 23.55, 1e-9);
+  cfg.wrong_delivery_penalty = 120.0;
+  const pomdp::DialogPomdp ext(k.buildSpec(trips, cfg));
+  EXPECT_NEAR(ext.model().getExpectedReward(s, ext.serveAction(a)),
+              rPaper - 0.5 * (5 + 0.9 * (5 + 0.9 * 13.55)) - 120.0, 1e-9);
+  EXPECT_NEAR(ext.model().getExpectedReward(s, ext.serveAction(s)),
+              80 * 0.729 - 80 * 0.271 - 0.5 * 13.55, 1e-9);  // right: no penalty
   // Costs, rewards and the turn limit come from the config.
   cfg.general_cost = 3.0;
   cfg.turn_limit = 7;
-  const pomdp::DialogPomdp c2(k.buildSpec(nav, cfg));
+  const pomdp::DialogPomdp c2(k.buildSpec(trips, cfg));
   EXPECT_DOUBLE_EQ(c2.model().getExpectedReward(s, c2.askRoom()), -3.0);
   EXPECT_EQ(c2.spec().turnLimit, 7);
 
-  // Navigation over other rooms than the knowledge base's is refused.
-  DeliveryNavigationOptions o;
-  o.rooms = {"room2", "room1"};
-  const DeliveryNavigation swapped(sp, delivery_test::chainModel(sp, 0.9), o);
+  // Trips over other rooms than the knowledge base's are refused.
+  TripTable swapped = trips;
+  std::swap(swapped.rooms[0], swapped.rooms[1]);
   EXPECT_THROW(k.buildSpec(swapped, cfg), ConfigError);
+  // P^N given as numbers (dialog_node's reach source) build the same kind of model.
+  const TripTable given = TripTable::fromReach({"room1", "room2"}, {0.9, 0.729}, {}, 40.0);
+  const pomdp::DialogPomdp g(k.buildSpec(given, cfg));
+  EXPECT_NEAR(g.spec().delivery(s, a), 0.9 * 0.9 * 0.729, 1e-12);
 }
 
-// The office knowledge base and the 30 x 30 office navigation model (human knowledge, i.e. the
-// knowledge base before any learning: P^N(shop, room1) = 1, P^N(shop, room5) ~ 0.24). Bob's
-// requests to room1 and to room5 have the same prior mass (0.05 / 6 each).
-TEST(DialogKnowledge, AsksMoreQuestionsWhenTheRequestedRoomIsHarderToReach) {
-  const kb::NavDomain dom = kb::NavDomain::load(
-      repo("config/navigation.yaml"), "office_30x30", repo("maps/office_30x30_geometry.plog"),
-      repo("config/navigation.plog"));
-  kb::NavigationKnowledge nk(*dom.grid, dom.knowledge_files);
+// ---- Behaviour on the office knowledge base (config/*.plog, config/dialog.yaml) -------------
+
+/// The office dialog model with P^N given per room (P^N(room, shop) = P^N(shop, room)), and its
+/// policy solved with config/dialog.yaml's options.
+struct Office {
   DialogConfig cfg = loadDialogConfig(repo("config/dialog.yaml"));
-  const DialogKnowledge k(cfg.office_plog, cfg.speech_plog);
-  DeliveryNavigationOptions o;
-  o.rooms = k.base().rooms;
-  o.step_limit = static_cast<std::size_t>(dom.domain.step_limit);
-  const DeliveryNavigation nav(*dom.space, nk.buildModel({"morning"}, 1.0).dynamics, o);
-  ASSERT_NEAR(nav.toRoom(0).reach, 1.0, 1e-4);
-  ASSERT_LT(nav.toRoom(4).reach, 0.5);
+  DialogKnowledge knowledge{cfg.office_plog, cfg.speech_plog};
+  pomdp::DialogPomdp dialog;
+  pomdp::TurnLimitedPolicy policy;
+  LanguageFrontEnd language;
+  explicit Office(const std::vector<double>& reach)
+      : dialog(knowledge.buildSpec(
+            TripTable::fromReach(knowledge.base().rooms, reach, {}, cfg.failure_penalty), cfg)),
+        policy(solveDialogPolicy(dialog, cfg, "")),
+        language(dialog, loadLanguageConfig(repo("config/language.yaml"))) {}
+};
 
-  cfg.solver_max_trials = 300;  // a small budget: the ordering does not need a converged policy
-  auto questions = [&](const pomdp::DialogPomdp& d, const pomdp::AlphaVectorPolicy& pol,
-                       std::size_t room) {
-    double q = 0;
-    for (std::size_t item = 0; item < 3; ++item)
-      q += pomdp::simulateDialogs(d, pol, 60, 11, static_cast<long>(d.requestIndex(item, room, 1)))
-               .meanQuestions / 3.0;
-    return q;
+/// Says `opening`, then answers every question truthfully for `want` (in words).
+class TruthfulPerson : public DeliveryPerson {
+ public:
+  TruthfulPerson(const pomdp::DialogPomdp& d, std::size_t want, std::vector<std::string> opening)
+      : d_(d), want_(want), opening_(std::move(opening)) {}
+  void open(DeliveryManager& m) override {
+    if (!opening_.empty()) m.hear(opening_[next_++]);
+  }
+  bool answer(DeliveryManager& m, std::size_t q) override {
+    if (next_ < opening_.size()) {  // the rest of a scripted start first
+      m.hear(opening_[next_++]);
+      return true;
+    }
+    const auto names = m.requestNames(want_);
+    const std::string action = d_.model().actionNames()[q];
+    switch (d_.actionKind(q)) {
+      case pomdp::DialogActionKind::kAskItem: m.hear("a " + names[0]); break;
+      case pomdp::DialogActionKind::kAskRoom: m.hear("to " + names[1]); break;
+      case pomdp::DialogActionKind::kAskPerson: m.hear("for " + names[2]); break;
+      default: {
+        const std::string v = action.substr(action.rfind('_') + 1);
+        m.hear(v == names[0] || v == names[1] || v == names[2] ? "yes" : "no");
+      }
+    }
+    return true;
+  }
+  bool check(DeliveryManager& m) override {
+    m.checkRequest(want_);
+    return true;
+  }
+
+ private:
+  const pomdp::DialogPomdp& d_;
+  std::size_t want_;
+  std::vector<std::string> opening_;
+  std::size_t next_ = 0;
+};
+
+class Arrive : public DeliveryNavigator {
+  LegRecord drive(const Leg& leg) override { return {leg, true, 0, ""}; }
+};
+
+/// Runs the robot's delivery for a person who wants `want` and opens with `opening`.
+DeliveryRecord deliver(const Office& o, std::size_t want, std::vector<std::string> opening) {
+  DeliveryManager m(o.dialog, o.policy, &o.language, o.cfg);
+  TruthfulPerson p(o.dialog, want, std::move(opening));
+  Arrive nav;
+  EXPECT_TRUE(runDelivery(m, p, nav));
+  return m.record();
+}
+
+std::string capitalised(std::string s) {
+  s[0] = static_cast<char>(s[0] - 'a' + 'A');
+  return s;
+}
+
+// "I would like a coke for Bob to office2" was served to room1 (always reachable) while the
+// robot's own belief put 0.76 on coke_room2_bob: a wrong delivery to an easy room was free.
+TEST(DialogKnowledge, TheRobotServesTheRequestThatWasSaid) {
+  for (const std::vector<double>& reach :
+       {std::vector<double>{0.999, 0.384, 0.619, 0.999, 0.241},   // human knowledge, br 0.3
+        std::vector<double>{1.0, 0.2, 1.0, 0.3, 0.1}}) {           // P^N = 1 for room1, room3
+    const Office o(reach);
+    const auto& s = o.dialog.spec();
+    // The two dialogs, word for word.
+    const std::size_t coke2bob = o.dialog.requestIndex(0, 1, 1);
+    DeliveryRecord r = deliver(o, coke2bob, {"I would like a coke for Bob to office2, please"});
+    EXPECT_EQ(o.dialog.requestName(r.served), "coke_room2_bob");
+    const std::size_t soda3john = o.dialog.requestIndex(2, 2, 0);
+    r = deliver(o, soda3john, {"Could you bring a soda for John to room 3?", "room 3"});
+    EXPECT_EQ(o.dialog.requestName(r.served), "soda_room3_john");
+    // Every request, said in two ways.
+    for (std::size_t want = 0; want < o.dialog.numRequests(); ++want) {
+      const auto p = o.dialog.requestParts(want);
+      const std::string room = s.rooms[p[1]], office = "office" + room.substr(4);
+      for (const std::string& sentence :
+           {"I would like a " + s.items[p[0]] + " for " + capitalised(s.persons[p[2]]) + " to " +
+                office + ", please",
+            "Could you bring " + s.persons[p[2]] + " a " + s.items[p[0]] + " in room " +
+                room.substr(4) + "?"}) {
+        r = deliver(o, want, {sentence});
+        EXPECT_EQ(r.served, want) << "\"" << sentence << "\" served "
+                                  << o.dialog.requestName(r.served) << " (P " << r.served_probability
+                                  << ", " << r.turns << " questions)";
+        EXPECT_DOUBLE_EQ(r.served_probability, r.max_probability) << sentence;
+        EXPECT_FALSE(r.forced) << sentence;
+      }
+    }
+  }
+}
+
+// Whatever is said (odd answers, contradictions, garbage), the robot serves the request it
+// believes most: never a probe.
+TEST(DialogKnowledge, EveryServeIsTheMostLikelyRequest) {
+  const Office o({0.999, 0.384, 0.619, 0.999, 0.241});
+  const std::vector<std::string> words = {
+      "yes", "no", "coke", "soda", "coffee", "room1", "office 4", "room five", "bob", "john",
+      "xyzzy", "not coke", "yes no", "a coke for bob", "to room2 for john", "", "cola please"};
+  class Random : public DeliveryPerson {
+   public:
+    Random(const std::vector<std::string>& w, std::uint64_t seed) : w_(w), rng_(krr::makeRng(seed, "odd", 0)) {}
+    void open(DeliveryManager& m) override { m.hear(pick()); }
+    bool answer(DeliveryManager& m, std::size_t) override {
+      m.hear(pick());
+      return true;
+    }
+    bool check(DeliveryManager& m) override {
+      m.check("yes");
+      return true;
+    }
+
+   private:
+    std::string pick() { return w_[static_cast<std::size_t>(krr::uniform01(rng_) * w_.size()) % w_.size()]; }
+    const std::vector<std::string>& w_;
+    krr::Rng rng_;
   };
-  cfg.serve_cost_mode = ServeCostMode::kTasks;
-  const pomdp::DialogPomdp d(k.buildSpec(nav, cfg));
-  ASSERT_NEAR(d.spec().prior(d.requestIndex(0, 0, 1)), d.spec().prior(d.requestIndex(0, 4, 1)), 1e-12);
-  const pomdp::AlphaVectorPolicy pol = solveDialogPolicy(d, cfg, "");
-  const double easy = questions(d, pol, 0), hard = questions(d, pol, 4);
-  std::printf("questions for bob's requests: room1 %.2f, room5 %.2f\n", easy, hard);
-  EXPECT_GT(hard, easy + 2.0) << "room1 " << easy << " questions, room5 " << hard;
+  for (std::uint64_t seed = 0; seed < 40; ++seed) {
+    DeliveryManager m(o.dialog, o.policy, &o.language, o.cfg);
+    Random person(words, seed);
+    Arrive nav;
+    ASSERT_TRUE(runDelivery(m, person, nav));
+    EXPECT_DOUBLE_EQ(m.record().served_probability, m.record().max_probability) << "seed " << seed;
+  }
+}
 
-  // The paper's formula alone (no navigation cost in the serve reward) asks nothing on this
-  // map: a wrong delivery to room1 or room4 (P^N = 1) loses nothing under the delivery
-  // equation (T^D(s, a) = P^N(shop, room(s)) either way), so serving one at once is optimal.
-  cfg.serve_cost_mode = ServeCostMode::kNone;
-  const pomdp::DialogPomdp paper(k.buildSpec(nav, cfg));
-  const pomdp::AlphaVectorPolicy paperPol = solveDialogPolicy(paper, cfg, "");
-  EXPECT_LT(questions(paper, paperPol, 0), 0.5);
-  EXPECT_LT(questions(paper, paperPol, 4), 0.5);
+// The paper (Table II, Fig. 4): the harder the room, the more the robot knows before it goes.
+// Deliveries to always-reachable rooms may be made on less certainty than to hard ones (a
+// wrong one costs a cheap round trip and the penalty, a wrong one to room5 also risks the
+// trips), but never as a probe: the free-probe defect served room1 at about 1.3 nats.
+TEST(DialogKnowledge, HarderRoomsAreServedOnMoreCertainty) {
+  const Office o({0.999, 0.384, 0.619, 0.999, 0.241});
+  // Dialogs with answers drawn from the speech model, a third of the requests per room group.
+  std::map<std::string, std::vector<double>> entropy;
+  for (std::size_t e = 0; e < 600; ++e) {
+    const std::size_t item = e % 3, who = (e / 3) % 2;
+    const std::size_t room = (e / 6) % 5;
+    const std::size_t want = o.dialog.requestIndex(item, room, who);
+    class Sampled : public DeliveryPerson {
+     public:
+      Sampled(const pomdp::DialogPomdp& d, std::size_t want, std::uint64_t seed)
+          : d_(d), want_(want), rng_(krr::makeRng(seed, "speech", 0)) {}
+      bool answer(DeliveryManager& m, std::size_t q) override {
+        double u = krr::uniform01(rng_);
+        for (const auto& obs : d_.model().observationRow(want_, q)) {
+          if (u < obs.second) return m.observe(q, obs.first), true;
+          u -= obs.second;
+        }
+        return m.observe(q, d_.model().observationRow(want_, q).back().first), true;
+      }
+      bool check(DeliveryManager& m) override {
+        m.checkRequest(want_);
+        return true;
+      }
+
+     private:
+      const pomdp::DialogPomdp& d_;
+      std::size_t want_;
+      krr::Rng rng_;
+    } sampled(o.dialog, want, e);
+    DeliveryManager m(o.dialog, o.policy, nullptr, o.cfg);
+    Arrive nav;
+    ASSERT_TRUE(runDelivery(m, sampled, nav));
+    const DeliveryRecord& r = m.record();
+    EXPECT_DOUBLE_EQ(r.served_probability, r.max_probability);
+    entropy[o.dialog.spec().rooms[o.dialog.requestParts(r.served)[1]]].push_back(r.entropy);
+  }
+  auto mean = [](const std::vector<double>& v) {
+    double s = 0;
+    for (double x : v) s += x;
+    return v.empty() ? 0.0 : s / static_cast<double>(v.size());
+  };
+  const double easy = mean(entropy["room1"]), hard = mean(entropy["room5"]);
+  std::printf("entropy at serve (nats): room1 %.3f, room2 %.3f, room3 %.3f, room4 %.3f, room5 %.3f\n",
+              easy, mean(entropy["room2"]), mean(entropy["room3"]), mean(entropy["room4"]), hard);
+  EXPECT_LE(hard, easy);
+  EXPECT_LE(mean(entropy["room2"]), mean(entropy["room4"]));
+  EXPECT_LT(easy, 1.0);
+  // Table II's random beliefs: the same ordering for the beliefs under which the robot serves.
+  BeliefEntropySurvey survey(o.dialog, o.policy, BeliefSamplerOptions(), 3);
+  std::map<std::size_t, std::vector<double>> byRoom;
+  for (const EntropySample& x : survey.run(0, 3000, 2))
+    if (x.serve) byRoom[o.dialog.requestParts(x.request)[1]].push_back(x.entropy);
+  EXPECT_LE(mean(byRoom[4]), mean(byRoom[0]));
+  EXPECT_LT(mean(byRoom[0]), 1.0);
 }
 
 }  // namespace

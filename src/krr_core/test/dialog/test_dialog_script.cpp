@@ -5,7 +5,7 @@
 
 #include "krr_core/common/errors.h"
 #include "krr_core/dialog/dialog_script.h"
-#include "krr_core/pomdp/point_based_solver.h"
+#include "krr_core/pomdp/turn_limited_solver.h"
 
 namespace krr {
 namespace dialog {
@@ -71,15 +71,16 @@ TEST(DialogScript, Figure4BeliefMovesTowardsCokeBobRoom2) {
 TEST(DialogScript, PolicyDrivenScriptAsksWhatThePolicySays) {
   pomdp::DialogPomdp d = officeDialog();
   LanguageFrontEnd lang(d, shippedConfig());
-  pomdp::SolverOptions opt;
+  pomdp::TurnLimitedSolverOptions opt;
   opt.precision = 1.0;
-  pomdp::PointBasedSolver solver(d.model(), d.model().initialBelief(), opt);
-  solver.runUntil(0.2);  // any policy will do: the runner must follow it, whatever it says
-  const pomdp::AlphaVectorPolicy policy = solver.policy();
+  opt.maxTrials = 30;  // any policy will do: the runner must follow it, whatever it says
+  pomdp::TurnLimitedSolver solver(d.model(), d.model().initialBelief(), d.spec().turnLimit, opt);
+  solver.solve();
+  const pomdp::TurnLimitedPolicy policy = solver.policy();
   ScriptResult r = runDialogScript(d, lang, &policy, {}, kFigure4);
   EXPECT_EQ(r.turns.size() + r.unusedUtterances.size(), kFigure4.size() + 1);
-  // Replay: every robot action is the policy's action at the belief before it.
-  DialogSession replay(d, lang, &policy);
+  // Replay: every robot action is the robot's decision (decideAction) at the belief before it.
+  DialogSession replay(d, &lang, &policy);
   for (std::size_t k = 1; k < r.turns.size(); ++k) {
     if (k > 1) {
       const std::size_t a = replay.nextAction();
@@ -103,14 +104,36 @@ TEST(DialogScript, ServingEarlyLeavesUnusedUtterances) {
   pomdp::DialogPomdp d = officeDialog();
   LanguageFrontEnd lang(d, shippedConfig());
   const std::size_t serve = d.serveAction(d.requestIndex(2, 0, 0));
-  pomdp::AlphaVectorPolicy servePolicy(d.model().getS());
-  servePolicy.add(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(d.model().getS())), serve);
+  // One serve vector usable at every turn; its value is so low that no question looks better
+  // in decideAction's lookahead (a question leads to beliefs the policy values at -1000).
+  pomdp::TurnLimitedPolicy servePolicy(d.model().getS(), d.spec().turnLimit);
+  servePolicy.add(Eigen::VectorXd::Constant(static_cast<Eigen::Index>(d.model().getS()), -1000.0),
+                  serve, d.spec().turnLimit);
   ScriptResult r = runDialogScript(d, lang, &servePolicy, {}, {"soda", "room1", "john"});
   ASSERT_EQ(r.turns.size(), 2u);
   EXPECT_TRUE(r.served);
   EXPECT_EQ(r.servedRequest, d.requestIndex(2, 0, 0));
   EXPECT_EQ(r.unusedUtterances, (std::vector<std::string>{"room1", "john"}));
   EXPECT_EQ(r.turns[1].nextAction, "serve_soda_room1_john");
+}
+
+TEST(DialogScript, TurnLimitServesTheMostLikelyRequestWithoutAPolicy) {
+  pomdp::DialogSpec spec = officeDialog().spec();
+  spec.turnLimit = 1;
+  pomdp::DialogPomdp d(spec);
+  LanguageFrontEnd lang(d, shippedConfig());
+  // (Without a policy every utterance after the first needs a scripted question, even one
+  // the turn limit would leave unused: checked before running.)
+  ScriptResult r =
+      runDialogScript(d, lang, nullptr, {"ask_room"}, {"a soda for john to room3", "room3"});
+  ASSERT_EQ(r.turns.size(), 3u);
+  EXPECT_EQ(r.turns[1].nextAction, "ask_room");
+  // One question asked: the limit. The robot serves the most likely request.
+  EXPECT_EQ(r.turns[2].nextAction, "serve_" + d.requestName(r.turns[2].belief.mostLikely));
+  EXPECT_EQ(r.turns[2].nextAction, "serve_soda_room3_john");
+  EXPECT_TRUE(r.served);
+  EXPECT_EQ(r.servedRequest, r.turns[2].belief.mostLikely);
+  EXPECT_TRUE(r.unusedUtterances.empty());
 }
 
 TEST(DialogScript, GarbageTurnKeepsTheBeliefAndIsRecorded) {

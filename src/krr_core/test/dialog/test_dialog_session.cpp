@@ -1,4 +1,5 @@
-// Tests of DialogSession: belief updates from text, turns, the turn limit, robustness.
+// Tests of DialogSession: belief updates from text and from observations, turns, the turn
+// limit, the decision rule (decideAction), robustness.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -24,16 +25,25 @@ LanguageConfig config() {
   return c;
 }
 
-pomdp::AlphaVectorPolicy constantPolicy(const pomdp::DialogPomdp& d, std::size_t a) {
-  pomdp::AlphaVectorPolicy p(d.model().getS());
-  p.add(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(d.model().getS())), a);
+Eigen::VectorXd constant(const pomdp::DialogPomdp& d, double v) {
+  return Eigen::VectorXd::Constant(static_cast<Eigen::Index>(d.model().getS()), v);
+}
+
+/// A hand-made turn-limited policy: `question` (value 0) before the turn limit, and at the
+/// limit (where the policy must serve) serve(`served`) with a value far below.
+pomdp::TurnLimitedPolicy askThenServe(const pomdp::DialogPomdp& d, std::size_t question,
+                                      std::size_t served) {
+  const int limit = d.spec().turnLimit;
+  pomdp::TurnLimitedPolicy p(d.model().getS(), limit);
+  p.add(constant(d, 0.0), question, limit - 1);
+  p.add(constant(d, -1000.0), d.serveAction(served), limit);
   return p;
 }
 
 TEST(DialogSession, FullRequestMatchesTheHandComputedPosterior) {
   pomdp::DialogPomdp d(officeSpec());
   LanguageFrontEnd lang(d, config());
-  DialogSession s(d, lang);
+  DialogSession s(d, &lang);
   const BeliefSummary before = s.summary();
   EXPECT_NEAR(before.rooms(1), 0.425, 1e-12);  // 0.5 * 0.8 + 0.5 * 0.05
   HearResult h = s.hear("A coke for Bob to office2");
@@ -57,7 +67,7 @@ TEST(DialogSession, FullRequestMatchesTheHandComputedPosterior) {
 TEST(DialogSession, YesAnswersTheQuestionAskedAndCountsTurns) {
   pomdp::DialogPomdp d(officeSpec());
   LanguageFrontEnd lang(d, config());
-  DialogSession s(d, lang);
+  DialogSession s(d, &lang);
   s.act(d.confirmItem(1));  // "Should I deliver a coffee?"
   EXPECT_EQ(s.turns(), 1);
   EXPECT_EQ(s.lastQuestion(), static_cast<long>(d.confirmItem(1)));
@@ -77,7 +87,7 @@ TEST(DialogSession, YesAnswersTheQuestionAskedAndCountsTurns) {
 TEST(DialogSession, GarbageLeavesTheBeliefAndReportsWords) {
   pomdp::DialogPomdp d(officeSpec());
   LanguageFrontEnd lang(d, config());
-  DialogSession s(d, lang);
+  DialogSession s(d, &lang);
   const pomdp::Belief b0 = s.belief();
   HearResult h = s.hear("blorp %%% zing");
   EXPECT_FALSE(h.understood());
@@ -92,7 +102,7 @@ TEST(DialogSession, ImpossibleObservationIsReportedNotThrown) {
   spec.pGeneral = 1.0;  // answers are always right: hearing coffee after coke is impossible
   pomdp::DialogPomdp d(spec);
   LanguageFrontEnd lang(d, config());
-  DialogSession s(d, lang);
+  DialogSession s(d, &lang);
   ASSERT_TRUE(s.hear("coke").understood());
   const pomdp::Belief b = s.belief();
   HearResult h = s.hear("coffee");
@@ -102,24 +112,75 @@ TEST(DialogSession, ImpossibleObservationIsReportedNotThrown) {
   EXPECT_EQ(s.belief(), b);
 }
 
+TEST(DialogSession, ObserveUpdatesTheBeliefLikeHearing) {
+  pomdp::DialogPomdp d(officeSpec());
+  LanguageFrontEnd lang(d, config());
+  // A simulated person's answers come as observations: no language front end needed.
+  DialogSession sim(d, nullptr);
+  DialogSession text(d, &lang);
+  sim.act(d.confirmItem(1));
+  text.act(d.confirmItem(1));
+  EXPECT_TRUE(sim.observe(d.confirmItem(1), d.obsYes()));
+  text.hear("yes");
+  EXPECT_NEAR(sim.summary().items(1), 2.0 / 3, 1e-12);  // 0.8 / (0.8 + 0.2 + 0.2)
+  EXPECT_TRUE(sim.belief().isApprox(text.belief(), 1e-12));
+  EXPECT_EQ(sim.turns(), 1);  // observing does not count a turn, asking does
+  EXPECT_TRUE(sim.observe(d.askRoom(), d.obsRoom(1)));
+  EXPECT_TRUE(text.hear("room2").understood());
+  EXPECT_TRUE(sim.belief().isApprox(text.belief(), 1e-12));
+  EXPECT_EQ(sim.turns(), 1);
+  // Not a question, an observation out of range, text without a front end: ConfigError.
+  EXPECT_THROW(sim.observe(d.serveAction(0), d.obsNone()), ConfigError);
+  EXPECT_THROW(sim.observe(d.model().getA(), d.obsYes()), ConfigError);
+  EXPECT_THROW(sim.observe(d.askItem(), d.model().getO()), ConfigError);
+  EXPECT_THROW(sim.hear("coke"), ConfigError);
+  // After the serve, nothing more is observed.
+  sim.act(d.serveAction(0));
+  EXPECT_THROW(sim.observe(d.askItem(), d.obsItem(0)), ConfigError);
+}
+
+TEST(DialogSession, ImpossibleObservationLeavesTheBelief) {
+  pomdp::DialogSpec spec = officeSpec();
+  spec.pGeneral = 1.0;  // answers are always right: hearing coffee after coke is impossible
+  pomdp::DialogPomdp d(spec);
+  DialogSession s(d, nullptr);
+  ASSERT_TRUE(s.observe(d.askItem(), d.obsItem(0)));
+  EXPECT_NEAR(s.summary().items(0), 1.0, 1e-12);
+  const pomdp::Belief b = s.belief();
+  EXPECT_FALSE(s.observe(d.askItem(), d.obsItem(1)));
+  EXPECT_EQ(s.belief(), b);
+  // Yes / no to a general question is impossible too (only item names answer "which item?").
+  EXPECT_FALSE(s.observe(d.askItem(), d.obsYes()));
+  EXPECT_EQ(s.belief(), b);
+}
+
 TEST(DialogSession, TurnLimitForcesServingTheMostLikelyRequest) {
   pomdp::DialogSpec spec = officeSpec();
   spec.turnLimit = 3;
   pomdp::DialogPomdp d(spec);
   LanguageFrontEnd lang(d, config());
-  auto askForever = constantPolicy(d, d.askRoom());
-  DialogSession s(d, lang, &askForever);
+  // The policy asks for the room until the limit and there serves <coke, room1, john>, which
+  // the answers make unlikely: the turn-limit rule serves the most likely request instead.
+  const std::size_t policyServes = d.requestIndex(0, 0, 0);
+  const auto policy = askThenServe(d, d.askRoom(), policyServes);
+  DialogSession s(d, &lang, &policy);
   s.hear("soda for john");
   for (int t = 0; t < 3; ++t) {
+    EXPECT_FALSE(s.atTurnLimit());
     const std::size_t a = s.nextAction();
     ASSERT_EQ(a, d.askRoom());
     s.act(a);
     s.hear("room3");
   }
   EXPECT_TRUE(s.atTurnLimit());
+  EXPECT_EQ(s.turns(), 3);
+  EXPECT_EQ(policy.bestAction(s.belief(), s.turns()), d.serveAction(policyServes));
   const std::size_t serve = s.nextAction();
   ASSERT_TRUE(d.isServe(serve));
   EXPECT_EQ(d.requestName(d.requestOfServe(serve)), "soda_room3_john");
+  EXPECT_EQ(d.requestOfServe(serve), s.summary().mostLikely);
+  EXPECT_NE(d.requestOfServe(serve), policyServes);
+  EXPECT_EQ(decideAction(d, policy, s.belief(), s.turns()), serve);
   s.act(serve);
   EXPECT_TRUE(s.finished());
   EXPECT_EQ(s.servedRequest(), d.requestOfServe(serve));
@@ -128,14 +189,99 @@ TEST(DialogSession, TurnLimitForcesServingTheMostLikelyRequest) {
   EXPECT_THROW(s.act(d.askItem()), ConfigError);
 }
 
+TEST(DialogSession, WithoutAPolicyOnlyTheTurnLimitDecides) {
+  pomdp::DialogSpec spec = officeSpec();
+  spec.turnLimit = 2;
+  pomdp::DialogPomdp d(spec);
+  DialogSession s(d, nullptr);
+  EXPECT_THROW(s.nextAction(), ConfigError);  // scripted dialogs choose their questions
+  s.act(d.askItem());
+  ASSERT_TRUE(s.observe(d.askItem(), d.obsItem(1)));
+  s.act(d.askPerson());
+  ASSERT_TRUE(s.observe(d.askPerson(), d.obsPerson(1)));
+  ASSERT_TRUE(s.atTurnLimit());
+  const std::size_t serve = s.nextAction();
+  ASSERT_TRUE(d.isServe(serve));
+  EXPECT_EQ(d.requestName(d.requestOfServe(serve)), "coffee_room2_bob");  // bob's office
+}
+
+TEST(DialogSession, APolicyThatAsksAtTheTurnLimitIsAnError) {
+  pomdp::DialogSpec spec = officeSpec();
+  spec.turnLimit = 2;
+  pomdp::DialogPomdp d(spec);
+  // The only vector usable at the limit (stage 2) is a question: a policy solved without the
+  // limit. It is reported, not silently overridden.
+  pomdp::TurnLimitedPolicy asks(d.model().getS(), 2);
+  asks.add(constant(d, 0.0), d.confirmRoom(1), 2);
+  asks.add(constant(d, -5.0), d.serveAction(0), 1);  // serves, but only before the limit
+  DialogSession s(d, nullptr, &asks);
+  EXPECT_EQ(s.nextAction(), d.confirmRoom(1));
+  s.act(d.confirmRoom(1));
+  s.act(d.confirmRoom(1));
+  ASSERT_TRUE(s.atTurnLimit());
+  try {
+    s.nextAction();
+    ADD_FAILURE() << "a question at the turn limit was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("confirm_room_room2"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(decideAction(d, asks, s.belief(), 2), ConfigError);
+  EXPECT_THROW(decideAction(d, asks, s.belief(), 5), ConfigError);  // beyond: as at the limit
+}
+
+TEST(DecideAction, LookaheadAsksWhenAQuestionIsWorthMoreThanTheServe) {
+  pomdp::DialogSpec spec = officeSpec();
+  Eigen::VectorXd reach = Eigen::VectorXd::Constant(5, 0.5);
+  spec.delivery = pomdp::deliveryMatrix(3, reach, 2);
+  pomdp::DialogPomdp d(spec);
+  const pomdp::Model& m = d.model();
+  const std::size_t target = d.requestIndex(0, 1, 1);  // coke, room2, bob
+  // The policy serves everywhere (value 0 beats the question's -1), but its serve vector is
+  // not the serve's real worth: at the prior, serving earns R(b, serve) < 0 while a
+  // confirmation costs 1.5 and leads to beliefs the policy values at 0.
+  pomdp::TurnLimitedPolicy p(m.getS(), spec.turnLimit);
+  p.add(constant(d, 0.0), d.serveAction(target), spec.turnLimit);
+  p.add(constant(d, -1.0), d.confirmRoom(1), spec.turnLimit - 1);
+  const pomdp::Belief prior = m.initialBelief();
+  ASSERT_EQ(p.bestAction(prior, 0), d.serveAction(target));
+  const double serveValue = p.lookahead(m, prior, d.serveAction(target), 0, true);
+  EXPECT_NEAR(serveValue, pomdp::expectedReward(m, prior, d.serveAction(target)), 1e-12);
+  EXPECT_LT(serveValue, -1.5);
+  const std::size_t a = decideAction(d, p, prior, 0);
+  ASSERT_TRUE(d.isQuestion(a));
+  // The best question by the lookahead (every confirmation is worth -1.5, the first wins).
+  EXPECT_EQ(a, d.confirmItem(0));
+  EXPECT_NEAR(p.lookahead(m, prior, a, 0, false), -1.5, 1e-12);
+  for (std::size_t q = 0; d.isQuestion(q); ++q)
+    EXPECT_LE(p.lookahead(m, prior, q, 0, false), p.lookahead(m, prior, a, 0, false) + 1e-9);
+  // Certain of the request, the serve earns 80 (0.5) - 80 (0.5) = 0 > -1.5: it stays.
+  pomdp::Belief sure = pomdp::Belief::Zero(static_cast<Eigen::Index>(m.getS()));
+  sure(static_cast<Eigen::Index>(target)) = 1.0;
+  EXPECT_EQ(decideAction(d, p, sure, 0), d.serveAction(target));
+  // At the turn limit there is no lookahead: the most likely request is served.
+  EXPECT_EQ(decideAction(d, p, prior, spec.turnLimit),
+            d.serveAction(summarizeBelief(d, prior).mostLikely));
+  // A session follows the same rule.
+  DialogSession s(d, nullptr, &p);
+  EXPECT_EQ(s.nextAction(), a);
+}
+
 TEST(DialogSession, RefusesBadActionsAndPolicies) {
   pomdp::DialogPomdp d(officeSpec());
   LanguageFrontEnd lang(d, config());
-  DialogSession noPolicy(d, lang);
+  DialogSession noPolicy(d, &lang);
   EXPECT_THROW(noPolicy.nextAction(), ConfigError);
   EXPECT_THROW(noPolicy.act(d.model().getA()), ConfigError);
-  pomdp::AlphaVectorPolicy wrong(3);
-  EXPECT_THROW(DialogSession(d, lang, &wrong), ConfigError);
+  pomdp::TurnLimitedPolicy wrong(3, d.spec().turnLimit);
+  EXPECT_THROW(DialogSession(d, &lang, &wrong), ConfigError);
+  // A policy solved for another turn limit does not fit the model.
+  pomdp::TurnLimitedPolicy otherLimit(d.model().getS(), d.spec().turnLimit + 1);
+  otherLimit.add(constant(d, 0.0), d.serveAction(0), d.spec().turnLimit + 1);
+  EXPECT_THROW(DialogSession(d, &lang, &otherLimit), ConfigError);
+  // An empty policy has nothing to say.
+  pomdp::TurnLimitedPolicy empty(d.model().getS(), d.spec().turnLimit);
+  DialogSession none(d, &lang, &empty);
+  EXPECT_THROW(none.nextAction(), ConfigError);
 }
 
 }  // namespace

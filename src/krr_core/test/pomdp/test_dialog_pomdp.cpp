@@ -4,8 +4,10 @@
 #include <cmath>
 
 #include "krr_core/common/errors.h"
+#include "krr_core/common/random.h"
+#include "krr_core/pomdp/belief.h"
 #include "krr_core/pomdp/dialog_pomdp.h"
-#include "krr_core/pomdp/point_based_solver.h"
+#include "krr_core/pomdp/turn_limited_solver.h"
 
 namespace krr {
 namespace pomdp {
@@ -126,12 +128,44 @@ TEST(DialogPomdp, RejectsBadSpecs) {
   EXPECT_THROW(DialogPomdp{spec}, ConfigError);
 }
 
+/// Mean number of questions over seeded simulated dialogs with a fixed request: the user's
+/// answers are drawn from the observation model, the robot acts by the turn-limited policy
+/// (which serves by itself at the turn limit). Episode e uses stream makeRng(seed, "dialog", e).
+double meanQuestions(const DialogPomdp& d, const TurnLimitedPolicy& policy, std::size_t request,
+                     std::size_t episodes, std::uint64_t seed) {
+  const Model& m = d.model();
+  std::size_t questions = 0;
+  for (std::size_t e = 0; e < episodes; ++e) {
+    Rng rng = makeRng(seed, "dialog", e);
+    Belief b = m.initialBelief();
+    for (int turns = 0;; ++turns) {
+      const std::size_t a = policy.bestAction(b, turns);
+      if (d.isServe(a)) break;
+      EXPECT_LT(turns, d.spec().turnLimit) << "the policy asks at the turn limit";
+      if (turns >= d.spec().turnLimit) break;
+      ++questions;
+      double u = uniform01(rng);
+      const auto& row = m.observationRow(request, a);
+      std::size_t o = row.back().first;
+      for (const auto& entry : row) {
+        if (u < entry.second) {
+          o = entry.first;
+          break;
+        }
+        u -= entry.second;
+      }
+      b = updateBelief(m, b, a, o);
+    }
+  }
+  return static_cast<double>(questions) / static_cast<double>(episodes);
+}
+
 // Harder navigation to the requested room -> more questions before serving.
 // One item, one person, rooms A and B; prior P(A) = 0.7, P^N(shop, B) = 0.6. Serving A
 // when the request is B succeeds with P(A)^2 P(B) (go to A, come back, go to B), so the
 // lower P(A), the costlier it is to head for A by mistake and the more the robot confirms.
-// The solver certifies both policies (gap <= 0.02), so the comparison is between optimal
-// policies; question counts are averaged over 2000 seeded dialogs with request A.
+// The turn-limited solver certifies both policies (gap <= 0.02), so the comparison is between
+// optimal policies; question counts are averaged over 2000 seeded dialogs with request A.
 TEST(DialogPomdp, HarderRoomMeansMoreQuestions) {
   auto questions = [](double reachA) {
     DialogSpec spec;
@@ -142,15 +176,33 @@ TEST(DialogPomdp, HarderRoomMeansMoreQuestions) {
     spec.prior = Eigen::Vector2d(0.7, 0.3);
     spec.delivery = deliveryMatrix(1, Eigen::Vector2d(reachA, 0.6), 1);
     DialogPomdp d(spec);
-    SolverOptions opt;
+    TurnLimitedSolverOptions opt;
     opt.precision = 0.02;
-    PointBasedSolver solver(d.model(), d.model().initialBelief(), opt);
+    TurnLimitedSolver solver(d.model(), d.model().initialBelief(), spec.turnLimit, opt);
     EXPECT_TRUE(solver.runUntil(2.0));
-    return simulateDialogs(d, solver.policy(), 2000, 7, 0).meanQuestions;
+    return meanQuestions(d, solver.policy(), 0, 2000, 7);
   };
   const double easy = questions(0.95), hard = questions(0.6);
   EXPECT_LT(easy, 0.5);        // easy room: serve A on the prior
   EXPECT_GT(hard, easy + 1.0);  // hard room: confirm first
+}
+
+// The serve cost (the knowledge base's navigation costs) is subtracted from the serve reward
+// only; questions and the terminal state are unaffected.
+TEST(DialogPomdp, ServeCostIsSubtractedFromServeRewards) {
+  DialogSpec spec = paperSpec();
+  spec.serveCost = Eigen::MatrixXd::Constant(30, 30, 5.0);
+  spec.serveCost(0, 0) = 1.0;
+  DialogPomdp d(spec);
+  const Model& m = d.model();
+  const std::size_t s = d.requestIndex(0, 0, 0);
+  EXPECT_NEAR(m.getExpectedReward(s, d.serveAction(s)), 72.0 - 1.0, 1e-12);
+  EXPECT_NEAR(m.getExpectedReward(s, d.serveAction(d.requestIndex(0, 4, 0))), -42.0 - 5.0, 1e-12);
+  EXPECT_EQ(m.getExpectedReward(s, d.askRoom()), -2.0);
+  spec.serveCost(1, 2) = std::nan("");
+  EXPECT_THROW(DialogPomdp{spec}, ConfigError);
+  spec.serveCost = Eigen::MatrixXd::Zero(30, 29);
+  EXPECT_THROW(DialogPomdp{spec}, ConfigError);
 }
 
 }  // namespace

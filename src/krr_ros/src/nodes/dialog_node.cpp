@@ -1,19 +1,20 @@
-// dialog_node: the POMDP dialog manager of the delivery robot.
+// dialog_node: the delivery robot's dialog manager, a thin ROS driver of the core's
+// krr::dialog::DeliveryManager (the class the delivery experiments drive too).
 //
-// The user's free text (user_utterance) goes through the language front end
-// (krr_core/dialog/language.h) to observations of the dialog POMDP; the node tracks the exact
-// belief over the <item, room, person> requests, publishes it (dialog_belief) and asks what the
-// point-based policy says (robot_utterance) until the policy serves or the turn limit forces the
-// most likely request. The delivery is handed to navigation through the `navigate` action: to the
-// shop to pick the item up, then to the room; at the room the person checks it ("yes", or "no,
-// a soda for john to room5"); a wrong delivery goes back to the shop and is delivered again (the
-// paper's redelivery rule). Progress and outcome go out on delivery_status.
+// The user's free text (user_utterance) goes through the language front end to observations of
+// the dialog POMDP; the node publishes the belief (dialog_belief) and what the manager decides:
+// questions and the serve (robot_utterance), every decision in the manager's vocabulary
+// (~decisions), and the delivery's progress (delivery_status). Navigation legs go to the
+// `navigate` action (to the shop to pick the item up, then to the room); at the room the person
+// checks the delivery ("yes", or "no, a soda for john to room5"), and a wrong delivery goes
+// back to the shop and is delivered again (the paper's redelivery rule).
 //
-// The dialog model is built from the knowledge base (krr_core/dialog/dialog_knowledge.h): prior
-// and speech model by P-log reasoning, T^D by the paper's delivery equation over P^N of the
-// navigation model of Procedure 2 (from reasoner_node's build_task_model, or built locally), or,
-// with ~model_source reach, over reach probabilities given as parameters. After a knowledge
-// update from the reasoner the model and policy are rebuilt before the next dialog.
+// The dialog model is the one builder's (DialogKnowledge::buildSpec over config/dialog.yaml,
+// the knowledge base, and the trips of the navigation model of Procedure 2 from reasoner_node's
+// build_task_model, or built locally, or given P^N); its turn-limited policy comes from
+// solveDialogPolicy with the config's solver options and the shared policy cache, so the robot
+// runs the policy the experiments measure for the same knowledge. After a knowledge update the
+// model and policy are rebuilt before the next dialog.
 #include <actionlib/client/simple_action_client.h>
 #include <krr_msgs/BuildTaskModel.h>
 #include <krr_msgs/DeliveryStatus.h>
@@ -23,24 +24,23 @@
 #include <krr_msgs/RobotUtterance.h>
 #include <krr_msgs/UserUtterance.h>
 #include <ros/ros.h>
+#include <std_msgs/String.h>
 
-#include <array>
-#include <filesystem>
+#include <cmath>
 #include <memory>
-#include <set>
 #include <string>
 #include <vector>
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/resources.h"
+#include "krr_core/dialog/delivery_manager.h"
 #include "krr_core/dialog/delivery_navigation.h"
 #include "krr_core/dialog/dialog_config.h"
 #include "krr_core/dialog/dialog_knowledge.h"
-#include "krr_core/dialog/dialog_session.h"
+#include "krr_core/dialog/dialog_policy.h"
+#include "krr_core/dialog/experiment_paths.h"
 #include "krr_core/dialog/language.h"
 #include "krr_core/kb/navigation_knowledge.h"
-#include "krr_core/dialog/delivery_experiment.h"
-#include "krr_core/pomdp/point_based_solver.h"
 #include "krr_ros/conversions.h"
 #include "krr_ros/nav_kb.h"
 #include "krr_ros/params.h"
@@ -62,13 +62,11 @@ struct DialogParams {
   std::vector<double> reach;     ///< ~reach_probabilities: P^N(shop, room) (reach source)
   std::vector<double> reach_back;  ///< ~reach_back: P^N(room, shop) (reach; [] = same)
   krr_ros::NavKbParams nav;      ///< map, grid, navigation P-log files (reasoner / local)
-  double solver_time = 2;        ///< ~solver_time: s of point-based solving per model
-  double solver_precision = 0.5; ///< ~solver_precision: target bound gap
+  std::string policy_cache;      ///< ~policy_cache: "" = $KRR_CACHE_DIR (the experiments'), none
   std::string action;            ///< ~navigation_action: the Navigate action server
   double server_wait = 10;       ///< ~server_wait: s to wait for the action server
   double leg_timeout = 600;      ///< ~navigation_timeout: s per trip before giving up
   double check_timeout = 30;     ///< ~check_timeout: s to wait for the person's check
-  long max_redeliveries = 1;     ///< ~max_redeliveries
   std::string updates_topic;     ///< ~knowledge_updates: topic that triggers a rebuild
   std::uint64_t seed = 1;        ///< ~seed (the manager is deterministic; logged)
 
@@ -86,13 +84,11 @@ struct DialogParams {
       throw krr::ConfigError("parameter reach_probabilities: required with model_source reach "
                              "(one P^N(shop, room) per room)");
     p.nav = krr_ros::NavKbParams::read(r);
-    p.solver_time = r.number("solver_time", 2.0, 0.01, 3600);
-    p.solver_precision = r.number("solver_precision", 0.5, 1e-6, 1e6);
+    p.policy_cache = r.str("policy_cache", "");
     p.action = r.str("navigation_action", "navigate");
     p.server_wait = r.number("server_wait", 10, 0, 3600);
     p.leg_timeout = r.number("navigation_timeout", 600, 0.1, 86400);
     p.check_timeout = r.number("check_timeout", 30, 0.1, 86400);
-    p.max_redeliveries = r.integer("max_redeliveries", 1, 0, 100);
     p.updates_topic = r.str("knowledge_updates", "/reasoner/knowledge_updates");
     if (p.action.empty()) throw krr::ConfigError("parameter navigation_action: empty name");
     r.rejectUnknown();
@@ -100,13 +96,15 @@ struct DialogParams {
   }
 };
 
-/// @brief The dialog model, its policy and the language front end, built together.
+/// @brief The dialog model, its policy, the language front end and the delivery manager,
+/// built together (a rebuild replaces all of them between deliveries).
 struct DialogModel {
   std::unique_ptr<krr::pomdp::DialogPomdp> pomdp;
   std::unique_ptr<krr::dialog::LanguageFrontEnd> language;
-  krr::pomdp::AlphaVectorPolicy policy;
-  krr::pomdp::BoundsReport bounds;
+  krr::pomdp::TurnLimitedPolicy policy;
+  krr::dialog::PolicyReport report;
   Eigen::VectorXd reach;  ///< P^N(shop, room) the model was built with
+  std::unique_ptr<krr::dialog::DeliveryManager> manager;
 };
 
 class DialogNode {
@@ -122,10 +120,13 @@ class DialogNode {
       nav_kb_ = std::make_unique<krr::kb::NavigationKnowledge>(*domain_.grid, domain_.knowledge_files);
     if (p_.model_source == "reasoner")
       model_client_ = nh.serviceClient<krr_msgs::BuildTaskModel>(p_.model_service);
+    cache_dir_ = p_.policy_cache == "none" ? ""
+                 : p_.policy_cache.empty() ? krr::dialog::defaultCacheDir() : p_.policy_cache;
     rebuild();
     utterance_pub_ = nh.advertise<RobotUtterance>("robot_utterance", 20);
     belief_pub_ = nh.advertise<krr_msgs::DialogBelief>("dialog_belief", 10, true);
     status_pub_ = nh.advertise<DeliveryStatus>("delivery_status", 20, true);
+    decisions_pub_ = pnh.advertise<std_msgs::String>("decisions", 50);
     utterance_sub_ = nh.subscribe("user_utterance", 20, &DialogNode::onUtterance, this);
     if (!p_.updates_topic.empty())
       updates_sub_ = nh.subscribe(p_.updates_topic, 10, &DialogNode::onKnowledgeUpdate, this);
@@ -133,13 +134,12 @@ class DialogNode {
   }
 
  private:
-  enum class State { kIdle, kDialog, kNavigating, kAwaitCheck };
-  enum class Leg { kPickup, kToRoom, kReturn };
+  using Phase = krr::dialog::DeliveryPhase;
+  krr::dialog::DeliveryManager& manager() { return *model_->manager; }
 
   // --- model --------------------------------------------------------------------------------
-  /// @brief P^N from the navigation model of Procedure 2 for the configured time of day.
+  /// @brief Procedure 2's navigation model for the configured time of day.
   krr::mdp::SparseModel navigationModel() {
-    if (nav_kb_) return nav_kb_->buildModel({config_.time}, 0.95).dynamics;
     if (!model_client_.waitForExistence(ros::Duration(p_.model_timeout)))
       throw krr::IoError("service " + p_.model_service + " is not available (is reasoner_node "
                          "running?)");
@@ -153,74 +153,50 @@ class DialogNode {
     return krr_ros::navigationModelFromMsg(srv.response, *domain_.space);
   }
 
-  krr::pomdp::DialogSpec buildSpec(Eigen::VectorXd* reach) {
-    const krr::pomdp::DialogSpec& base = knowledge_.base();
-    if (p_.model_source == "reach") {
-      if (p_.reach.size() != base.rooms.size() ||
-          (!p_.reach_back.empty() && p_.reach_back.size() != base.rooms.size()))
-        throw krr::ConfigError("parameters reach_probabilities / reach_back: need one value per "
-                               "room (" + std::to_string(base.rooms.size()) + ")");
-      krr::pomdp::DialogSpec spec = base;
-      spec.pGeneral = knowledge_.speech().p_general;
-      spec.pYesNo = knowledge_.speech().p_yesno;
-      spec.generalCost = config_.general_cost;
-      spec.confirmCost = config_.confirm_cost;
-      spec.successReward = config_.success_reward;
-      spec.failureReward = config_.failure_reward;
-      spec.discount = config_.discount;
-      spec.turnLimit = config_.turn_limit;
-      *reach = Eigen::Map<const Eigen::VectorXd>(p_.reach.data(), static_cast<Eigen::Index>(p_.reach.size()));
-      Eigen::VectorXd back;
-      if (!p_.reach_back.empty())
-        back = Eigen::Map<const Eigen::VectorXd>(p_.reach_back.data(),
-                                                 static_cast<Eigen::Index>(p_.reach_back.size()));
-      spec.delivery = krr::pomdp::deliveryMatrix(base.items.size(), *reach, base.persons.size(), back);
-      return spec;
-    }
-    const krr::mdp::SparseModel dynamics = navigationModel();
-    krr::dialog::DeliveryNavigationOptions opt;
-    opt.shop = config_.shop;
-    opt.rooms = base.rooms;
-    opt.reward = {config_.step_cost, config_.rmax};
-    opt.discount = config_.nav_discount;
-    opt.step_limit = domain_.domain.step_limit;
-    opt.failure_penalty = config_.failure_penalty;
-    krr::dialog::DeliveryNavigation nav(*domain_.space, dynamics, opt);
-    *reach = nav.reachFromShop();
-    return knowledge_.buildSpec(nav, config_);
+  /// @brief Every delivery trip's P^N and cost, from the configured source.
+  krr::dialog::TripTable trips() {
+    const auto& rooms = knowledge_.base().rooms;
+    if (p_.model_source == "reach")
+      return krr::dialog::TripTable::fromReach(rooms, p_.reach, p_.reach_back, config_.failure_penalty);
+    if (nav_kb_)
+      return krr::dialog::deliveryNavigationFromKnowledge(domain_, *nav_kb_, config_, rooms)->trips();
+    const krr::dialog::DeliveryNavigation nav(
+        *domain_.space, navigationModel(),
+        krr::dialog::DeliveryNavigationOptions::fromConfig(
+            config_, rooms, static_cast<std::size_t>(domain_.domain.step_limit)));
+    return nav.trips();
   }
 
-  /// @brief (Re)build the dialog POMDP from the knowledge base and solve it.
+  /// @brief (Re)build the dialog model from the knowledge base and get its policy (solved, or
+  /// the experiments' cached one for the same model).
   void rebuild() {
     krr::Stopwatch clock;
     auto m = std::make_unique<DialogModel>();
-    m->pomdp = std::make_unique<krr::pomdp::DialogPomdp>(buildSpec(&m->reach));
+    const krr::dialog::TripTable t = trips();
+    m->reach = t.reachFromShop();
+    m->pomdp = std::make_unique<krr::pomdp::DialogPomdp>(knowledge_.buildSpec(t, config_));
     m->language = std::make_unique<krr::dialog::LanguageFrontEnd>(*m->pomdp, language_config_,
                                                                   p_.language_config);
-    // The same solving as the delivery experiments (incl. the exact serve-at-once vectors, so
-    // that serving is compared with asking correctly at every belief), bounded by ~solver_time.
-    krr::dialog::DialogConfig solve_config = config_;
-    solve_config.solver_precision = p_.solver_precision;
-    solve_config.solver_timeout = p_.solver_time;
-    solve_config.solver_max_trials = 0;
-    krr::dialog::PreparationReport prep;
-    m->policy = krr::dialog::solveDialogPolicy(*m->pomdp, solve_config, "", &prep);
-    m->bounds = prep.bounds;
-    session_.reset();
+    m->policy = krr::dialog::solveDialogPolicy(*m->pomdp, config_, cache_dir_, &m->report);
+    m->manager = std::make_unique<krr::dialog::DeliveryManager>(*m->pomdp, m->policy,
+                                                                m->language.get(), config_);
     model_ = std::move(m);
-    session_ = std::make_unique<krr::dialog::DialogSession>(*model_->pomdp, *model_->language,
-                                                             &model_->policy);
     dirty_ = false;
     std::string reach;
     for (Eigen::Index r = 0; r < model_->reach.size(); ++r)
       reach += (r ? ", " : "") + model_->pomdp->spec().rooms[static_cast<std::size_t>(r)] + " " +
                std::to_string(model_->reach(r)).substr(0, 5);
+    const krr::dialog::PolicyReport& rep = model_->report;
     ROS_INFO_NAMED(kLog, "dialog model (%s): %zu requests, p_general %.3f, p_yesno %.3f, "
-                   "P^N(shop, room): %s; policy: bounds [%.2f, %.2f] at the prior, %zu vectors; "
-                   "built in %.2f s", p_.model_source.c_str(), model_->pomdp->numRequests(),
-                   model_->pomdp->spec().pGeneral, model_->pomdp->spec().pYesNo, reach.c_str(),
-                   model_->bounds.lower, model_->bounds.upper, model_->bounds.alphas,
-                   clock.seconds());
+                   "P^N(shop, room): %s; policy %s: bounds [%.2f, %.2f] at the prior (gap %.2f, "
+                   "%zu trials), %zu vectors; built in %.2f s", p_.model_source.c_str(),
+                   model_->pomdp->numRequests(), model_->pomdp->spec().pGeneral,
+                   model_->pomdp->spec().pYesNo, reach.c_str(), rep.from_cache ? "cached" : "solved",
+                   rep.bounds.lower, rep.bounds.upper, rep.bounds.gap(), rep.bounds.trials,
+                   model_->policy.size(), clock.seconds());
+    if (!rep.converged)
+      ROS_WARN_NAMED(kLog, "the dialog policy is not certified to the configured precision %.2f "
+                     "(gap %.2f at the prior)", config_.solver_precision, rep.bounds.gap());
   }
 
   void onKnowledgeUpdate(const krr_msgs::KnowledgeUpdate::ConstPtr& u) {
@@ -238,43 +214,43 @@ class DialogNode {
         return;
       }
       ROS_INFO_NAMED(kLog, "user: %s", msg->text.c_str());
-      switch (state_) {
-        case State::kIdle: startDialog(msg->text); break;
-        case State::kDialog: dialogTurn(msg->text); break;
-        case State::kNavigating: notice("I am on my way with the delivery, please wait."); break;
-        case State::kAwaitCheck: checkAnswer(msg->text); break;
+      switch (manager().phase()) {
+        case Phase::kIdle:
+        case Phase::kDone: startDialog(msg->text); break;
+        case Phase::kDialog: dialogTurn(msg->text); break;
+        case Phase::kNavigating: notice("I am on my way with the delivery, please wait."); break;
+        case Phase::kAwaitCheck: checkAnswer(msg->text); break;
       }
     } catch (const std::exception& e) {
       ROS_ERROR_NAMED(kLog, "utterance '%s': %s", msg->text.c_str(), e.what());
       notice(std::string("Sorry, something went wrong: ") + e.what());
+      if (model_ && manager().phase() != Phase::kIdle && manager().phase() != Phase::kDone)
+        end(std::string("error: ") + e.what());
     }
   }
 
   void startDialog(const std::string& text) {
     if (dirty_) rebuild();
-    session_->reset();
-    const krr::dialog::HearResult h = session_->hear(text);
+    manager().start();
+    const krr::dialog::HearResult h = manager().hear(text);
     report(h);
     if (!h.understood()) {
-      session_->reset();
+      manager().reset();
       notice("What can I deliver for you? (for example: a coke for bob to room2)");
       return;
     }
     ++dialog_id_;
-    qa_cost_ = 0;
-    state_ = State::kDialog;
+    published_ = 0;
     ROS_INFO_NAMED(kLog, "dialog %u started", dialog_id_);
     publishBelief();
     decide();
   }
 
   void dialogTurn(const std::string& text) {
-    const krr::dialog::HearResult h = session_->hear(text);
+    const krr::dialog::HearResult h = manager().hear(text);
     report(h);
     publishBelief();
-    if (h.understood()) decide();
-    else if (session_->lastQuestion() >= 0)  // the belief did not move: ask again, same turn
-      say(static_cast<std::size_t>(session_->lastQuestion()));
+    decide();  // nothing understood: the manager asks the same question again
   }
 
   /// @brief Unknown words and ignored content: logged and said back, never fatal.
@@ -291,54 +267,39 @@ class DialogNode {
     }
   }
 
-  /// @brief The policy's next action: a question, or the delivery.
+  /// @brief The manager's next action: a question, or the serve and the first leg.
   void decide() {
-    const krr::pomdp::DialogPomdp& d = *model_->pomdp;
-    const bool forced = session_->atTurnLimit();
-    const std::size_t a = session_->nextAction();
-    if (d.isQuestion(a)) {
-      session_->act(a);
-      qa_cost_ += a <= d.askPerson() ? d.spec().generalCost : d.spec().confirmCost;
-      say(a);
-      return;
-    }
-    const krr::dialog::BeliefSummary b = session_->summary();
-    entropy_bits_ = krr::pomdp::entropy(session_->belief(), krr::pomdp::EntropyUnit::kBits);
-    forced_ = forced;
-    session_->act(a);
-    const auto parts = d.requestParts(d.requestOfServe(a));
-    request_ = {d.spec().items[parts[0]], d.spec().rooms[parts[1]], d.spec().persons[parts[2]]};
+    const std::size_t a = manager().decide();
+    publishDecisions();
     say(a);
+    if (model_->pomdp->isQuestion(a)) return;
+    const krr::dialog::DeliveryRecord& r = manager().record();
+    const auto req = manager().requestNames(r.served);
     ROS_INFO_NAMED(kLog, "dialog %u: serving <%s, %s, %s> after %d question(s), QA cost %.1f, "
-                   "P = %.3f, entropy %.3f bits%s", dialog_id_, request_[0].c_str(),
-                   request_[1].c_str(), request_[2].c_str(), session_->turns(), qa_cost_,
-                   b.mostLikelyProbability, entropy_bits_, forced ? " (turn limit)" : "");
-    attempt_ = 1;
-    corrected_ = false;
-    state_ = State::kNavigating;
-    status(DeliveryStatus::SERVING, "picking up a " + request_[0] + " at the " + config_.shop);
-    navigate(Leg::kPickup, config_.shop);
+                   "P = %.3f (most likely %.3f), entropy %.3f nats%s", dialog_id_, req[0].c_str(),
+                   req[1].c_str(), req[2].c_str(), r.turns, r.qa_cost, r.served_probability,
+                   r.max_probability, r.entropy, r.forced ? " (turn limit)" : "");
+    status(DeliveryStatus::SERVING, "picking up a " + req[0] + " at the " + config_.shop);
+    navigate();
   }
 
   // --- delivery -----------------------------------------------------------------------------
-  /// @brief Start a trip. The goal is sent from a timer, never from inside the action client's
-  /// own callbacks (actionlib mis-tracks a goal sent from the previous goal's done callback),
-  /// and only once the server is up (waiting at most ~server_wait, without blocking).
-  void navigate(Leg leg, const std::string& place) {
-    leg_ = leg;
-    leg_place_ = place;
+  /// @brief Start the manager's current leg. The goal is sent from a timer, never from inside
+  /// the action client's own callbacks (actionlib mis-tracks a goal sent from the previous
+  /// goal's done callback), and only once the server is up (waiting at most ~server_wait).
+  void navigate() {
     const unsigned id = dialog_id_;
     wait_start_ = ros::Time::now();
-    wait_timer_ = timer_nh_.createTimer(ros::Duration(0.05), [this, id, place](const ros::TimerEvent&) {
+    wait_timer_ = timer_nh_.createTimer(ros::Duration(0.05), [this, id](const ros::TimerEvent&) {
       guarded("navigation start", [&] {
-        if (id != dialog_id_ || state_ != State::kNavigating) return wait_timer_.stop();
+        if (id != dialog_id_ || manager().phase() != Phase::kNavigating) return wait_timer_.stop();
         if (nav_client_.isServerConnected()) {
           wait_timer_.stop();
-          sendGoal(id, place);
+          sendGoal(id, manager().leg().place);
         } else if ((ros::Time::now() - wait_start_).toSec() > p_.server_wait) {
           wait_timer_.stop();
-          finish(DeliveryStatus::FAILED, "navigation action server '" + p_.action +
-                                             "' is not available (is navigation_node running?)");
+          end("navigation action server '" + p_.action + "' is not available (is "
+              "navigation_node running?)");
         }
       });
     });
@@ -353,117 +314,128 @@ class DialogNode {
                                           const krr_msgs::NavigateResultConstPtr& r) {
       guarded("navigation result", [&] { onNavigationDone(id, s, r); });
     });
-    leg_timer_ = timer_nh_.createTimer(ros::Duration(p_.leg_timeout), [this, id](const ros::TimerEvent&) {
+    leg_timer_ = timer_nh_.createTimer(ros::Duration(p_.leg_timeout), [this, id, place](const ros::TimerEvent&) {
       guarded("navigation timeout", [&] {
-        if (id != dialog_id_ || state_ != State::kNavigating) return;
+        if (id != dialog_id_ || manager().phase() != Phase::kNavigating) return;
         nav_client_.cancelGoal();
-        finish(DeliveryStatus::FAILED, "navigation to " + leg_place_ + " took longer than " +
-                                           std::to_string(p_.leg_timeout) + " s");
+        manager().legDone(false, 0, "took longer than " + std::to_string(p_.leg_timeout) + " s");
+        afterLeg();
       });
     }, true);
   }
 
   void onNavigationDone(unsigned id, const actionlib::SimpleClientGoalState& s,
                         const krr_msgs::NavigateResultConstPtr& r) {
-    if (id != dialog_id_ || state_ != State::kNavigating) return;
+    if (id != dialog_id_ || manager().phase() != Phase::kNavigating) return;
     leg_timer_.stop();
-    if (s != actionlib::SimpleClientGoalState::SUCCEEDED || !r || !r->success) {
-      const std::string why = r && !r->failure_reason.empty() ? r->failure_reason : s.toString();
-      finish(DeliveryStatus::FAILED, "navigation to " + leg_place_ + " failed (" +
-                                         (r ? r->outcome : std::string("no result")) + "): " + why);
-      return;
+    const bool ok = s == actionlib::SimpleClientGoalState::SUCCEEDED && r && r->success;
+    std::string why;
+    if (!ok)
+      why = (r ? r->outcome : std::string("no result")) + ": " +
+            (r && !r->failure_reason.empty() ? r->failure_reason : s.toString());
+    manager().legDone(ok, r ? r->steps : 0, why);
+    afterLeg();
+  }
+
+  /// @brief After a leg: the next leg, the check at the room, or the end.
+  void afterLeg() {
+    publishDecisions();
+    const krr::dialog::DeliveryRecord& r = manager().record();
+    const auto req = manager().requestNames(r.delivering);
+    switch (manager().phase()) {
+      case Phase::kNavigating:
+        if (manager().leg().kind == krr::dialog::Leg::Kind::kToRoom)
+          status(DeliveryStatus::TO_ROOM, "bringing a " + req[0] + " for " + req[2] + " to " + req[1]);
+        navigate();
+        return;
+      case Phase::kAwaitCheck: {
+        status(DeliveryStatus::ARRIVED, "at " + req[1]);
+        notice("Here is a " + req[0] + " for " + req[2] + " in " + req[1] +
+               ". Is that right? (yes / no, a <item> for <person> to <room>)");
+        const unsigned id = dialog_id_;
+        check_timer_ = timer_nh_.createTimer(ros::Duration(p_.check_timeout), [this, id](const ros::TimerEvent&) {
+          guarded("check timeout", [&] {
+            if (id != dialog_id_ || manager().phase() != Phase::kAwaitCheck) return;
+            manager().checkTimedOut();
+            afterLeg();
+          });
+        }, true);
+        return;
+      }
+      case Phase::kDone:
+        finish();
+        return;
+      default:
+        return;
     }
-    if (leg_ == Leg::kPickup || leg_ == Leg::kReturn) {
-      status(DeliveryStatus::TO_ROOM, "bringing a " + request_[0] + " for " + request_[2] +
-                                          " to " + request_[1]);
-      navigate(Leg::kToRoom, request_[1]);
-      return;
-    }
-    state_ = State::kAwaitCheck;
-    status(DeliveryStatus::ARRIVED, "at " + request_[1]);
-    notice("Here is a " + request_[0] + " for " + request_[2] + " in " + request_[1] +
-           ". Is that right? (yes / no, a <item> for <person> to <room>)");
-    check_timer_ = timer_nh_.createTimer(ros::Duration(p_.check_timeout), [this, id](const ros::TimerEvent&) {
-      guarded("check timeout", [&] {
-        if (id != dialog_id_ || state_ != State::kAwaitCheck) return;
-        if (corrected_)
-          finish(DeliveryStatus::FAILED, "wrong delivery, and the right request was not given");
-        else
-          finish(DeliveryStatus::UNCONFIRMED, "nobody checked the delivery within " +
-                                                  std::to_string(p_.check_timeout) + " s");
-      });
-    }, true);
   }
 
   /// @brief The person's check at the room: yes, or the right request (what differs).
   void checkAnswer(const std::string& text) {
-    const krr::dialog::ParsedUtterance u = model_->language->parse(text);
     krr::dialog::HearResult h;
     h.text = text;
-    h.unknownWords = u.unknownWords;
+    h.unknownWords = model_->language->parse(text).unknownWords;
     report(h);
-    const auto& spec = model_->pomdp->spec();
-    const std::vector<std::string>* names[3] = {&spec.items, &spec.rooms, &spec.persons};
-    std::array<std::set<std::size_t>, 3> said;
-    for (const auto& m : u.mentions) said[static_cast<int>(m.factor)].insert(m.index);
-    std::array<std::string, 3> right = request_;  // item, room, person
-    for (int f = 0; f < 3; ++f) {
-      if (said[f].size() > 1) {
-        notice(std::string("Which ") + krr::dialog::factorName(static_cast<krr::dialog::Factor>(f)) +
-               " was it? You named several.");
-        return;
-      }
-      if (said[f].size() == 1) right[f] = (*names[f])[*said[f].begin()];
-    }
-    if (u.yes > 0 && u.no == 0 && right == request_) {
-      finish(DeliveryStatus::FULFILLED, "the person confirmed the delivery");
-      return;
-    }
-    if (right == request_) {
-      if (u.no > 0) corrected_ = true;
-      notice(u.no > 0 ? "Sorry! What did you ask for? (for example: no, a coke for bob to room2)"
-                      : "Is this right? Please answer yes, or tell me what you asked for.");
-      return;
-    }
-    if (attempt_ > static_cast<unsigned>(p_.max_redeliveries)) {
-      finish(DeliveryStatus::FAILED, "wrong delivery: <" + right[0] + ", " + right[1] + ", " +
-                                         right[2] + "> was asked for, no redelivery left");
+    std::string reply;
+    const krr::dialog::CheckResult c = manager().check(text, &reply);
+    publishDecisions();
+    if (c == krr::dialog::CheckResult::kUnclear) {
+      notice(reply);
       return;
     }
     check_timer_.stop();
-    ROS_INFO_NAMED(kLog, "dialog %u: wrong delivery, redelivering <%s, %s, %s>", dialog_id_,
-                   right[0].c_str(), right[1].c_str(), right[2].c_str());
-    request_ = right;
-    ++attempt_;
-    state_ = State::kNavigating;
-    status(DeliveryStatus::RETURNING, "wrong delivery: back to the " + config_.shop + " for a " +
-                                          request_[0]);
-    navigate(Leg::kReturn, config_.shop);
+    if (c == krr::dialog::CheckResult::kRedelivering) {
+      const auto req = manager().requestNames(manager().record().delivering);
+      ROS_INFO_NAMED(kLog, "dialog %u: wrong delivery, redelivering <%s, %s, %s>", dialog_id_,
+                     req[0].c_str(), req[1].c_str(), req[2].c_str());
+      status(DeliveryStatus::RETURNING, "wrong delivery: back to the " + config_.shop + " for a " + req[0]);
+      navigate();
+      return;
+    }
+    finish();
   }
 
-  void finish(const std::string& final_status, const std::string& message) {
+  /// @brief End the delivery as failed (errors, missing servers).
+  void end(const std::string& why) {
+    manager().fail(why);
+    publishDecisions();
+    finish();
+  }
+
+  /// @brief The delivery ended (the manager says how): stop timers, report.
+  void finish() {
     check_timer_.stop();
     leg_timer_.stop();
     wait_timer_.stop();
-    state_ = State::kIdle;
-    status(final_status, message);
-    if (final_status == DeliveryStatus::FULFILLED)
-      ROS_INFO_NAMED(kLog, "dialog %u: delivery %s: %s", dialog_id_, final_status.c_str(),
-                     message.c_str());
+    const krr::dialog::DeliveryRecord& r = manager().record();
+    const std::string outcome = krr::dialog::toString(r.outcome);
+    status(outcome, r.message);
+    if (r.outcome == krr::dialog::DeliveryOutcome::kFulfilled)
+      ROS_INFO_NAMED(kLog, "dialog %u: delivery %s: %s", dialog_id_, outcome.c_str(), r.message.c_str());
     else
-      ROS_WARN_NAMED(kLog, "dialog %u: delivery %s: %s", dialog_id_, final_status.c_str(),
-                     message.c_str());
-    notice(final_status == DeliveryStatus::FULFILLED ? "Enjoy! What else can I deliver?"
-                                                      : "Delivery " + final_status + ": " + message);
+      ROS_WARN_NAMED(kLog, "dialog %u: delivery %s: %s", dialog_id_, outcome.c_str(), r.message.c_str());
+    notice(r.outcome == krr::dialog::DeliveryOutcome::kFulfilled ? "Enjoy! What else can I deliver?"
+                                                                  : "Delivery " + outcome + ": " + r.message);
   }
 
   // --- publishing ---------------------------------------------------------------------------
+  /// @brief The manager's decisions not yet published, one message each.
+  void publishDecisions() {
+    const auto& d = manager().decisions();
+    for (; published_ < d.size(); ++published_) {
+      std_msgs::String m;
+      m.data = d[published_];
+      decisions_pub_.publish(m);
+      ROS_INFO_NAMED(kLog, "dialog %u decision: %s", dialog_id_, m.data.c_str());
+    }
+  }
+
   void say(std::size_t a) {
     const krr::pomdp::DialogPomdp& d = *model_->pomdp;
     RobotUtterance u;
     u.header.stamp = ros::Time::now();
     u.dialog_id = dialog_id_;
-    u.turn = static_cast<std::uint32_t>(session_->turns());
+    u.turn = static_cast<std::uint32_t>(manager().session().turns());
     u.text = krr::dialog::robotUtterance(d, a);
     const auto& s = d.spec();
     switch (d.actionKind(a)) {
@@ -501,7 +473,7 @@ class DialogNode {
     RobotUtterance u;
     u.header.stamp = ros::Time::now();
     u.dialog_id = dialog_id_;
-    u.turn = session_ ? static_cast<std::uint32_t>(session_->turns()) : 0;
+    u.turn = model_ ? static_cast<std::uint32_t>(manager().session().turns()) : 0;
     u.kind = RobotUtterance::NOTICE;
     u.text = text;
     utterance_pub_.publish(u);
@@ -509,18 +481,18 @@ class DialogNode {
 
   void publishBelief() {
     const krr::pomdp::DialogPomdp& d = *model_->pomdp;
-    const krr::dialog::BeliefSummary b = session_->summary();
+    const krr::dialog::BeliefSummary b = manager().session().summary();
     krr_msgs::DialogBelief m;
     m.header.stamp = ros::Time::now();
     m.dialog_id = dialog_id_;
-    m.turn = static_cast<std::uint32_t>(session_->turns());
+    m.turn = static_cast<std::uint32_t>(manager().session().turns());
     m.items = d.spec().items;
     m.rooms = d.spec().rooms;
     m.persons = d.spec().persons;
     m.item_probabilities.assign(b.items.data(), b.items.data() + b.items.size());
     m.room_probabilities.assign(b.rooms.data(), b.rooms.data() + b.rooms.size());
     m.person_probabilities.assign(b.persons.data(), b.persons.data() + b.persons.size());
-    m.entropy = krr::pomdp::entropy(session_->belief(), krr::pomdp::EntropyUnit::kBits);
+    m.entropy = krr::pomdp::entropy(manager().session().belief(), krr::pomdp::EntropyUnit::kBits);
     const auto p = d.requestParts(b.mostLikely);
     m.most_likely.header.stamp = m.header.stamp;
     m.most_likely.item = d.spec().items[p[0]];
@@ -531,19 +503,21 @@ class DialogNode {
   }
 
   void status(const std::string& s, const std::string& message) {
+    const krr::dialog::DeliveryRecord& r = manager().record();
     DeliveryStatus m;
     m.header.stamp = ros::Time::now();
     m.dialog_id = dialog_id_;
     m.status = s;
+    const auto req = manager().requestNames(r.delivering);
     m.request.header.stamp = m.header.stamp;
-    m.request.item = request_[0];
-    m.request.room = request_[1];
-    m.request.person = request_[2];
-    m.attempt = attempt_;
-    m.turns = static_cast<std::uint32_t>(session_->turns());
-    m.qa_cost = qa_cost_;
-    m.entropy = entropy_bits_;
-    m.forced = forced_;
+    m.request.item = req[0];
+    m.request.room = req[1];
+    m.request.person = req[2];
+    m.attempt = static_cast<std::uint32_t>(r.attempts);
+    m.turns = static_cast<std::uint32_t>(r.turns);
+    m.qa_cost = r.qa_cost;
+    m.entropy = r.entropy / std::log(2.0);  // the message carries bits
+    m.forced = r.forced;
     m.message = message;
     status_pub_.publish(m);
   }
@@ -555,8 +529,8 @@ class DialogNode {
       f();
     } catch (const std::exception& e) {
       ROS_ERROR_NAMED(kLog, "%s: %s", what, e.what());
-      if (state_ == State::kNavigating || state_ == State::kAwaitCheck)
-        finish(DeliveryStatus::FAILED, std::string(what) + ": " + e.what());
+      const Phase ph = manager().phase();
+      if (ph == Phase::kNavigating || ph == Phase::kAwaitCheck) end(std::string(what) + ": " + e.what());
     }
   }
 
@@ -566,23 +540,17 @@ class DialogNode {
   krr::dialog::DialogKnowledge knowledge_;
   krr::kb::NavDomain domain_;
   std::unique_ptr<krr::kb::NavigationKnowledge> nav_kb_;
+  std::string cache_dir_;
   ros::ServiceClient model_client_;
   std::unique_ptr<DialogModel> model_;
-  std::unique_ptr<krr::dialog::DialogSession> session_;
   bool dirty_ = false;
-  State state_ = State::kIdle;
   unsigned dialog_id_ = 0;
-  double qa_cost_ = 0, entropy_bits_ = 0;
-  bool forced_ = false, corrected_ = false;
-  std::array<std::string, 3> request_;  // item, room, person being delivered
-  unsigned attempt_ = 0;
-  Leg leg_ = Leg::kPickup;
-  std::string leg_place_;
+  std::size_t published_ = 0;  // decisions of the current delivery already published
   ros::Time wait_start_;
   NavigateClient nav_client_;
   ros::NodeHandle timer_nh_;
   ros::Timer wait_timer_, leg_timer_, check_timer_;
-  ros::Publisher utterance_pub_, belief_pub_, status_pub_;
+  ros::Publisher utterance_pub_, belief_pub_, status_pub_, decisions_pub_;
   ros::Subscriber utterance_sub_, updates_sub_;
 };
 

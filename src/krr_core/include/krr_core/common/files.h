@@ -8,6 +8,7 @@
  */
 #pragma once
 
+#include <cstdint>
 #include <string>
 
 namespace krr {
@@ -21,6 +22,13 @@ void writeFileAtomic(const std::string& path, const std::string& data);
 
 /// @brief Directory part of a path ("." when there is none).
 std::string dirName(const std::string& path);
+
+/// @brief Create a directory and its parents (like mkdir -p). @throws IoError naming it.
+void makeDirectories(const std::string& dir);
+
+/// @brief Stable 64-bit FNV-1a hash of a text (cache keys: the same text, the same name on
+/// every run and machine).
+std::uint64_t stableHash(const std::string& text);
 
 
 /**

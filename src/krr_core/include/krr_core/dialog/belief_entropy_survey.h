@@ -12,7 +12,8 @@
  * entropies under which the policy delivers span the whole range up to its delivery threshold.
  * Entropy is in nats (natural log); Table II's magnitudes (means 0.10 to 0.27, maxima up to
  * 0.42) are consistent with either unit, and nats is belief.h's documented default. The
- * belief is over the requests only (no terminal mass). Sample i uses stream
+ * belief is over the requests only (no terminal mass). The suggested action is the policy's
+ * at the start of a dialog (no question asked yet: all turns left). Sample i uses stream
  * makeRng(seed, "entropy/belief", i) only.
  */
 #pragma once
@@ -22,7 +23,7 @@
 #include <string>
 #include <vector>
 
-#include "krr_core/pomdp/alpha_policy.h"
+#include "krr_core/pomdp/turn_limited_policy.h"
 #include "krr_core/pomdp/dialog_pomdp.h"
 
 namespace krr {
@@ -51,7 +52,7 @@ struct EntropySample {
 class BeliefEntropySurvey {
  public:
   /// @throws ConfigError on bad options or a policy of the wrong size.
-  BeliefEntropySurvey(const pomdp::DialogPomdp& dialog, const pomdp::AlphaVectorPolicy& policy,
+  BeliefEntropySurvey(const pomdp::DialogPomdp& dialog, const pomdp::TurnLimitedPolicy& policy,
                       const BeliefSamplerOptions& options, std::uint64_t seed);
   /// @brief The random belief of sample i (over all states; terminal mass 0).
   pomdp::Belief belief(std::size_t index) const;
@@ -65,7 +66,7 @@ class BeliefEntropySurvey {
 
  private:
   const pomdp::DialogPomdp& dialog_;
-  const pomdp::AlphaVectorPolicy& policy_;
+  const pomdp::TurnLimitedPolicy& policy_;
   BeliefSamplerOptions options_;
   std::uint64_t seed_;
 };

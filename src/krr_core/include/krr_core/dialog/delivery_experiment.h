@@ -10,27 +10,23 @@
  *     "learned", at outdated_rate for "outdated"; cached as a P-log file);
  *  2. Procedure 2: the navigation model by reasoning (NavigationKnowledge::buildModel), the
  *     robot's navigation policies and P^N (DeliveryNavigation);
- *  3. the dialog POMDP by reasoning (DialogKnowledge::buildSpec: prior, speech model, T^D by
- *     the delivery equation, serve costs) and its policy (PointBasedSolver with the config's
- *     precision and time budget; with a cache directory the policy is saved under a hash of
- *     the exact model and reused).
+ *  3. the dialog POMDP by reasoning (DialogKnowledge::buildSpec) and its turn-limited policy
+ *     (solveDialogPolicy: the same builder, solver options and cache as dialog_node).
  *
  * One trial (deterministic per (seed, index): streams "delivery/request", "delivery/dialog",
  * "delivery/navigation" with the trial index; they do not depend on the condition or br, so
- * conditions are compared on the same requests and answers' random numbers):
- *  - the hidden request is drawn from the knowledge base's prior;
- *  - the simulated person answers every question through the speech model (the model's
- *    observation probabilities); the DialogController picks questions by the policy and
- *    forces serve(most likely request) after turn_limit questions;
- *  - the served request is delivered by driving shop -> served room in the blockage
- *    simulator at the trial's br with the policy of the condition's knowledge. Redelivery
- *    rule (paper): if the served request was wrong and the robot arrived, it drives back to
- *    the shop, learns the correct request (no further dialog) and drives to the right room.
- *    A trip that ends trapped or at the step limit ends the trial unfulfilled.
- *  - recorded reward (undiscounted): reward = delivery_reward - qa_cost - nav_cost, where
- *    delivery_reward = +80 if fulfilled else -80, qa_cost = 2.0 per general and 1.5 per
- *    confirming question asked, nav_cost = step_cost x moves driven (all trips) +
- *    failure_penalty if a trip failed (the paper's navigation reward without the goal bonus).
+ * conditions are compared on the same requests and answers' random numbers) is one run of the
+ * robot's DeliveryManager (runDelivery) with
+ *  - a simulated person: the hidden request is drawn from the knowledge base's prior; every
+ *    question is answered through the speech model (the model's observation probabilities);
+ *    at the room the person confirms or names the request (the paper: the second dialog
+ *    identifies it correctly);
+ *  - simulated navigation: the robot starts at the shop (the pickup leg is empty) and drives
+ *    every leg in the blockage simulator at the trial's br with the policy of the condition's
+ *    knowledge; a leg that ends trapped or at the step limit ends the trial unfulfilled.
+ * The recorded reward is deliveryReward(): +80 / -80, minus the questions' costs, the
+ * navigation cost of the moves driven (+ failure_penalty if a leg failed) and the
+ * wrong-delivery penalty: the terms of the serve reward (dialog_knowledge.h), realised.
  */
 #pragma once
 
@@ -41,13 +37,14 @@
 #include <vector>
 
 #include "krr_core/dialog/delivery_learning.h"
+#include "krr_core/dialog/delivery_manager.h"
 #include "krr_core/dialog/delivery_navigation.h"
 #include "krr_core/dialog/dialog_config.h"
 #include "krr_core/dialog/dialog_knowledge.h"
+#include "krr_core/dialog/dialog_policy.h"
 #include "krr_core/kb/nav_transfer.h"
-#include "krr_core/pomdp/alpha_policy.h"
 #include "krr_core/pomdp/dialog_pomdp.h"
-#include "krr_core/pomdp/point_based_solver.h"
+#include "krr_core/pomdp/turn_limited_policy.h"
 
 namespace krr {
 namespace dialog {
@@ -79,21 +76,10 @@ struct DeliveryExperimentOptions {
 struct DeliveryTrialResult {
   std::size_t trial = 0;
   std::size_t request = 0;        ///< hidden request index
-  std::size_t served = 0;         ///< request served by the dialog
-  bool correct = false;           ///< served == request
-  int turns = 0;                  ///< questions asked
-  bool forced = false;            ///< the serve was forced by the turn limit
-  double qa_cost = 0.0;
-  double entropy = 0.0;           ///< belief entropy (nats) when serving
-  double served_probability = 0.0;  ///< belief in the served request when serving
-  int trips = 0;                  ///< navigation tasks started
-  std::size_t nav_moves = 0;      ///< moves over all trips
-  bool nav_failed = false;        ///< a trip ended trapped or at the step limit
-  bool redelivered = false;       ///< the redelivery rule was applied (wrong, first trip arrived)
+  DeliveryRecord delivery;        ///< what the robot's delivery manager did
+  bool correct = false;           ///< served == request (identification)
   bool fulfilled = false;         ///< the right request was delivered in the end
-  double delivery_reward = 0.0;   ///< +80 / -80
-  double nav_cost = 0.0;
-  double reward = 0.0;            ///< delivery_reward - qa_cost - nav_cost
+  DeliveryReward reward;
 };
 
 /// @brief Timings and figures of the preparation.
@@ -102,25 +88,19 @@ struct PreparationReport {
   double knowledge_br = 0.0;       ///< br the knowledge was learned at
   double nav_model_seconds = 0.0;  ///< Procedure 2 + policies + P^N
   double dialog_model_seconds = 0.0;  ///< dialog knowledge reasoning + POMDP construction
-  double solve_seconds = 0.0;
-  bool policy_from_cache = false;
-  std::string policy_file;
-  bool converged = false;          ///< solver reached the precision
-  /// The solve stopped at the precision or the trial budget, not at the timeout: the policy
-  /// is reproducible (same model, same options -> same policy).
-  bool reproducible = false;
-  pomdp::BoundsReport bounds;      ///< at the initial belief (zeros when loaded from cache)
+  PolicyReport policy;             ///< how the dialog policy was obtained, its bounds
 };
 
 class DeliveryExperiment {
  public:
   /**
    * @brief Prepare everything (see the file comment). `domain` is referenced and must outlive
-   * the experiment.
+   * the experiment. Without solve_policy the dialog model is built but not solved: trials
+   * need setPolicy() first (benchmarks of the solver).
    * @throws ConfigError / ParseError / IoError / UnknownSymbolError from the inputs.
    */
   DeliveryExperiment(const kb::NavDomain& domain, const DialogConfig& config,
-                     const DeliveryExperimentOptions& options);
+                     const DeliveryExperimentOptions& options, bool solve_policy = true);
 
   /// @brief Run trial `index` (deterministic per (seed, index)); fixed_request >= 0 replaces
   /// the drawn hidden request (tests, per-room analyses).
@@ -130,12 +110,12 @@ class DeliveryExperiment {
   std::vector<DeliveryTrialResult> runTrials(std::size_t begin, std::size_t count,
                                              std::size_t threads) const;
 
-  /// @brief Replace the solved policy (what-if analyses, tests). @throws ConfigError on a
-  /// state-count mismatch.
-  void setPolicy(const pomdp::AlphaVectorPolicy& policy);
+  /// @brief Replace the solved policy (benchmarks, what-if analyses, tests).
+  /// @throws ConfigError on a state-count or turn-limit mismatch.
+  void setPolicy(const pomdp::TurnLimitedPolicy& policy);
 
   const pomdp::DialogPomdp& dialog() const { return *dialog_; }
-  const pomdp::AlphaVectorPolicy& policy() const { return policy_; }
+  const pomdp::TurnLimitedPolicy& policy() const { return policy_; }
   const DeliveryNavigation& navigation() const { return *nav_; }
   const DialogKnowledge& dialogKnowledge() const { return *knowledge_; }
   const PreparationReport& preparation() const { return prep_; }
@@ -152,31 +132,16 @@ class DeliveryExperiment {
   std::unique_ptr<DialogKnowledge> knowledge_;
   std::unique_ptr<DeliveryNavigation> nav_;
   std::unique_ptr<pomdp::DialogPomdp> dialog_;
-  pomdp::AlphaVectorPolicy policy_;
+  pomdp::TurnLimitedPolicy policy_;
   nav::Context context_;
   PreparationReport prep_;
 };
 
-/**
- * @brief Solve a dialog POMDP with the config's precision, trial budget and timeout (FIB
- * initialisation bounded by iterations, not time, so a run that stops at the precision or the
- * trial budget is reproducible). The solver's alpha vectors are completed with the exact
- * serve-at-once vectors R(., serve a) (valid lower-bound vectors that point-based pruning may
- * drop), so that serving is compared with asking correctly at any belief.
- * With a cache directory a reproducible policy is saved to
- * policy_<hash>.txt there, and loaded on later runs; the hash covers the exact model (its
- * Cassandra text), the solver options and a fingerprint of the solver's behaviour (its policy
- * on Tiger after 25 trials), so a changed model or solver never reuses a stale policy.
- */
-pomdp::AlphaVectorPolicy solveDialogPolicy(const pomdp::DialogPomdp& dialog,
-                                           const DialogConfig& config,
-                                           const std::string& cache_dir,
-                                           PreparationReport* report = nullptr);
-
 /// @brief CSV header of delivery trial rows (trial index first).
 std::string deliveryCsvHeader();
-/// @brief One CSV row (no newline) of a trial.
-std::string deliveryCsvRow(const pomdp::DialogPomdp& dialog, const DeliveryTrialResult& r);
+/// @brief One CSV row (no newline) of a trial; `policy` are the bounds of the policy used.
+std::string deliveryCsvRow(const pomdp::DialogPomdp& dialog, const DeliveryTrialResult& r,
+                           const pomdp::BoundsReport& policy);
 
 }  // namespace dialog
 }  // namespace krr

@@ -74,11 +74,6 @@ std::string learnedCacheName(const kb::NavDomain& domain, const DialogConfig& co
                              const std::vector<std::string>& rooms, double br, std::uint64_t seed,
                              const std::string& domain_name);
 
-/// @brief Create a directory and its parents (like mkdir -p). @throws IoError naming it.
-void makeDirectories(const std::string& dir);
-
-/// @brief Stable 64-bit FNV-1a hash of a text (cache keys).
-std::uint64_t stableHash(const std::string& text);
 
 }  // namespace dialog
 }  // namespace krr

@@ -25,12 +25,15 @@
 #pragma once
 
 #include <cstddef>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include <Eigen/Dense>
 
 #include "krr_core/common/random.h"
+#include "krr_core/dialog/dialog_config.h"
+#include "krr_core/kb/nav_transfer.h"
 #include "krr_core/kb/navigation_knowledge.h"
 #include "krr_core/mdp/navigation_task.h"
 #include "krr_core/mdp/sparse_model.h"
@@ -50,6 +53,9 @@ struct DeliveryNavigationOptions {
   double failure_penalty = 40.0;     ///< cost of a failed trip in C(x, y) and in execute()
   /// @throws ConfigError naming the field.
   void validate() const;
+  /// @brief The options of config/dialog.yaml's navigation section for `rooms`.
+  static DeliveryNavigationOptions fromConfig(const DialogConfig& c, std::vector<std::string> rooms,
+                                              std::size_t step_limit);
 };
 
 /// @brief Exact figures of one trip under the robot's policy.
@@ -57,6 +63,27 @@ struct TripEstimate {
   double reach = 0.0;  ///< P^N(x, y)
   double moves = 0.0;  ///< M(x, y): expected moves made (success, trap or step limit)
   double cost = 0.0;   ///< C(x, y) = step_cost M + failure_penalty (1 - P^N)
+};
+
+/**
+ * @brief What the dialog's serve reward needs of navigation: every delivery trip's figures
+ * by room (shop -> room and room -> shop, in the dialog's room order). DeliveryNavigation
+ * computes it from a navigation model; fromReach() builds it when only P^N are known.
+ */
+struct TripTable {
+  std::vector<std::string> rooms;
+  std::vector<TripEstimate> to_room, to_shop;
+  /// @brief P^N(shop, room) for every room.
+  Eigen::VectorXd reachFromShop() const;
+  /// @brief P^N(room, shop) for every room.
+  Eigen::VectorXd reachBack() const;
+  /**
+   * @brief Trips known only by their reach probabilities (no navigation model): moves
+   * unknown (0), cost failure_penalty (1 - P^N). back empty: P^N(room, shop) = P^N(shop, room).
+   * @throws ConfigError on sizes, probabilities outside [0, 1] or a negative penalty.
+   */
+  static TripTable fromReach(const std::vector<std::string>& rooms, const std::vector<double>& reach,
+                             const std::vector<double>& back, double failure_penalty);
 };
 
 /// @brief What happened on one simulated trip.
@@ -86,10 +113,8 @@ class DeliveryNavigation {
   const TripEstimate& toRoom(std::size_t r) const { return to_room_.at(r); }
   /// @brief room r -> shop.
   const TripEstimate& toShop(std::size_t r) const { return to_shop_.at(r); }
-  /// @brief P^N(shop, room) for every room (the dialog's reachFromShop).
-  Eigen::VectorXd reachFromShop() const;
-  /// @brief P^N(room, shop) for every room (the dialog's reachBack).
-  Eigen::VectorXd reachBack() const;
+  /// @brief Every trip's figures, for the dialog model.
+  TripTable trips() const;
 
   /// @brief The robot's move in each state (trapped: 0) when heading to room r / to the shop.
   const std::vector<mdp::ActionId>& policyToRoom(std::size_t r) const { return policy_.at(r); }
@@ -113,6 +138,15 @@ class DeliveryNavigation {
   std::vector<std::vector<mdp::ActionId>> policy_;  // rooms..., then shop
   std::vector<TripEstimate> to_room_, to_shop_;
 };
+
+/**
+ * @brief Delivery navigation on Procedure 2's model of `knowledge` for config.time (the robot's
+ * current navigation knowledge, with whatever it has learned), with the options of
+ * config/dialog.yaml and the domain's step limit.
+ */
+std::unique_ptr<DeliveryNavigation> deliveryNavigationFromKnowledge(
+    const kb::NavDomain& domain, kb::NavigationKnowledge& knowledge, const DialogConfig& config,
+    const std::vector<std::string>& rooms);
 
 }  // namespace dialog
 }  // namespace krr

@@ -8,13 +8,11 @@
  * (config/dialog.plog) and is obtained by reasoning. Every field is validated on load; a bad
  * value raises ConfigError naming the file, the field and the value.
  *
- * serve_cost (our extension, see DialogKnowledge): the serve reward may also carry the
- * navigation cost of the trips the delivery equation implies, computed from the navigation
- * model:
- *   none     R(s, serve a) = 80 T^D - 80 (1 - T^D)                   (the paper's formula)
- *   expected ... - weight * E[navigation cost of the trial | s, a]   (trips gated by arrival)
- *   tasks    ... - weight * (C(shop, a) + [a != s] (C(a, shop) + C(shop, s)))
- * with C the expected cost of one navigation task (DeliveryNavigation).
+ * serve_cost: the serve reward's consequences beyond the paper's +-80 (the equation and why
+ * are in dialog_knowledge.h, the one place that builds it):
+ *   mode none      R(s, serve a) = 80 T^D - 80 (1 - T^D)                 (the paper's formula)
+ *   mode expected  ... - weight E[navigation cost of the trips driven | s, a]
+ *   wrong_delivery_penalty  ... - P_w [a != s]: a person waited and got the wrong item.
  */
 #pragma once
 
@@ -28,9 +26,9 @@ namespace krr {
 namespace dialog {
 
 /// @brief How navigation costs enter the serve reward (see the file comment).
-enum class ServeCostMode { kNone, kExpected, kTasks };
+enum class ServeCostMode { kNone, kExpected };
 
-/// @brief "none", "expected", "tasks".
+/// @brief "none", "expected".
 std::string toString(ServeCostMode mode);
 /// @brief Inverse of toString. @throws ConfigError naming the value.
 ServeCostMode serveCostModeFromString(const std::string& text);
@@ -43,10 +41,12 @@ struct DialogConfig {
   double success_reward = 80.0;  ///< fulfilled delivery
   double failure_reward = -80.0; ///< unfulfilled delivery
   int turn_limit = 20;           ///< questions before a forced delivery
-  double discount = 0.99;        ///< of the dialog POMDP (not given in the paper)
+  double discount = 0.99;        ///< of the dialog POMDP (not given in the paper), in (0, 1]
+  int max_redeliveries = 1;      ///< redeliveries after a wrong delivery (paper: one)
   // serve_cost:
-  ServeCostMode serve_cost_mode = ServeCostMode::kTasks;
+  ServeCostMode serve_cost_mode = ServeCostMode::kExpected;
   double serve_cost_weight = 1.0;
+  double wrong_delivery_penalty = 120.0;  ///< P_w, charged when the served request is wrong
   // navigation:
   std::string shop = "shop";       ///< place every delivery starts from
   std::string time = "morning";    ///< time of day of the knowledge used and learned

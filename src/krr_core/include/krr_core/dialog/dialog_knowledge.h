@@ -17,26 +17,32 @@
  *    other shape is reported as a ConfigError naming the request and value;
  *  - costs, rewards, turn limit: config/dialog.yaml (DialogConfig);
  *  - T^D(s, a): the paper's delivery equation over P^N(shop, room) and P^N(room, shop) of the
- *    navigation model built from the current knowledge base (DeliveryNavigation);
- *  - serve costs (our extension, DialogConfig::serve_cost_mode): the navigation cost of the
- *    trips a delivery implies (C from DeliveryNavigation), in the serve reward.
+ *    navigation model built from the current knowledge base (TripTable);
+ *  - the serve reward's consequences (below), from the same trips and config/dialog.yaml.
  *
- * Why the extension. With the paper's R(s, serve a) = 80 T^D - 80 (1 - T^D) alone, the regret
- * of serving a when the request is s is 160 P^N(shop, s) (1 - P^N(shop, a) P^N(a, shop)). On the
- * office map room1 and room4 are never blocked (P^N = 1), so serving any room1 / room4 request
- * loses nothing: T^D(s, a) = P^N(shop, s) = T^D(s, s) for every s. The optimal dialog policy
- * then asks nothing at all and always serves such a request, using the redelivery rule ("go
- * back, learn the request, deliver again") as a free oracle; "harder room -> more questions"
- * cannot hold. For same-room confusions (item or person misheard) the regret is
- * 160 q (1 - q^2), q = P^N(shop, room) = P^N(room, shop): it vanishes for q -> 1 and q -> 0.
- * Charging the navigation tasks the delivery equation names (ServeCostMode::kTasks: one task
- * for a right delivery, three for a wrong one, each at its expected cost C = step_cost x moves
- * + failure_penalty x P(fail), the paper's navigation reward without the goal bonus) adds
- * C(a, shop) + C(shop, s) to every wrong delivery, which grows as navigation gets harder.
- * ServeCostMode::kExpected instead charges the exact expected navigation cost of the executed
- * trial (a later trip only if the earlier ones arrived): consistent with the cost a trial
- * records, but it multiplies the redelivery cost by P^N(shop, a) again, so it fades for very
- * hard rooms.
+ * The serve reward (the one place it is defined; DeliveryExperiment records the same terms
+ * per trial, so E[trial reward | s, a] = R(s, serve a) - QA cost):
+ *
+ *   R(s, serve a) = 80 T^D(s, a) - 80 (1 - T^D(s, a))          paper: +-80 on T^D
+ *                   - w N(s, a)                               serve_cost.mode expected
+ *                   - P_w [a != s]                            serve_cost.wrong_delivery_penalty
+ *   N(s, a) = C(shop, a) + [a != s] P^N(shop, a) (C(a, shop) + P^N(a, shop) C(shop, s))
+ *   C(x, y) = step_cost M(x, y) + failure_penalty (1 - P^N(x, y))
+ *
+ * N is the exact expected navigation cost of the trips actually driven: the first trip; after
+ * a wrong delivery that arrived, back to the shop and, if that arrived, to the right room (the
+ * paper's redelivery rule); M the expected moves and P^N the reach probability of a trip under
+ * the robot's policy (DeliveryNavigation). Rooms are those of the requests.
+ *
+ * Why more than the paper's formula. With +-80 alone, a wrong delivery to a room the robot
+ * always reaches costs nothing: T^D(s, a) = P^N(shop, a) P^N(a, shop) P^N(shop, s) =
+ * P^N(shop, s) = T^D(s, s) when P^N(shop, a) = P^N(a, shop) = 1 (room1, room4 of the office
+ * map). The optimal policy then serves such a room at once, whatever was asked for, and uses
+ * the redelivery rule as a free oracle ("a coke for Bob to office2" served to room1). Charging
+ * the trips driven makes the probe cost two trips, still cheap next to questions; the penalty
+ * P_w charges what the person experiences: they waited and got the wrong item. With the
+ * default P_w (dialog.yaml) the robot serves only a request it believes, and the request it
+ * serves is the most likely one (tested in test_dialog_knowledge and the dialog rostests).
  */
 #pragma once
 
@@ -78,25 +84,24 @@ class DialogKnowledge {
   std::size_t roomOf(std::size_t s) const { return (s / base_.persons.size()) % base_.rooms.size(); }
 
   /**
-   * @brief Serve costs K(s, a) (requests x requests), before weighting:
-   * kNone: 0; kTasks: C(shop, a) + [a != s] (C(a, shop) + C(shop, s));
-   * kExpected: C(shop, a) + [a != s] P^N(shop, a) (C(a, shop) + P^N(a, shop) C(shop, s)),
-   * rooms written for the requests' rooms. @throws ConfigError if the rooms differ.
+   * @brief Navigation costs N(s, a) of the file comment (requests x requests), unweighted;
+   * zero for ServeCostMode::kNone. @throws ConfigError if the rooms differ.
    */
-  Eigen::MatrixXd serveCosts(const DeliveryNavigation& nav, ServeCostMode mode) const;
+  Eigen::MatrixXd serveCosts(const TripTable& trips, ServeCostMode mode) const;
 
   /**
    * @brief The dialog POMDP's specification: base() + speech model + costs / rewards / turn
-   * limit of `config` + T^D from `nav` by the delivery equation + weighted serve costs.
-   * @throws ConfigError if nav's rooms are not the knowledge base's rooms (same order).
+   * limit of `config` + T^D by the delivery equation + the serve reward's other terms (file
+   * comment). The one builder of the robot's and the experiments' dialog models.
+   * @throws ConfigError if the trips' rooms are not the knowledge base's rooms (same order).
    */
-  pomdp::DialogSpec buildSpec(const DeliveryNavigation& nav, const DialogConfig& config) const;
+  pomdp::DialogSpec buildSpec(const TripTable& trips, const DialogConfig& config) const;
 
   plog::Reasoner& reasoner() { return reasoner_; }
 
  private:
   void reasonSpeech();
-  void checkRooms(const DeliveryNavigation& nav) const;
+  void checkRooms(const TripTable& trips) const;
 
   plog::Reasoner reasoner_;
   std::string names_;  // the files, for messages

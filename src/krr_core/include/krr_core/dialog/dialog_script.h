@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "krr_core/dialog/delivery_manager.h"
 #include "krr_core/dialog/dialog_session.h"
 
 namespace krr {
@@ -57,9 +58,36 @@ long actionByName(const pomdp::DialogPomdp& dialog, const std::string& name);
  *         a policy (checked before running).
  */
 ScriptResult runDialogScript(const pomdp::DialogPomdp& dialog, const LanguageFrontEnd& language,
-                             const pomdp::AlphaVectorPolicy* policy,
+                             const pomdp::TurnLimitedPolicy* policy,
                              const std::vector<std::string>& questions,
                              const std::vector<std::string>& utterances);
+
+/// @brief A scripted delivery: what the person says and how the legs end.
+struct DeliveryScript {
+  std::vector<std::string> utterances;  ///< the opening, then one answer per question
+  std::vector<std::string> checks;      ///< what the person says at the room, in order
+  std::vector<bool> legs;               ///< leg outcomes in order; missing ones arrive
+};
+
+/// @brief What the robot did on a scripted delivery.
+struct ScriptedDelivery {
+  bool completed = false;          ///< the delivery ended (the script did not run out first)
+  DeliveryRecord record;
+  std::vector<std::string> decisions;   ///< DeliveryManager::decisions()
+  std::vector<std::string> unusedUtterances;
+};
+
+/**
+ * @brief Run a scripted delivery through the robot's DeliveryManager (runDelivery): the same
+ * class dialog_node drives from topics, so the two can be compared decision by decision.
+ * @throws ConfigError for an empty script.
+ */
+ScriptedDelivery runScriptedDelivery(const pomdp::DialogPomdp& dialog,
+                                     const LanguageFrontEnd& language,
+                                     const pomdp::TurnLimitedPolicy& policy,
+                                     const DialogConfig& config, const DeliveryScript& script);
+/// @brief {"completed": ..., "decisions": [...], "outcome": ..., "served": ..., ...}
+std::string scriptedDeliveryToJson(const pomdp::DialogPomdp& dialog, const ScriptedDelivery& d);
 
 /**
  * @brief One CSV row per turn: turn, robot_action, robot_text, user, observations,

@@ -5,11 +5,15 @@
  * The session is what a dialog manager (the dialog_node, the dialog_script CLI) runs: the
  * robot asks what the policy (or a script) says, the user answers in free text, the language
  * front end turns the text into observations of the dialog POMDP and the session applies
- * them by exact Bayesian updates. A turn is one robot question; once the model's turnLimit
- * questions have been asked, nextAction() serves the most likely request (paper: "in case a
- * dialog does not end after 20 turns, the robot is forced to work on the most likely
- * delivery"). Nothing the user says can crash it: unknown words, ignored answers and
- * observations the model deems impossible are reported in the HearResult.
+ * them by exact Bayesian updates (a simulated person's answers come in as observations,
+ * observe()). A turn is one robot question. This is the one place of the turn-limit rule:
+ * once the model's turnLimit questions have been asked, nextAction() serves the most likely
+ * request (paper: "in case a dialog does not end after 20 turns, the robot is forced to work
+ * on the most likely delivery"); the policy is solved knowing that limit
+ * (TurnLimitedSolver), so it must itself serve there, and a policy that still asks is
+ * reported as an error instead of being silently overridden. Nothing the user says can crash
+ * the session: unknown words, ignored answers and observations the model deems impossible
+ * are reported in the HearResult.
  */
 #pragma once
 
@@ -19,9 +23,9 @@
 #include <vector>
 
 #include "krr_core/dialog/language.h"
-#include "krr_core/pomdp/alpha_policy.h"
 #include "krr_core/pomdp/belief.h"
 #include "krr_core/pomdp/dialog_pomdp.h"
+#include "krr_core/pomdp/turn_limited_policy.h"
 
 namespace krr {
 namespace dialog {
@@ -49,18 +53,20 @@ class DialogSession {
  public:
   /**
    * @param dialog the dialog model (referenced: it must outlive the session)
-   * @param language the front end (referenced: it must outlive the session)
+   * @param language the front end, or nullptr when answers come only as observations
+   *        (referenced: it must outlive the session)
    * @param policy the policy choosing questions, or nullptr for scripted dialogs (then
    *        nextAction() is only available at the turn limit)
-   * @throws ConfigError if the policy's state count differs from the model's.
+   * @throws ConfigError if the policy's state count or turn limit differs from the model's.
    */
-  DialogSession(const pomdp::DialogPomdp& dialog, const LanguageFrontEnd& language,
-                const pomdp::AlphaVectorPolicy* policy = nullptr);
+  DialogSession(const pomdp::DialogPomdp& dialog, const LanguageFrontEnd* language,
+                const pomdp::TurnLimitedPolicy* policy = nullptr);
 
   /// @brief Back to the prior, no question asked.
   void reset();
-  /// @brief The policy's action at the current belief, or serve(most likely request) at the
-  /// turn limit. @throws ConfigError without a policy before the turn limit, or when finished.
+  /// @brief The policy's action at the current belief and turn, or serve(most likely request)
+  /// at the turn limit. @throws ConfigError without a policy before the turn limit, when
+  /// finished, or when the policy asks a question at the turn limit.
   std::size_t nextAction() const;
   /// @brief True when the turn limit has been reached.
   bool atTurnLimit() const { return turns_ >= dialog_.spec().turnLimit; }
@@ -68,7 +74,12 @@ class DialogSession {
   /// (the dialog is finished). @throws ConfigError for an out-of-range action or when finished.
   void act(std::size_t a);
   /// @brief The user said `text`: understand it and update the belief. Never throws on text.
+  /// @throws ConfigError without a language front end.
   HearResult hear(const std::string& text);
+  /// @brief The answer to `question` was `observation` (a simulated person): exact update.
+  /// @return false (belief unchanged) if the model deems it impossible now.
+  /// @throws ConfigError for an action that is not a question or an unknown observation.
+  bool observe(std::size_t question, std::size_t observation);
 
   const pomdp::Belief& belief() const { return belief_; }
   BeliefSummary summary() const;
@@ -82,14 +93,26 @@ class DialogSession {
 
  private:
   const pomdp::DialogPomdp& dialog_;
-  const LanguageFrontEnd& language_;
-  const pomdp::AlphaVectorPolicy* policy_;
+  const LanguageFrontEnd* language_;
+  const pomdp::TurnLimitedPolicy* policy_;
   pomdp::Belief belief_;
   int turns_ = 0;
   long lastQuestion_ = -1;
   bool finished_ = false;
   std::size_t served_ = 0;
 };
+
+/**
+ * @brief The robot's action at belief b after `turns` questions (the one decision rule of the
+ * robot and the experiments): serve(most likely request) at the turn limit; otherwise the
+ * policy's action, except that before serving the robot checks by a one-step lookahead on the
+ * policy's values whether some question is worth more than that serve (the vectors of a
+ * point-based policy are tight only near the beliefs the solver visited; the lookahead keeps
+ * the robot from serving at beliefs it never planned for). Never worse than the policy's
+ * guarantee. @throws ConfigError when the policy asks at the turn limit.
+ */
+std::size_t decideAction(const pomdp::DialogPomdp& dialog, const pomdp::TurnLimitedPolicy& policy,
+                         const pomdp::Belief& b, int turns);
 
 /// @brief summary() of any belief of the dialog model.
 BeliefSummary summarizeBelief(const pomdp::DialogPomdp& dialog, const pomdp::Belief& b);

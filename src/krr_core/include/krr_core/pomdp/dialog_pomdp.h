@@ -22,7 +22,6 @@
 #include <string>
 #include <vector>
 
-#include "krr_core/pomdp/alpha_policy.h"
 #include "krr_core/pomdp/belief.h"
 #include "krr_core/pomdp/model.h"
 
@@ -47,7 +46,7 @@ struct DialogSpec {
   double successReward = 80.0;
   double failureReward = -80.0;
   double discount = 0.99;  ///< not given in the paper; questions already carry costs
-  int turnLimit = 20;  ///< questions allowed before the controller forces a serve
+  int turnLimit = 20;  ///< questions allowed before a serve is forced (solved with the limit)
 };
 
 /// @brief Kind of a dialog action.
@@ -116,60 +115,6 @@ class DialogPomdp {
   Model model_;
   Model build();
 };
-
-/// @brief Statistics of simulated dialogs.
-struct DialogStats {
-  std::size_t episodes = 0;
-  double meanReturn = 0.0;      ///< discounted return
-  double ci95 = 0.0;            ///< half-width of the 95% confidence interval of the mean
-  double fulfilledRate = 0.0;   ///< fraction of deliveries fulfilled
-  double correctRate = 0.0;     ///< fraction of serves that matched the request
-  double meanQuestions = 0.0;
-  double meanQaCost = 0.0;
-  double forcedRate = 0.0;      ///< fraction ended by the turn limit
-};
-
-/**
- * @brief Executes a policy in a dialog: tracks the exact belief, counts the turns, asks the
- * policy for the next action and forces serve(most likely request) once turnLimit questions
- * have been asked (the paper: "in case a dialog does not end after 20 turns, the robot is
- * forced to work on the most likely delivery").
- */
-class DialogController {
- public:
-  /// @brief Both arguments are referenced, not copied: they must outlive the controller.
-  DialogController(const DialogPomdp& dialog, const AlphaVectorPolicy& policy);
-  /// @brief Start a new dialog from the prior.
-  void reset();
-  /// @brief The action to take now (a serve action once the turn limit is reached).
-  std::size_t nextAction() const;
-  /// @brief True when nextAction() is a serve forced by the turn limit.
-  bool atTurnLimit() const { return turns_ >= dialog_.spec().turnLimit; }
-  /// @brief Record that action a was taken and o observed. Questions update the belief and
-  /// count a turn; a serve ends the dialog. @throws IncoherentError on an impossible answer,
-  /// ConfigError after the dialog ended.
-  void observe(std::size_t a, std::size_t o);
-  bool finished() const { return finished_; }
-  int turns() const { return turns_; }
-  const Belief& belief() const { return belief_; }
-  std::array<Eigen::VectorXd, 3> marginals() const { return dialog_.marginals(belief_); }
-  double entropy(EntropyUnit unit = EntropyUnit::kNats) const;
-
- private:
-  const DialogPomdp& dialog_;
-  const AlphaVectorPolicy& policy_;
-  Belief belief_;
-  int turns_ = 0;
-  bool finished_ = false;
-};
-
-/**
- * @brief Simulate dialogs with a simulated user drawn from the prior (or fixed to one
- * request if fixedRequest >= 0), answers drawn from the observation model, delivery success
- * drawn from T^D. Episode e uses stream makeRng(seed, "dialog", e).
- */
-DialogStats simulateDialogs(const DialogPomdp& dialog, const AlphaVectorPolicy& policy,
-                            std::size_t episodes, std::uint64_t seed, long fixedRequest = -1);
 
 }  // namespace pomdp
 }  // namespace krr

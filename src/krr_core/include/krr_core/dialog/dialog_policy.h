@@ -1,0 +1,51 @@
+/**
+ * @file dialog_policy.h
+ * @brief Solve once, use everywhere: the one way a dialog model becomes the policy that the
+ * robot (dialog_node, dialog_script) and the experiments (delivery trials, Table II) run.
+ *
+ * The dialog POMDP is solved with its turn limit (TurnLimitedSolver: the policy knows it must
+ * serve after turn_limit questions) under config/dialog.yaml's solver options. With a cache
+ * directory the policy is saved under a hash of everything that determines it (the exact
+ * model as Cassandra text, the turn limit, the solver options and a fingerprint of the
+ * solver's behaviour), with its bounds beside it, so a process that builds the same model
+ * from the same knowledge loads the same policy, and a changed model or solver never reuses
+ * a stale one. Only reproducible solves (stopped by the precision or the trial budget, not by
+ * the timeout) are cached.
+ */
+#pragma once
+
+#include <string>
+
+#include "krr_core/dialog/dialog_config.h"
+#include "krr_core/pomdp/dialog_pomdp.h"
+#include "krr_core/pomdp/turn_limited_policy.h"
+#include "krr_core/pomdp/turn_limited_solver.h"
+
+namespace krr {
+namespace dialog {
+
+/// @brief How a dialog policy was obtained and how good it is certified to be.
+struct PolicyReport {
+  pomdp::BoundsReport bounds;   ///< at the prior, turn 0 (also for cached policies)
+  bool converged = false;       ///< bounds.gap() <= config precision
+  bool reproducible = false;    ///< stopped by the precision or the trial budget
+  bool from_cache = false;
+  std::string file;             ///< cache file ("" without a cache directory)
+  double seconds = 0.0;         ///< solving (or loading) time
+};
+
+/**
+ * @brief The policy of `dialog` (see the file comment).
+ * @throws ConfigError for an inconsistent model or options; IoError / ParseError for a broken
+ *         cache file (it is then not used silently: the message names it).
+ */
+pomdp::TurnLimitedPolicy solveDialogPolicy(const pomdp::DialogPomdp& dialog,
+                                           const DialogConfig& config,
+                                           const std::string& cache_dir,
+                                           PolicyReport* report = nullptr);
+
+/// @brief The solver options solveDialogPolicy uses for `config`.
+pomdp::TurnLimitedSolverOptions dialogSolverOptions(const DialogConfig& config);
+
+}  // namespace dialog
+}  // namespace krr

@@ -1,0 +1,139 @@
+#include "krr_core/dialog/dialog_policy.h"
+
+#include <sys/stat.h>
+
+#include <cstdio>
+#include <sstream>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/common/files.h"
+#include "krr_core/common/resources.h"
+
+namespace krr {
+namespace dialog {
+
+namespace {
+
+bool fileExists(const std::string& path) {
+  struct stat st;
+  return ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+}
+
+/// A fingerprint of the solver's behaviour (its policy on a small penalised dialog after a
+/// fixed number of trials), part of the cache key: a changed solver never reuses a policy
+/// cached by an older one.
+std::uint64_t solverFingerprint() {
+  static const std::uint64_t fp = [] {
+    pomdp::DialogSpec spec;
+    spec.items = {"a", "b"};
+    spec.rooms = {"near", "far"};
+    spec.persons = {"p"};
+    Eigen::VectorXd reach(2);
+    reach << 1.0, 0.5;
+    spec.delivery = pomdp::deliveryMatrix(2, reach, 1);
+    spec.serveCost = 40.0 * (Eigen::MatrixXd::Ones(4, 4) - Eigen::MatrixXd::Identity(4, 4));
+    spec.turnLimit = 6;
+    const pomdp::DialogPomdp d(spec);
+    pomdp::TurnLimitedSolverOptions o;
+    o.precision = 1e-12;
+    o.timeout = 1e9;
+    o.maxTrials = 25;
+    pomdp::TurnLimitedSolver s(d.model(), d.model().initialBelief(), spec.turnLimit, o);
+    s.solve();
+    return stableHash(s.policy().toText());
+  }();
+  return fp;
+}
+
+std::string boundsText(const PolicyReport& r) {
+  std::ostringstream o;
+  o.precision(17);
+  o << "krr-policy-bounds 1\nlower " << r.bounds.lower << "\nupper " << r.bounds.upper
+    << "\ntrials " << r.bounds.trials << "\nalphas " << r.bounds.alphas << "\npoints "
+    << r.bounds.points << "\nseconds " << r.bounds.time << "\n";
+  return o.str();
+}
+
+void readBounds(const std::string& file, PolicyReport& r) {
+  std::istringstream in(readFile(file));
+  std::string key;
+  int version = 0;
+  if (!(in >> key >> version) || key != "krr-policy-bounds" || version != 1)
+    throw IoError(file + ": not a policy bounds file (delete it to solve again)");
+  while (in >> key) {
+    if (key == "lower") in >> r.bounds.lower;
+    else if (key == "upper") in >> r.bounds.upper;
+    else if (key == "trials") in >> r.bounds.trials;
+    else if (key == "alphas") in >> r.bounds.alphas;
+    else if (key == "points") in >> r.bounds.points;
+    else if (key == "seconds") in >> r.bounds.time;
+    else throw IoError(file + ": unknown field '" + key + "' (delete it to solve again)");
+    if (!in) throw IoError(file + ": bad value of '" + key + "' (delete it to solve again)");
+  }
+}
+
+}  // namespace
+
+pomdp::TurnLimitedSolverOptions dialogSolverOptions(const DialogConfig& config) {
+  pomdp::TurnLimitedSolverOptions o;
+  o.precision = config.solver_precision;
+  o.timeout = config.solver_timeout;
+  o.maxTrials = config.solver_max_trials;
+  return o;
+}
+
+pomdp::TurnLimitedPolicy solveDialogPolicy(const pomdp::DialogPomdp& dialog,
+                                           const DialogConfig& config,
+                                           const std::string& cache_dir, PolicyReport* report) {
+  config.validate();
+  Stopwatch clock;
+  PolicyReport rep;
+  const pomdp::TurnLimitedSolverOptions so = dialogSolverOptions(config);
+  const int limit = dialog.spec().turnLimit;
+  if (!cache_dir.empty()) {
+    std::ostringstream key;
+    key.precision(17);
+    key << "turn-limited v1|" << solverFingerprint() << "|" << limit << "|" << so.precision << "|"
+        << so.maxTrials << "|" << so.trialGapFactor << "|" << so.lowerGuidedEvery << "|"
+        << dialog.exportCassandra();
+    char name[64];
+    std::snprintf(name, sizeof(name), "policy_%016llx",
+                  static_cast<unsigned long long>(stableHash(key.str())));
+    rep.file = cache_dir + "/" + name + ".txt";
+    const std::string boundsFile = cache_dir + "/" + name + ".bounds";
+    if (fileExists(rep.file) && fileExists(boundsFile)) {
+      pomdp::TurnLimitedPolicy p = pomdp::TurnLimitedPolicy::load(rep.file);
+      if (p.numStates() != dialog.model().getS() || p.turnLimit() != limit)
+        throw IoError(rep.file + ": cached policy has " + std::to_string(p.numStates()) +
+                      " states and turn limit " + std::to_string(p.turnLimit()) +
+                      ", the model " + std::to_string(dialog.model().getS()) + " and " +
+                      std::to_string(limit) + " (delete it to solve again)");
+      readBounds(boundsFile, rep);
+      rep.from_cache = true;
+      rep.reproducible = true;  // only reproducible policies are cached
+      rep.converged = rep.bounds.gap() <= so.precision;
+      rep.seconds = clock.seconds();
+      if (report) *report = rep;
+      return p;
+    }
+  }
+  pomdp::TurnLimitedSolver solver(dialog.model(), dialog.model().initialBelief(), limit, so);
+  rep.converged = solver.solve();
+  rep.bounds = solver.report();
+  rep.reproducible = rep.converged || (so.maxTrials > 0 && rep.bounds.trials >= so.maxTrials &&
+                                       rep.bounds.time < so.timeout);
+  pomdp::TurnLimitedPolicy policy = solver.policy();
+  if (!rep.file.empty() && rep.reproducible) {
+    makeDirectories(cache_dir);
+    // Bounds first: the policy file's presence marks a complete entry.
+    writeFileAtomic(rep.file.substr(0, rep.file.size() - 4) + ".bounds", boundsText(rep));
+    policy.save(rep.file);
+  }
+  if (!rep.reproducible) rep.file.clear();
+  rep.seconds = clock.seconds();
+  if (report) *report = rep;
+  return policy;
+}
+
+}  // namespace dialog
+}  // namespace krr

@@ -1,0 +1,124 @@
+#include "krr_core/pomdp/turn_limited_policy.h"
+
+#include <algorithm>
+#include <sstream>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/common/files.h"
+#include "policy_text.h"
+
+namespace krr {
+namespace pomdp {
+
+TurnLimitedPolicy::TurnLimitedPolicy(std::size_t numStates, int turnLimit)
+    : s_(numStates), limit_(turnLimit) {
+  if (turnLimit < 0)
+    throw ConfigError("turn-limited policy: turn limit " + std::to_string(turnLimit) + " < 0");
+}
+
+void TurnLimitedPolicy::add(const Eigen::VectorXd& alpha, std::size_t action, int stage) {
+  if (static_cast<std::size_t>(alpha.size()) != s_)
+    throw ConfigError("alpha vector has " + std::to_string(alpha.size()) + " entries, policy has " +
+                      std::to_string(s_) + " states");
+  if (!alpha.allFinite()) throw ConfigError("alpha vector has non-finite entries");
+  if (stage < 0 || stage > limit_)
+    throw ConfigError("alpha vector stage " + std::to_string(stage) + " outside [0, " +
+                      std::to_string(limit_) + "]");
+  alphas_.push_back(alpha);
+  actions_.push_back(action);
+  stages_.push_back(stage);
+}
+
+std::size_t TurnLimitedPolicy::bestIndex(const Belief& b, int turns) const {
+  if (static_cast<std::size_t>(b.size()) != s_)
+    throw ConfigError("belief has " + std::to_string(b.size()) + " entries, policy has " +
+                      std::to_string(s_) + " states");
+  const int t = std::clamp(turns, 0, limit_);
+  std::size_t best = alphas_.size();
+  double bv = 0.0;
+  for (std::size_t i = 0; i < alphas_.size(); ++i) {
+    if (stages_[i] < t) continue;
+    const double v = alphas_[i].dot(b);
+    if (best == alphas_.size() || v > bv) {
+      bv = v;
+      best = i;
+    }
+  }
+  if (best == alphas_.size())
+    throw ConfigError("turn-limited policy has no vector usable after " + std::to_string(t) +
+                      " turns");
+  return best;
+}
+
+double TurnLimitedPolicy::value(const Belief& b, int turns) const {
+  return alphas_[bestIndex(b, turns)].dot(b);
+}
+
+double TurnLimitedPolicy::lookahead(const Model& m, const Belief& b, std::size_t a, int turns,
+                                    bool ends) const {
+  if (a >= m.getA() || m.getS() != s_)
+    throw ConfigError("turn-limited policy: lookahead of action " + std::to_string(a) +
+                      " on a model with " + std::to_string(m.getA()) + " actions and " +
+                      std::to_string(m.getS()) + " states");
+  double q = m.rewardMatrix().col(static_cast<Eigen::Index>(a)).dot(b);
+  if (ends) return q;
+  const Belief pred = m.isIdentityTransition(a) ? b : Belief(m.transitionMatrixTransposed(a) * b);
+  Belief child;
+  for (std::size_t o : m.possibleObservations(a)) {
+    child = m.observationMatrix(a).col(static_cast<Eigen::Index>(o)).cwiseProduct(pred);
+    const double p = child.sum();
+    if (!(p > 0.0)) continue;
+    child /= p;
+    q += m.getDiscount() * p * value(child, turns + 1);
+  }
+  return q;
+}
+
+std::string TurnLimitedPolicy::toText() const {
+  std::ostringstream ss;
+  ss << "krr-turn-limited-policy 1\nstates " << s_ << "\nturn_limit " << limit_ << "\nvectors "
+     << alphas_.size() << "\n";
+  for (std::size_t i = 0; i < alphas_.size(); ++i) {
+    ss << stages_[i] << ' ' << actions_[i];
+    for (Eigen::Index k = 0; k < alphas_[i].size(); ++k) ss << ' ' << detail::fmt(alphas_[i](k));
+    ss << '\n';
+  }
+  return ss.str();
+}
+
+TurnLimitedPolicy TurnLimitedPolicy::fromText(const std::string& text, const std::string& file) {
+  detail::TokenReader in(text, file);
+  in.keyword("krr-turn-limited-policy");
+  const detail::Tok& ver = in.need("version");
+  if (detail::parseInt(ver, text, file) != 1)
+    throw in.errorAt(ver, "unsupported version '" + ver.text + "'");
+  in.keyword("states");
+  const auto s = static_cast<std::size_t>(in.count("state count"));
+  in.keyword("turn_limit");
+  const detail::Tok& lim = in.need("turn limit");
+  const long limit = detail::parseInt(lim, text, file);
+  if (limit > 1000000) throw in.errorAt(lim, "turn limit " + lim.text + " is too large");
+  in.keyword("vectors");
+  const auto n = static_cast<std::size_t>(in.count("vector count"));
+  TurnLimitedPolicy p(s, static_cast<int>(limit));
+  for (std::size_t v = 0; v < n; ++v) {
+    const detail::Tok& st = in.need("stage");
+    const long stage = detail::parseInt(st, text, file);
+    if (stage > limit) throw in.errorAt(st, "stage " + st.text + " exceeds the turn limit");
+    const auto a = static_cast<std::size_t>(in.integer("action"));
+    Eigen::VectorXd alpha(static_cast<Eigen::Index>(s));
+    for (std::size_t k = 0; k < s; ++k) alpha(static_cast<Eigen::Index>(k)) = in.number("value");
+    p.add(alpha, a, static_cast<int>(stage));
+  }
+  in.finish();
+  return p;
+}
+
+void TurnLimitedPolicy::save(const std::string& path) const { writeFileAtomic(path, toText()); }
+
+TurnLimitedPolicy TurnLimitedPolicy::load(const std::string& path) {
+  return fromText(readFile(path), path);
+}
+
+}  // namespace pomdp
+}  // namespace krr

@@ -1,0 +1,65 @@
+// Tests of TurnLimitedPolicy: which vectors a turn may use, text round trip, bad files.
+#include <gtest/gtest.h>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/pomdp/turn_limited_policy.h"
+
+namespace krr {
+namespace pomdp {
+namespace {
+
+TEST(TurnLimitedPolicy, VectorsServeUpToTheirStage) {
+  TurnLimitedPolicy p(2, 3);
+  p.add(Eigen::Vector2d(10, 10), 0, 1);  // best, but only until turn 1
+  p.add(Eigen::Vector2d(5, 5), 1, 2);
+  p.add(Eigen::Vector2d(0, 1), 2, 3);    // usable at every turn
+  const Eigen::Vector2d b(0.5, 0.5);
+  EXPECT_EQ(p.bestAction(b, 0), 0u);
+  EXPECT_EQ(p.bestAction(b, 1), 0u);
+  EXPECT_EQ(p.bestAction(b, 2), 1u);
+  EXPECT_EQ(p.bestAction(b, 3), 2u);
+  EXPECT_EQ(p.bestAction(b, 99), 2u);   // beyond the limit counts as the limit
+  EXPECT_DOUBLE_EQ(p.value(b, 2), 5.0);
+  EXPECT_THROW(p.add(Eigen::Vector2d(0, 0), 0, 4), ConfigError);
+  EXPECT_THROW(p.add(Eigen::Vector3d(0, 0, 0), 0, 1), ConfigError);
+  EXPECT_THROW(p.bestIndex(Eigen::Vector3d(1, 0, 0), 0), ConfigError);
+  TurnLimitedPolicy noEnd(2, 3);
+  noEnd.add(Eigen::Vector2d(1, 1), 0, 1);
+  EXPECT_THROW(noEnd.bestIndex(b, 2), ConfigError);
+}
+
+TEST(TurnLimitedPolicy, TextRoundTripIsExact) {
+  TurnLimitedPolicy p(3, 20);
+  p.add(Eigen::Vector3d(0.1, -1.0 / 3.0, 1e-300), 4, 0);
+  p.add(Eigen::Vector3d(-80, 80, 0), 40, 20);
+  const TurnLimitedPolicy q = TurnLimitedPolicy::fromText(p.toText());
+  ASSERT_EQ(q.size(), 2u);
+  EXPECT_EQ(q.turnLimit(), 20);
+  EXPECT_EQ(q.stage(1), 20);
+  EXPECT_EQ(q.action(0), 4u);
+  EXPECT_EQ(q.alpha(0), p.alpha(0));
+  EXPECT_EQ(q.toText(), p.toText());
+}
+
+TEST(TurnLimitedPolicy, MalformedTextNamesTheSpot) {
+  const std::string head = "krr-turn-limited-policy 1\nstates 2\nturn_limit 3\nvectors 1\n";
+  try {
+    TurnLimitedPolicy::fromText(head + "4 0 1 2\n", "p.txt");
+    FAIL() << "a stage beyond the limit must be refused";
+  } catch (const ParseError& e) {
+    EXPECT_EQ(e.location().line, 5);
+    EXPECT_EQ(e.location().column, 1);
+  }
+  EXPECT_THROW(TurnLimitedPolicy::fromText(head + "1 0 1 x\n"), ParseError);
+  EXPECT_THROW(TurnLimitedPolicy::fromText(head + "1 0 1\n"), ParseError);
+  EXPECT_THROW(TurnLimitedPolicy::fromText(head + "1 0 1 2 3\n"), ParseError);
+  EXPECT_THROW(TurnLimitedPolicy::fromText("krr-alpha-policy 1\n"), ParseError);
+  // A declared size the file cannot hold is refused before any allocation.
+  EXPECT_THROW(TurnLimitedPolicy::fromText(
+                   "krr-turn-limited-policy 1\nstates 999999999999\nturn_limit 3\nvectors 1\n"),
+               ParseError);
+}
+
+}  // namespace
+}  // namespace pomdp
+}  // namespace krr
