@@ -1,9 +1,12 @@
 #!/usr/bin/env python3
-"""Benchmark of the evaluation suite: time per experiment at the paper's trial counts.
+"""Benchmark of the evaluation suite: time per experiment at the default trial counts.
 
     tools/bench_evaluate.py [--out DIR] [--workers W] [--scheduler ADDR]
-        full default suite (all six experiments at the paper's trial counts), then the time
-        per experiment and the total against the 10-minute target
+        full default suite (all six experiments at the default trial counts: the paper's,
+        exp2 40,000), then the time per experiment and the total against the 3-minute
+        target (issue 11). Cold by default:
+        learned knowledge and dialog policies go to a fresh cache (KRR_CACHE_DIR), so
+        learning and solving are counted as on a fresh clone; --warm reuses the user's cache
     tools/bench_evaluate.py --scales 0.01,0.03 [--only exp2,exp4]
         runs the suite at reduced trial counts instead and extrapolates each experiment's
         time linearly (t = a + b * scale; a holds start-up costs) to scale 1
@@ -23,12 +26,14 @@ import time
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from krr_eval import experiments, suite  # noqa: E402
 
-TARGET_S = 600.0
+TARGET_S = 180.0
 
 
 def run(out, scale, args):
+    # --allow-unconverged: the benchmark measures time; the dialog policies' certified gap is
+    # reported by policy_report / bench_dialog_pomdp, and the main job says so too.
     cmd = ["--out", out, "--trials-scale", repr(scale), "--workers", str(args.workers),
-           "--no-progress", "--no-ros", "--seed", str(args.seed)]
+           "--no-progress", "--no-ros", "--seed", str(args.seed), "--allow-unconverged"]
     if args.only:
         cmd += ["--only", args.only]
     if args.scheduler:
@@ -53,8 +58,10 @@ def main(argv=None):
     ap.add_argument("--scheduler")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--only", help="comma-separated experiments (default: all)")
+    ap.add_argument("--warm", action="store_true",
+                    help="reuse the user's learned-knowledge / policy cache (default: a fresh one)")
     ap.add_argument("--scales", help="two or more reduced scales to extrapolate from, e.g. "
-                    "0.01,0.03 (default: one run at the paper's counts)")
+                    "0.01,0.03 (default: one run at the default counts)")
     a = ap.parse_args(argv)
     scales = [1.0]
     if a.scales:
@@ -65,9 +72,11 @@ def main(argv=None):
         if len(scales) < 2 or scales[0] <= 0 or len(set(scales)) != len(scales):
             ap.error("--scales needs at least two distinct positive scales")
     base = a.out or tempfile.mkdtemp(prefix="krr_bench_eval_")
-    print("bench_evaluate: %d workers%s, scales %s, outputs in %s" % (
+    if not a.warm:
+        os.environ["KRR_CACHE_DIR"] = os.path.join(base, "cache")
+    print("bench_evaluate: %d workers%s, scales %s, %s cache, outputs in %s" % (
         a.workers, " on %s" % a.scheduler if a.scheduler else "",
-        ", ".join("%g" % s for s in scales), base))
+        ", ".join("%g" % s for s in scales), "warm" if a.warm else "cold", base))
     times, cpus, trials = {}, {}, {}
     try:
         for s in scales:
@@ -113,7 +122,7 @@ def main(argv=None):
     print("%-6s %s  %s  %10.1f %10.1f %10.1f" % (
         "total", " " * len("  ".join("wall@%g" % s for s in scales)),
         " " * len("  ".join("CPU@%g" % s for s in scales)), tot[0], tot[1], tot[1] / a.workers))
-    print("extrapolated linearly (t = a + b * scale) to the paper's trial counts; target %.0f s "
+    print("extrapolated linearly (t = a + b * scale) to the default trial counts; target %.0f s "
           "(wall): %s; idle-machine estimate: %s" % (
               TARGET_S, "met" if tot[0] < TARGET_S else "NOT met",
               "met" if tot[1] / a.workers < TARGET_S else "NOT met"))

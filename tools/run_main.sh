@@ -8,6 +8,12 @@
 #   bash tools/run_main.sh --trials-scale 0.1       # a faster, smaller evaluation
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+START=$(date +%s)
+report_time() {
+  local rc=$?
+  echo "== run_main: total $(( $(date +%s) - START )) s (install, build, sim, evaluation; exit $rc)"
+}
+trap report_time EXIT
 export PATH="/usr/bin:/bin:$PATH"
 OUT="${KRR_OUT:-$ROOT/out}"
 bash "$ROOT/tools/install_deps.sh"
@@ -30,4 +36,6 @@ echo "== evaluation (tools/evaluate.py, output in $OUT/eval)"
 # their certified bounds (report.md, exp2_policies).
 echo "   (--allow-unconverged: Table I/II rest on dialog policies with certified bounds, not on"
 echo "    certified optimal ones; their gaps are in report.md)"
+EVAL_START=$(date +%s)
 /usr/bin/python3 "$ROOT/tools/evaluate.py" --out "$OUT/eval" --allow-unconverged "$@"
+echo "== evaluation: $(( $(date +%s) - EVAL_START )) s wall (report: $OUT/eval/report.md)"

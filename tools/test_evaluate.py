@@ -79,6 +79,8 @@ class SuiteTest(FakeEnv):
                   "exp2_table1.md", "exp2_table1.csv", "exp2_significance.csv",
                   "exp3_cdf.png", "exp3_qa_cost.csv", "exp4_table2.md",
                   "exp5_new_circumstances.csv", "exp6_belief_bars.png", "exp6_dialog.md",
+                  "exp2_paired_rates.csv", "exp2_trial_count.csv", "exp3_cdf_other_br.png",
+                  "exp6_policy_dialog.md", "trials/dialog_script_policy.csv",
                   "trials/delivery_br0.7_learned.csv", "trials/dialog_script.csv"):
             self.assertTrue(os.path.exists(os.path.join(self.out, f)), f)
         for png in glob.glob(os.path.join(self.out, "*.png")):
@@ -125,6 +127,13 @@ class SuiteTest(FakeEnv):
                          "supported")
         self.assertEqual(by["the robot never asks about the person (prior knowledge: Bob's "
                             "office)"]["verdict"], "supported")
+        # Table I as the paper means it: identification, navigation success, delivered; the
+        # paired tests; the trial count and nothing tuned to the paper's magnitudes
+        for text in ("identified", "navigation success", "delivered", "expected reward",
+                     "paired on the same trials", "McNemar", "Nothing is tuned towards the "
+                     "paper's magnitudes", "Trial count.", "taken as the paper's setting",
+                     "exp3_cdf_other_br.png"):
+            self.assertIn(text, rep)
 
     def test_tables_identical_for_other_worker_counts(self):
         out3 = os.path.join(self.tmp, "w3")

@@ -32,7 +32,7 @@ class VerdictTest(FakeEnv):
         merged = [c for c in cs if c["experiment"] == "5 new circ."][0]
         self.assertEqual(merged["verdict"], "NOT supported (opposite direction)")
         rewards = [c for c in cs if "higher overall reward" in c["claim"]]
-        self.assertEqual(len(rewards), 3)
+        self.assertEqual(len(rewards), 6)  # expected (primary) and realised, per br
         self.assertTrue(all(c["verdict"].startswith("NOT supported") for c in rewards))
         fig4 = {c["claim"]: c["verdict"] for c in cs if c["experiment"] == "6 Fig. 4"}
         self.assertEqual(fig4["the robot starts with uniform marginals over item, person and "
@@ -40,9 +40,37 @@ class VerdictTest(FakeEnv):
         for claim in ("at the end the belief is confident in <coke, Bob, office2>",
                       "after the request the robot asks about the item first",
                       "the robot never asks about the person (prior knowledge: Bob's office)",
-                      "the robot ends by delivering a coke for Bob to office2"):
+                      "after the paper's four user turns the robot delivers a coke for Bob to "
+                      "office2",
+                      "the robot's own policy asks the paper's questions (Which item is it? / "
+                      "Should I deliver a coke? / Should I deliver to office2?)"):
             self.assertEqual(fig4[claim], "NOT supported", claim)
         self.assertIn("NOT supported", read(os.path.join(out, "report.md")))
+
+    def test_every_unsupported_claim_has_a_reason(self):
+        """report.md explains every claim it does not support with a reason generated from the
+        numbers; the experiments give their own (exp5's may fall back to the generic one)."""
+        for mode, seed in (("reverse", "1"), ("noisy", "2")):
+            os.environ["FAKE_KRR_MODE"] = mode
+            out = os.path.join(self.tmp, "reasons_" + mode)
+            rc, stdout, _ = run_suite(["--out", out, "--quick", "--seed", seed,
+                                       "--trials", "exp2=200,exp4=300,exp5=60", "--workers", "2",
+                                       "--chunks-per-worker", "1", "--no-progress", "--no-ros"])
+            self.assertEqual(rc, 0, stdout)
+            cs = claims(out)
+            self.assertEqual(len({c["experiment"] for c in cs}), 6)
+            bad = [c for c in cs if c["verdict"] != "supported"]
+            self.assertGreater(len(bad), 10 if mode == "reverse" else 3, mode)
+            rep = read(os.path.join(out, "report.md"))
+            self.assertIn("### Why claims are not supported", rep)
+            for c in bad:
+                self.assertTrue(c["reason"] and c["reason"].strip(), c)
+                self.assertIn(c["reason"], rep)
+                if c["experiment"] != "5 new circ.":
+                    self.assertEqual(c["reason_source"], "experiment", c)
+            for c in cs:
+                if c["verdict"] == "supported":
+                    self.assertIsNone(c["reason"], c)
 
     def test_no_effect_is_not_significant(self):
         os.environ["FAKE_KRR_MODE"] = "noisy"

@@ -2,6 +2,7 @@
 workers, error reporting, recording and replay."""
 import io
 import json
+import collections
 import os
 import shutil
 import tempfile
@@ -111,6 +112,30 @@ class DeterminismTest(FakeBinTest):
         self.assertIn("--br 0.5 --condition learned --seed 7 --trials 2 --trial-begin 0 "
                       "--threads 1 --out", calls[0])
         self.assertIn("--trial-begin 2", calls[1])
+
+
+    def test_single_chunk_gets_the_idle_slots_as_threads(self):
+        one = [TrialSpec("d", "delivery_trials", ["--br", "0.5", "--condition", "learned"], 7,
+                         6, min_chunk=100)]
+        self.assertEqual(self.run_with(2, specs=one), self.run_with(1, specs=one))
+        calls = self.calls()
+        self.assertIn("--threads 2", calls[0])
+        self.assertIn("--threads 1", calls[1])
+
+    def test_chunks_are_split_and_ordered_by_cost(self):
+        cheap = TrialSpec("a", "delivery_trials", [], 1, 1200)
+        dear = TrialSpec("b", "delivery_trials", [], 1, 1200, cost=3.0)
+        runner = Runner(workers=2, chunks_per_worker=4, progress=None)
+        jobs, total = runner._plan([cheap, dear])
+        self.assertEqual(total, 2400)
+        per = collections.Counter(j[0].name for j in jobs)
+        self.assertEqual((per["a"], per["b"]), (2, 6))  # equal work per chunk: 600 units
+        work = [j[3] * j[0].cost for j in jobs]
+        self.assertEqual(work, sorted(work, reverse=True))
+        # the first chunk of every set before any set's second one (equal work)
+        self.assertEqual([(j[0].name, j[2]) for j in jobs[:2]], [("a", 0), ("b", 0)])
+        with self.assertRaisesRegex(ValueError, "cost"):
+            TrialSpec("x", "p", [], 1, 3, cost=0)
 
 
 class ErrorTest(FakeBinTest):

@@ -82,6 +82,56 @@ class TTestTest(unittest.TestCase):
         self.assertEqual(stats.mann_whitney([2, 2], [2, 2, 2]).p, 1.0)
 
 
+class PairedAndTrialCountTest(unittest.TestCase):
+    def test_paired_difference(self):
+        # differences 1,2,2,3: mean 2, s = sqrt(2/3); half = t(0.975, 3) * s / 2 with
+        # t(0.975, 3) = 3.182446305; paired t = 4.898979, p = 0.01628
+        e, t = stats.paired_difference([1, 2, 3, 4], [0, 0, 1, 1])
+        self.assertEqual(e.mean, 2.0)
+        self.assertEqual(e.n, 4)
+        self.assertAlmostEqual(e.half, 3.182446305 * math.sqrt(2 / 3.0) / 2, places=7)
+        self.assertAlmostEqual(t.statistic, 2 / (math.sqrt(2 / 3.0) / 2))
+        self.assertAlmostEqual(t.p, 0.01628, places=5)
+        with self.assertRaisesRegex(ValueError, "length"):
+            stats.paired_difference([1, 2], [1])
+
+    def test_half_width(self):
+        # the textbook sample of MeanCiTest: s = sqrt(32/7), n = 8, t(0.975, 7) = 2.364624252
+        self.assertAlmostEqual(stats.half_width(math.sqrt(32 / 7.0), 8),
+                               2.364624252 * math.sqrt(32 / 7.0) / math.sqrt(8), places=7)
+        self.assertAlmostEqual(stats.half_width(math.sqrt(32 / 7.0), 8),
+                               stats.mean_ci([2, 4, 4, 4, 5, 5, 7, 9]).half)
+        self.assertEqual(stats.half_width(0.0, 10), 0.0)
+        with self.assertRaises(ValueError):
+            stats.half_width(1.0, 1)
+        with self.assertRaises(ValueError):
+            stats.half_width(-1.0, 10)
+
+    def test_trials_for_half_width(self):
+        # sd 1, half 1: n = 6 gives t(0.975, 5) / sqrt(6) = 2.570582 / 2.449490 = 1.0494 > 1,
+        # n = 7 gives 2.446912 / 2.645751 = 0.9248 <= 1
+        self.assertEqual(stats.trials_for_half_width(1.0, 1.0), 7)
+        # large n: (z sd / half)^2 = (1.959964 * 54.69 / 0.5)^2 = 45961.4, plus the t correction
+        n = stats.trials_for_half_width(54.69, 0.5)
+        self.assertLessEqual(stats.half_width(54.69, n), 0.5)
+        self.assertGreater(stats.half_width(54.69, n - 1), 0.5)
+        self.assertEqual(n, 45962)
+        self.assertEqual(stats.trials_for_half_width(0.0, 0.5), 2)
+        with self.assertRaisesRegex(ValueError, "positive"):
+            stats.trials_for_half_width(1.0, 0.0)
+
+    def test_mcnemar_paired(self):
+        # 1 pair where only a succeeds, 9 where only b does, 5 concordant
+        a = [1] + [0] * 9 + [1, 1, 0, 0, 1]
+        b = [0] + [1] * 9 + [1, 1, 0, 0, 1]
+        t, only_a, only_b = stats.mcnemar_paired(a, b)
+        self.assertEqual((only_a, only_b), (1, 9))
+        self.assertAlmostEqual(t.p, 22 / 1024.0)
+        self.assertEqual(stats.mcnemar_paired([True, False], [True, False])[0].p, 1.0)
+        with self.assertRaisesRegex(ValueError, "length"):
+            stats.mcnemar_paired([1], [1, 0])
+
+
 class ProportionTest(unittest.TestCase):
     def test_wilson_at_zero(self):
         # 0/10: upper = (z^2/n) / (1 + z^2/n) with z = 1.959964 -> 0.27753

@@ -13,7 +13,8 @@ CONDITION_STYLE = {"outdated": ("-", "without extraction (outdated model)"),
 
 def cdf_grid(data, png_path, xlabel="QA cost"):
     """CDF plots: data = {row label: {column label: {condition: [values]}}}; one subplot per
-    (row, column), one curve per condition (solid: outdated, dashed: learned)."""
+    (row, column), one curve per condition (solid: outdated, dashed: learned). One row gives
+    the paper's Figure 5 layout (room2 left, room4 right)."""
     rows = list(data)
     cols = sorted({c for r in rows for c in data[r]})
     fig, axes = plt.subplots(len(rows), len(cols), figsize=(4.2 * len(cols), 3.0 * len(rows)),
@@ -41,30 +42,40 @@ def cdf_grid(data, png_path, xlabel="QA cost"):
     plt.close(fig)
 
 
-def belief_bars(turns, dims, png_path):
-    """Figure 4: for each turn three stacked bars (one per dimension in `dims`, e.g. item,
-    person, room) whose segments are the marginal probabilities of the values.
+def belief_bars(turns, dims, png_path, captions=None):
+    """Figure 4: for each turn a group of stacked bars, one per dimension in `dims` (item,
+    person, room, in the paper's order), whose segments are the marginal probabilities of the
+    values (bottom to top in the CLI's order, as in the paper).
 
-    turns: [(turn label, {dim: [(value, probability), ...]})]."""
-    fig, ax = plt.subplots(figsize=(1.9 * len(turns) + 1.5, 3.8))
-    cmap = plt.get_cmap("tab10")
+    turns: [(turn label, {dim: [(value, probability), ...]})]; captions: optional text under
+    each group (e.g. the robot's question and the user's answer)."""
+    fig, ax = plt.subplots(figsize=(2.1 * len(turns) + 2.0, 4.4 if captions else 3.8))
+    cmaps = {"item": "Reds", "person": "Greens", "room": "Blues"}
     colours, xticks, xlabels = {}, [], []
     width = 0.8
     for t, (label, marg) in enumerate(turns):
         for k, d in enumerate(dims):
             x = t * (len(dims) + 1) + k
             bottom = 0.0
-            for v, p in marg.get(d, []):
+            values = marg.get(d, [])
+            for j, (v, p) in enumerate(values):
                 key = (d, v)
                 if key not in colours:
-                    colours[key] = cmap(len(colours) % 10)
+                    cmap = plt.get_cmap(cmaps.get(d, "Greys"))
+                    colours[key] = cmap(0.3 + 0.6 * j / max(1, len(values) - 1))
                 ax.bar(x, p, width, bottom=bottom, color=colours[key], edgecolor="white",
                        linewidth=0.5, label="%s: %s" % (d, v) if t == 0 else None)
+                if p >= 0.12:
+                    ax.text(x, bottom + p / 2, v, ha="center", va="center", fontsize=5.5,
+                            rotation=90)
                 bottom += p
             xticks.append(x)
             xlabels.append(d[:1].upper())
-        ax.text(t * (len(dims) + 1) + (len(dims) - 1) / 2.0, 1.04, label, ha="center",
-                fontsize=8)
+        centre = t * (len(dims) + 1) + (len(dims) - 1) / 2.0
+        ax.text(centre, 1.04, label, ha="center", fontsize=8)
+        if captions and t < len(captions) and captions[t]:
+            ax.text(centre, -0.1, captions[t], ha="center", va="top", fontsize=6,
+                    transform=ax.get_xaxis_transform(), wrap=True)
     ax.set_xticks(xticks)
     ax.set_xticklabels(xlabels, fontsize=7)
     ax.set_ylim(0, 1.12)

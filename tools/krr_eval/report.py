@@ -153,12 +153,35 @@ class Claim(object):
         """reason: for a claim this run does not support, one or two sentences, generated
         from the measured numbers, saying why (shown with the claim in report.md)."""
         self.experiment, self.claim, self.paper, self.ours = experiment, claim, paper, ours
-        self.reason = reason
+        self.reason, self.alpha, self.too_few = reason, alpha, too_few
         self.direction_ok, self.p = bool(direction_ok), p
         self.verdict = verdict(direction_ok, p, alpha)
         if too_few:
             self.direction_ok, self.p = False, None
             self.verdict = "NOT supported (too few data: %s)" % too_few
+            if not self.reason:
+                self.reason = "Too few data to test it: %s." % too_few
+
+    def generic_reason(self):
+        """The fallback reason of an unsupported claim whose experiment gave none: what the
+        verdict rests on, from the claim's own numbers."""
+        if self.supported:
+            return None
+        if self.too_few:
+            return "Too few data to test it: %s." % self.too_few
+        if self.p is not None and self.direction_ok:
+            return ("The effect has the paper's direction but is not significant at this trial "
+                    "count (p = %s >= %g): %s." % (format_p(self.p), self.alpha, self.ours))
+        if self.p is not None:
+            return "The measured effect has the opposite direction: %s." % self.ours
+        return "Measured: %s." % self.ours
+
+    def why(self):
+        """Why an unsupported claim is not supported (the experiment's reason, else the generic
+        one); None for a supported claim."""
+        if self.supported:
+            return None
+        return self.reason or self.generic_reason()
 
     @classmethod
     def too_few_data(cls, experiment, claim, paper, what):
@@ -173,7 +196,9 @@ class Claim(object):
         return {"experiment": self.experiment, "claim": self.claim, "paper": self.paper,
                 "ours": self.ours, "direction_ok": self.direction_ok,
                 "p": None if self.p is None else float(self.p), "verdict": self.verdict,
-                "reason": self.reason}
+                "reason": self.why(),
+                "reason_source": None if self.supported else
+                ("experiment" if self.reason else "generic")}
 
 
 def claims_table(claims):
@@ -206,13 +231,14 @@ def write_report(path, header_lines, results, times, cpu=None):
     unsupported = [(i + 1, c) for i, c in enumerate(claims) if not c.supported]
     if unsupported:
         out += ["### Why claims are not supported", ""]
-        out += ["- #%d %s (%s): %s" % (i, c.claim, c.experiment,
-                                       c.reason or "no reason measured for this claim")
+        out += ["Each reason is generated from this run's numbers.", ""]
+        out += ["- **#%d %s** (%s; %s): %s" % (i, c.claim, c.experiment, c.verdict, c.why())
                 for i, c in unsupported]
         out += [""]
     for r in results:
         out += ["## %s" % r.title, ""]
-        out += r.notes + ([""] if r.notes else [])
+        for note in r.notes:  # one paragraph each
+            out += [note, ""]
         for t in r.tables:
             out += [t.markdown(), "", "(`%s.csv`, `%s.md`)" % (t.name, t.name), ""]
         for f in r.figures:

@@ -28,24 +28,27 @@ from .trials import TrialTable
 
 
 class TrialSpec(collections.namedtuple(
-        "TrialSpec", "name program args seed trials trials_flag scratch_flags min_chunk")):
+        "TrialSpec", "name program args seed trials trials_flag scratch_flags min_chunk cost")):
     """One set of trials: `name` (file stem, unique in a run), CLI `program`, its `args`,
     `seed`, number of `trials`, the option taking the per-trial CSV (`trials_flag`),
-    options that need a throwaway output path (`scratch_flags`), and the smallest chunk worth
-    a process (`min_chunk`: for CLIs whose start-up costs more than many trials; it changes
-    only the speed, never the table)."""
+    options that need a throwaway output path (`scratch_flags`), the smallest chunk worth
+    a process (`min_chunk`: for CLIs whose start-up costs more than many trials) and the
+    relative CPU cost of one trial (`cost`, for splitting and ordering chunks so the workers
+    finish together). min_chunk and cost change only the speed, never the table."""
 
     def __new__(cls, name, program, args, seed, trials, trials_flag="--out", scratch_flags=(),
-                min_chunk=1):
+                min_chunk=1, cost=1.0):
         if not name or "/" in name or name.startswith("."):
             raise ValueError("trial set name %r must be a plain file stem" % (name,))
         if int(trials) != trials or trials < 1:
             raise ValueError("%s: trials must be a positive integer, got %r" % (name, trials))
         if int(min_chunk) != min_chunk or min_chunk < 1:
             raise ValueError("%s: min_chunk must be a positive integer" % name)
+        if not float(cost) > 0:
+            raise ValueError("%s: cost must be positive, got %r" % (name, cost))
         return super(TrialSpec, cls).__new__(
             cls, name, program, tuple(str(a) for a in args), int(seed), int(trials),
-            trials_flag, tuple(scratch_flags), int(min_chunk))
+            trials_flag, tuple(scratch_flags), int(min_chunk), float(cost))
 
     def key(self):
         """What determines the table: everything but the name, as a JSON-able dict."""
@@ -274,17 +277,22 @@ class Runner(object):
 
     def _plan(self, specs):
         total = sum(s.trials for s in specs)
+        work = sum(s.trials * s.cost for s in specs)
         target = max(1, self.slots() * self.chunks_per_worker)
         jobs = []
         for s in specs:
-            n = int(math.ceil(target * s.trials / float(total)))
+            # Ceiled: one chunk per set (rounding six sets on 2 slots) saved 3 % of exp2's CPU
+            # but lost 6 s of wall time to imbalance (the first chunk of a set learns/solves).
+            n = int(math.ceil(target * s.trials * s.cost / work))
             n = max(1, min(n, s.trials // s.min_chunk))
             path = paths.program(s.program)
-            for begin, count in split(s.trials, n):
-                jobs.append((s, path, begin, count))
-        # Longest first balances the pool when sets differ in size.
-        jobs.sort(key=lambda j: -j[3])
-        return jobs, total
+            for k, (begin, count) in enumerate(split(s.trials, n)):
+                jobs.append((k, s, path, begin, count))
+        # Longest (in CPU) first balances the pool; among equal ones, the first chunk of every
+        # set before any second one, so the workers start on different sets (a set's first
+        # chunk may learn or solve what its other chunks then load from the cache).
+        jobs.sort(key=lambda j: (-j[4] * j[1].cost, j[0]))
+        return [j[1:] for j in jobs], total
 
     def _execute(self, specs, label):
         jobs, total = self._plan(specs)
@@ -299,14 +307,21 @@ class Runner(object):
             bar.finish()
         return {s.name: assemble(s, parts[s.name]) for s in specs}
 
-    def _args(self, job):
+    def _args(self, job, threads=1):
         s, path, begin, count = job
         return (s.program, path, s.args, s.seed, begin, count, s.trials_flag, s.scratch_flags,
-                1, self.timeout, paths.ROOT)
+                threads, self.timeout, paths.ROOT)
+
+    def _threads(self, jobs):
+        """Threads per CLI process: 1, unless there are fewer chunks than slots (e.g. one
+        chunk of a CLI whose start-up is too costly to split): then the idle slots go to
+        them. Trial i depends only on (seed, i), so threads never change a table."""
+        return max(1, self.slots() // len(jobs)) if jobs else 1
 
     def _execute_local(self, jobs, parts, bar):
+        threads = self._threads(jobs)
         with concurrent.futures.ThreadPoolExecutor(max_workers=self.workers) as pool:
-            futs = {pool.submit(chunk_mod.run_chunk, *self._args(j)): j for j in jobs}
+            futs = {pool.submit(chunk_mod.run_chunk, *self._args(j, threads)): j for j in jobs}
             try:
                 for f in concurrent.futures.as_completed(futs):
                     s, _, begin, count = futs[f]

@@ -1,5 +1,6 @@
 """Statistics of the evaluation: means with t-based confidence intervals, Welch and paired
-t-tests, proportion intervals and tests, rank tests, empirical CDFs.
+t-tests, paired differences, the trial count a confidence interval of a given width needs,
+proportion intervals and tests (Wilson, two-proportion z, McNemar), rank tests, empirical CDFs.
 
 Every function takes plain sequences of numbers (lists, tuples, numpy arrays) and returns
 plain Python floats / named tuples, so results can be written to JSON and CSV directly.
@@ -97,6 +98,42 @@ def paired_t_test(a, b):
     return TestResult(float(r.statistic), float(d.size - 1), float(r.pvalue))
 
 
+def paired_difference(a, b, level=0.95):
+    """Mean of the paired differences a[i] - b[i] with its Student-t confidence interval and
+    the paired t-test: (Estimate, TestResult). a[i] and b[i] come from the same trial."""
+    a, b = _array(a, "a"), _array(b, "b")
+    if a.size != b.size:
+        raise ValueError("paired_difference: samples differ in length (%d vs %d)"
+                         % (a.size, b.size))
+    return mean_ci(a - b, level), paired_t_test(a, b)
+
+
+def half_width(sd, n, level=0.95):
+    """Half-width t_{(1+level)/2, n-1} * sd / sqrt(n) of the confidence interval of a mean
+    (or of a mean paired difference) of n values with standard deviation sd."""
+    if n < 2 or n != int(n):
+        raise ValueError("half_width needs an integer n >= 2, got %r" % (n,))
+    if sd < 0 or not math.isfinite(sd):
+        raise ValueError("half_width: sd must be finite and >= 0, got %r" % (sd,))
+    return float(_st.t.ppf(0.5 + level / 2, n - 1) * sd / math.sqrt(n))
+
+
+def trials_for_half_width(sd, half, level=0.95):
+    """The smallest n >= 2 with half_width(sd, n, level) <= half: how many (paired) trials a
+    confidence interval of that half-width needs, given the standard deviation of one trial
+    (of one paired difference). Starts from the normal approximation (z sd / half)^2 and
+    steps up for the t quantile."""
+    if not half > 0:
+        raise ValueError("trials_for_half_width: half must be positive, got %r" % (half,))
+    if sd < 0 or not math.isfinite(sd):
+        raise ValueError("trials_for_half_width: sd must be finite and >= 0, got %r" % (sd,))
+    z = float(_st.norm.ppf(0.5 + level / 2))
+    n = max(2, int(math.ceil((z * sd / half) ** 2)))
+    while half_width(sd, n, level) > half:  # t > z: a few more trials
+        n += 1
+    return n
+
+
 def mann_whitney(a, b):
     """Mann-Whitney U test (two-sided, asymptotic with continuity correction) of a vs b.
 
@@ -151,6 +188,19 @@ def mcnemar_exact(only_a, only_b):
         return TestResult(0.0, float("nan"), 1.0)
     return TestResult(float(only_a), float("nan"),
                       float(_st.binomtest(int(only_a), n, 0.5).pvalue))
+
+
+def mcnemar_paired(a, b):
+    """Exact McNemar test on paired booleans a[i], b[i] (same trial): returns (TestResult,
+    only_a, only_b), only_a = pairs where only a is true, only_b = only b."""
+    a = np.asarray(a, dtype=bool).ravel()
+    b = np.asarray(b, dtype=bool).ravel()
+    if a.size != b.size:
+        raise ValueError("mcnemar_paired: samples differ in length (%d vs %d)" % (a.size, b.size))
+    if a.size == 0:
+        raise ValueError("mcnemar_paired: no data")
+    only_a, only_b = int(np.count_nonzero(a & ~b)), int(np.count_nonzero(b & ~a))
+    return mcnemar_exact(only_a, only_b), only_a, only_b
 
 
 def ecdf(values):

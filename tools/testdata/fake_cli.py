@@ -11,7 +11,8 @@ FAKE_KRR_MODE changes behaviour for error tests: fail (exit 3), bad_header (chun
 after 0 write another header), skip_trial (drops trial 1), garbage (non-numeric reward),
 reverse (the learned/extraction/merged condition is worse instead of better), noisy (the
 effects are buried in noise: nothing is significant at small trial counts).
-FAKE_KRR_LOG: append one line per invocation (to count chunks).
+FAKE_KRR_LOG: append one line per invocation (to count chunks). FAKE_KRR_OLD: delivery_trials
+writes only the old columns (trial, room, reward, fulfilled, qa_cost, turns, entropy).
 """
 import math
 import os
@@ -27,11 +28,17 @@ PROGRAMS = ["nav_transfer", "delivery_trials", "dialog_entropy", "new_circumstan
 def parse(argv):
     opts, i = {}, 0
     while i < len(argv):
+        if argv[i] in ("--no-policy", "--json", "--deliver"):
+            opts[argv[i][2:]] = "1"
+            i += 1
+            continue
         if not argv[i].startswith("--") or i + 1 >= len(argv):
             sys.stderr.write("fake: bad argument %r\n" % argv[i])
             sys.exit(2)
         if argv[i] == "--utterance":
             opts.setdefault("utterances", []).append(argv[i + 1])
+        elif argv[i] == "--question":
+            opts.setdefault("questions", []).append(argv[i + 1])
         else:
             opts[argv[i][2:]] = argv[i + 1]
         i += 2
@@ -69,19 +76,52 @@ def nav_rows(opts, i):
     return ["trial", "episode", "condition", "reward", "success"], rows
 
 
+DELIVERY_HEADER = ["trial", "room", "reward", "fulfilled", "qa_cost", "turns", "entropy",
+                   "request", "served", "served_room", "correct", "forced", "served_probability",
+                   "max_probability", "trips", "nav_moves", "nav_failed", "redelivered",
+                   "delivery_reward", "nav_cost", "penalty", "policy_lower", "policy_upper",
+                   "expected_reward"]
+REACH = {"room1": 0.0, "room2": 0.3, "room3": 0.2, "room4": 0.0, "room5": 0.4}
+
+
 def delivery_row(opts, i):
+    """Like delivery_trials: trial i of both conditions at the same br and seed shares the
+    request and the random draws of the person and the walkers (paired rows); the learned
+    condition identifies more, asks less and fails navigation a little less. FAKE_KRR_OLD=1
+    writes the old columns only (no identification, navigation or expected reward)."""
     br = float(opts.get("br", "0.3"))
     learned = opts.get("condition") == "learned"
-    r = rng_for("delivery", opts, i, ["br", "condition"])
-    room = ROOMS[r.randrange(5)]
+    shared = rng_for("delivery", opts, i, ["br"])  # same draws in both conditions
+    own = rng_for("delivery", opts, i, ["br", "condition"])
+    room = ROOMS[shared.randrange(5)]
+    person = "bob" if room in ("room2", "room4") else "john"
+    request = "%s_%s_%s" % (["coke", "coffee", "soda"][shared.randrange(3)], room, person)
     good = (1 if learned else -1) * sign() * scale()
-    fulfilled = r.random() < 0.89 + 0.04 * good
-    qa = max(1.5, r.gauss({"room4": 12.0, "room2": 17.0}.get(room, 15.0) - 1.0 * good, 3.0))
+    u_id, u_nav, z_qa = shared.random(), shared.random(), shared.gauss(0, 3.0)
+    correct = u_id < 0.93 + 0.03 * good
+    served_room = room if correct else ROOMS[(ROOMS.index(room) + 1) % 5]
+    served = request if correct else "soda_%s_john" % served_room
+    reach = 1 - br * REACH[served_room]
+    nav_failed = u_nav > reach + 0.02 * good
+    fulfilled = not nav_failed
+    qa = max(1.5, {"room4": 12.0, "room2": 17.0}.get(room, 15.0) - 1.0 * good + z_qa
+             + own.gauss(0, 1.0))
     turns = int(qa // 1.8) + 1
-    reward = (80 if fulfilled else -80) - qa - 200 * br + r.gauss(0, 20) + 10 * good
-    return ["trial", "room", "reward", "fulfilled", "qa_cost", "turns", "entropy"], \
-        [i, room, "%.4f" % reward, int(fulfilled), "%.1f" % qa, turns,
-         "%.4f" % abs(r.gauss(0.2, 0.05))]
+    nav_cost = 20.0 * (1 if correct else 3)
+    penalty = 0.0 if correct else 120.0
+    delivery = 80.0 if fulfilled else -80.0
+    reward = delivery - qa - nav_cost - penalty
+    expected = (160 * reach - 80) - qa - nav_cost - penalty
+    lower = -10.0 - 80 * br + 5 * good
+    row = [i, room, "%.4f" % reward, int(fulfilled), "%.1f" % qa, turns,
+           "%.4f" % abs(own.gauss(0.2, 0.05)), request, served, served_room, int(correct), 0,
+           "%.4f" % (0.94 + 0.01 * good), "%.4f" % (0.94 + 0.01 * good), 1 if correct else 3,
+           25, int(nav_failed), int(not correct), "%.0f" % delivery, "%.0f" % nav_cost,
+           "%.0f" % penalty, "%.4f" % lower, "%.4f" % (lower + 0.5), "%.4f" % expected]
+    if os.environ.get("FAKE_KRR_OLD"):
+        keep = ["trial", "room", "reward", "fulfilled", "qa_cost", "turns", "entropy"]
+        return keep, [row[DELIVERY_HEADER.index(k)] for k in keep]
+    return list(DELIVERY_HEADER), row
 
 
 def entropy_row(opts, i):
@@ -109,30 +149,38 @@ def merged_row(opts, i):
 
 def dialog_script(opts):
     """Wide format of the real dialog_script: one row per turn (0 = prior), marginals in
-    item_<v>, person_<v>, room_<v> columns; the robot serves after the item question."""
+    item_<v>, person_<v>, room_<v> columns. Before each utterance after the first the robot
+    asks the next --question, else its (fake) policy's question: the paper's questions, then
+    it serves (reverse mode: it asks about the person, and serves the wrong request)."""
     utter = opts.get("utterances", [])
     if not utter:
         sys.stderr.write("dialog_script: at least one --utterance is required\n")
         sys.exit(2)
+    scripted = opts.get("questions", [])
     dims = [("item", ["coke", "coffee", "soda"]), ("person", ["john", "bob"]), ("room", ROOMS)]
     target = {"item": "coke", "person": "bob", "room": "room2"}
-    script = [("none", "", "none"), ("none", utter[0], "ask_item"),
-              ("ask_item", utter[1] if len(utter) > 1 else "", "serve_coke_room2_bob")]
+    policy = ["ask_item", "confirm_item_coke", "confirm_room_room2"]
+    final = "serve_coke_room2_bob"
     if sign() < 0:
-        script[1] = ("none", utter[0], "ask_person")
-        script[2] = ("ask_person", "bob", "serve_soda_room1_john")
+        policy, final = ["ask_person", "ask_person", "ask_room"], "serve_soda_room1_john"
+
+    def next_action(k):  # the robot's action after user turn k (k >= 1)
+        if k - 1 < len(scripted):
+            return scripted[k - 1]
+        return policy[k - 1] if k - 1 < len(policy) else final
     header = ["turn", "robot_action", "robot_text", "user"]
     for d, vals in dims:
         header += ["%s_%s" % (d, v) for v in vals]
     header += ["entropy", "next_action"]
     rows = []
-    for t, (action, user, nxt) in enumerate(script):
-        row = [t, action, '"Say, ""what""?"', user]
+    for t in range(len(utter) + 1):
+        action = "none" if t <= 1 else next_action(t - 1)
+        row = [t, action, '"Say, ""what""?"', utter[t - 1] if t else ""]
         for d, vals in dims:
-            focus = min(0.95, 1.0 / len(vals) + 0.4 * t) if sign() > 0 else 1.0 / len(vals)
+            focus = min(0.95, 1.0 / len(vals) + 0.2 * t) if sign() > 0 else 1.0 / len(vals)
             row += ["%.4f" % (focus if v == target[d] else (1 - focus) / (len(vals) - 1))
                     for v in vals]
-        rows.append(row + ["1.0", nxt])
+        rows.append(row + ["1.0", "none" if t == 0 else next_action(t)])
     with open(opts["out"], "w") as f:
         f.write(",".join(header) + "\n")
         for row in rows:

@@ -2,6 +2,7 @@
 // DeliveryManager with a simulated person and the blockage simulator; knowledge learned at the
 // trial's br ("learned") or at 0.3 ("outdated"). One CSV row per trial; trial i depends only
 // on (seed, i), never on --threads or --trial-begin.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -12,6 +13,7 @@
 #include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
+#include "krr_core/common/json.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/dialog/delivery_experiment.h"
 #include "krr_core/dialog/experiment_cli.h"
@@ -19,14 +21,18 @@
 namespace {
 
 const char* kUsage =
-    "usage: delivery_trials --trials N [--export-pomdp FILE]\n"
+    "usage: delivery_trials --trials N [--export-pomdp FILE] [--model-report]\n"
     "                       (shared options below)\n";
 const char* kHelp =
     "  One CSV row per trial (trial index first). reward = +80 fulfilled / -80, minus the\n"
     "  questions' costs, the navigation cost driven and the wrong-delivery penalty\n"
     "  (config/dialog.yaml, serve_cost). policy_lower / policy_upper: the certified bounds of\n"
     "  the dialog policy at the prior. --learned-cache: learned knowledge and solved policies\n"
-    "  (default $KRR_CACHE_DIR or ~/.cache/krr_rl/delivery); 'none' learns and solves every run.\n";
+    "  (default $KRR_CACHE_DIR or ~/.cache/krr_rl/delivery); 'none' learns and solves every run.\n"
+    "  --model-report: print (only) a JSON report on stdout: per room the believed P^N (the\n"
+    "  knowledge base's model) and the true P^N (the simulator's exact dynamics, driven with\n"
+    "  the robot's policies), the policy's certified bounds and, after the trials, the\n"
+    "  forced-serve rate; the usual summary goes to stderr.\n";
 
 struct Mean {
   double sum = 0, sq = 0;
@@ -46,12 +52,17 @@ int main(int argc, char** argv) {
   krr::dialog::ExperimentCli cli;
   long trials = -1;
   std::string exportPomdp;
+  bool modelReport = false;
   try {
     for (int i = 1; i < argc; ++i) {
       const std::string f = argv[i];
       if (f == "-h" || f == "--help") {
         std::cout << kUsage << krr::dialog::kExperimentCliUsage << kHelp;
         return 0;
+      }
+      if (f == "--model-report") {
+        modelReport = true;
+        continue;
       }
       if (i + 1 >= argc) throw krr::ConfigError("option " + f + " needs a value");
       const std::string v = argv[++i];
@@ -87,19 +98,21 @@ int main(int argc, char** argv) {
       for (const auto& r : results) csv << deliveryCsvRow(ex.dialog(), r, p.policy.bounds) << "\n";
       krr::writeFileAtomic(cli.out, csv.str());
     }
-    std::printf("delivery_trials: br %.3g, condition %s (knowledge learned at br %.3g: %zu pairs, "
+    std::FILE* say = modelReport ? stderr : stdout;
+    std::fprintf(say, "delivery_trials: br %.3g, condition %s (knowledge learned at br %.3g: %zu pairs, %zu areas, "
                 "%s %.1f s), seed %llu, serve cost %s x %g, wrong delivery %g\n",
                 cli.experiment.blocking_rate, toString(cli.experiment.condition).c_str(),
-                p.knowledge_br, p.learning.pairs, p.learning.from_cache ? "cached" : "learned in",
+                p.knowledge_br, p.learning.pairs, p.learning.areas, p.learning.from_cache ? "cached" : "learned in",
                 p.learning.seconds, static_cast<unsigned long long>(cli.experiment.seed),
                 toString(config.serve_cost_mode).c_str(), config.serve_cost_weight,
                 config.wrong_delivery_penalty);
-    std::printf("  P^N(shop, room) / P^N(room, shop):");
+    std::fprintf(say, "  P^N(shop, room) / P^N(room, shop), believed (true):");
     for (std::size_t r = 0; r < ex.navigation().numRooms(); ++r)
-      std::printf(" %s %.3f/%.3f", ex.navigation().options().rooms[r].c_str(),
-                  ex.navigation().toRoom(r).reach, ex.navigation().toShop(r).reach);
+      std::fprintf(say, " %s %.3f/%.3f (%.3f/%.3f)", ex.navigation().options().rooms[r].c_str(),
+                   ex.navigation().toRoom(r).reach, ex.navigation().toShop(r).reach,
+                   ex.trueTrips().to_room[r].reach, ex.trueTrips().to_shop[r].reach);
     const PolicyReport& pol = p.policy;
-    std::printf("\n  models: navigation %.3f s, dialog %.3f s; policy: %s in %.2f s, bounds at the "
+    std::fprintf(say, "\n  models: navigation %.3f s, dialog %.3f s; policy: %s in %.2f s, bounds at the "
                 "prior [%.2f, %.2f] (gap %.2f, %zu trials%s), %zu vectors; preparation %.1f s\n",
                 p.nav_model_seconds, p.dialog_model_seconds, pol.from_cache ? "cached" : "solved",
                 pol.seconds, pol.bounds.lower, pol.bounds.upper, pol.bounds.gap(),
@@ -116,14 +129,53 @@ int main(int argc, char** argv) {
         entropy.add(r.delivery.entropy);
         forced.add(r.delivery.forced);
       }
-      std::printf("  %zu trials [%zu, %zu): reward %.2f +- %.2f, fulfilled %.3f +- %.3f, "
+      std::fprintf(say, "  %zu trials [%zu, %zu): reward %.2f +- %.2f, fulfilled %.3f +- %.3f, "
                   "QA cost %.2f +- %.2f, turns %.2f, identified %.3f, entropy at serve %.3f, "
                   "forced serves %.4f (95%% CI)\n",
                   results.size(), cli.begin, cli.begin + results.size(), reward.mean(), reward.ci(),
                   fulfilled.mean(), fulfilled.ci(), qa.mean(), qa.ci(), turns.mean(),
                   correct.mean(), entropy.mean(), forced.mean());
-      std::printf("  %.3f ms per trial (%zu threads)\n",
+      std::fprintf(say, "  %.3f ms per trial (%zu threads)\n",
                   1000.0 * trialSeconds / static_cast<double>(results.size()), cli.threads);
+    }
+    if (modelReport) {
+      using krr::jsonNumber;
+      using krr::jsonString;
+      const TripTable believed = ex.navigation().trips();
+      const TripTable& truth = ex.trueTrips();
+      std::string rooms;
+      double worst = 0.0;
+      for (std::size_t r = 0; r < believed.rooms.size(); ++r) {
+        const double e1 = believed.to_room[r].reach - truth.to_room[r].reach;
+        const double e2 = believed.to_shop[r].reach - truth.to_shop[r].reach;
+        worst = std::max({worst, std::fabs(e1), std::fabs(e2)});
+        rooms += std::string(r ? ", " : "") + "{\"room\": " + jsonString(believed.rooms[r]) +
+                 ", \"believed\": {\"shop_to_room\": " + jsonNumber(believed.to_room[r].reach) +
+                 ", \"room_to_shop\": " + jsonNumber(believed.to_shop[r].reach) +
+                 "}, \"true\": {\"shop_to_room\": " + jsonNumber(truth.to_room[r].reach) +
+                 ", \"room_to_shop\": " + jsonNumber(truth.to_shop[r].reach) +
+                 "}, \"error\": {\"shop_to_room\": " + jsonNumber(e1) +
+                 ", \"room_to_shop\": " + jsonNumber(e2) + "}}";
+      }
+      double forced = 0.0;
+      for (const auto& r : results) forced += r.delivery.forced ? 1.0 : 0.0;
+      const PolicyReport& pr = p.policy;
+      std::printf("{\"br\": %s, \"condition\": %s, \"knowledge_br\": %s, \"seed\": %llu, "
+                  "\"learning\": %s, \"learned_pairs\": %zu, \"learned_areas\": %zu, \"rooms\": [%s], "
+                  "\"max_abs_error\": %s, \"policy\": {\"lower\": %s, \"upper\": %s, "
+                  "\"gap\": %s, \"trials\": %zu, \"certified\": %s}, \"trials\": %zu, "
+                  "\"forced_serve_rate\": %s}\n",
+                  jsonNumber(cli.experiment.blocking_rate).c_str(),
+                  jsonString(toString(cli.experiment.condition)).c_str(),
+                  jsonNumber(p.knowledge_br).c_str(),
+                  static_cast<unsigned long long>(cli.experiment.seed),
+                  jsonString(config.learning_mode).c_str(), p.learning.pairs, p.learning.areas,
+                  rooms.c_str(),
+                  jsonNumber(worst).c_str(), jsonNumber(pr.bounds.lower).c_str(),
+                  jsonNumber(pr.bounds.upper).c_str(), jsonNumber(pr.bounds.gap()).c_str(),
+                  pr.bounds.trials, pr.converged ? "true" : "false", results.size(),
+                  results.empty() ? "null"
+                                  : jsonNumber(forced / static_cast<double>(results.size())).c_str());
     }
     return 0;
   } catch (const std::exception& e) {

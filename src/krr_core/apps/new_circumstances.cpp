@@ -1,14 +1,18 @@
 // new_circumstances: the paper's "generate controllers for new circumstances" experiment,
-// headless. Learns navigation in three settings (times of day), merges them through P-log
-// into a controller for "morning or noon, unknown", and compares it in the simulator with a
-// baseline that picks one of the per-setting controllers at random. Writes one CSV row per
-// trial (trial i depends only on (seed, i), so ranges can be run in separate processes and
-// concatenated) and prints a summary.
+// headless. Learns navigation in three settings (times of day); per trial draws the two
+// settings the robot may be in and the true one, and drives, from the same random numbers, the
+// controller the reasoner merges for "one of these two" (P-log, time exogenous), a random pick
+// of the two settings' own controllers, the oracle (the true setting's own controller) and
+// every setting's own controller. Learning runs are shared by the trials (config:
+// learning_runs). Writes one CSV row per trial (trial i depends only on (seed, i), so ranges
+// can be run in separate processes and concatenated) and prints a summary.
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
+#include <set>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -27,9 +31,11 @@ const char* kUsage =
     "         [--options config/new_circumstances.yaml] [--config config/navigation.yaml]\n"
     "         [--domain office_30x30] [--geometry maps/<domain>_geometry.plog]\n"
     "         [--knowledge config/navigation.plog] [--goal room2] [--br 0.1]\n"
-    "         [--learn-episodes N] [--selector fixed|least_known]\n"
+    "         [--learn-episodes N] [--selector fixed|least_known] [--learning-runs K]\n"
+    "         [--extraction pairs|areas]\n"
     "Paths default to DIR (default: $KRR_ROOT, else the checkout holding the working directory\n"
-    "or this program). Flags override the options file.\n";
+    "or this program). Flags override the options file. --learning-runs K: trial i uses\n"
+    "learning run i mod K (0: a fresh run per trial; the CSV does not depend on it for i < K).\n";
 
 double toNumber(const std::string& flag, const std::string& v) {
   return krr::parseNumberOption(flag, v);
@@ -73,7 +79,8 @@ int main(int argc, char** argv) {
       else if (f == "--domain") domain = v;
       else if (f == "--geometry") geometry = v;
       else if (f == "--knowledge") knowledge = v;
-      else if (f == "--goal" || f == "--br" || f == "--learn-episodes" || f == "--selector")
+      else if (f == "--goal" || f == "--br" || f == "--learn-episodes" || f == "--selector" ||
+               f == "--learning-runs" || f == "--extraction")
         overrides.emplace_back(f, v);
       else throw krr::ConfigError("unknown option " + f);
     }
@@ -91,6 +98,8 @@ int main(int argc, char** argv) {
       else if (f == "--br") o.blocking_rate = toNumber(f, v);
       else if (f == "--learn-episodes") o.learn_episodes = toCount(f, v);
       else if (f == "--selector") o.selector = v;
+      else if (f == "--learning-runs") o.learning_runs = toCount(f, v);
+      else if (f == "--extraction") o.extraction = v;
     }
     if (!domain.empty()) o.domain = domain;
     o.validate();
@@ -109,8 +118,10 @@ int main(int argc, char** argv) {
     for (const auto& t : res) csv << krr::kb::newCircumstancesCsvRow(t) << "\n";
     if (!out.empty()) krr::writeFileAtomic(out, csv.str());
 
-    std::vector<double> sm, sb, so, pm, pb, po, em, eb, diff;
-    std::vector<std::vector<double>> self(o.learn_times.size());
+    const std::size_t T = o.learn_times.size();
+    std::vector<double> sm, sb, so, pm, pb, po, pick_mean, diff;
+    std::vector<std::vector<double>> sown(T), pown(T), self(T);
+    std::set<std::size_t> runs;
     for (const auto& t : res) {
       sm.push_back(t.success_merged);
       sb.push_back(t.success_baseline);
@@ -118,35 +129,54 @@ int main(int argc, char** argv) {
       pm.push_back(t.p_merged);
       pb.push_back(t.p_baseline);
       po.push_back(t.p_oracle);
-      em.push_back(t.expected_merged);
-      eb.push_back(t.expected_baseline);
-      diff.push_back(t.expected_merged - t.expected_baseline);
-      for (std::size_t k = 0; k < self.size(); ++k) self[k].push_back(t.p_self[k]);
+      // The random pick's expected success in this trial: the mean of the possible settings'
+      // own controllers in the true setting.
+      double e = 0;
+      for (const std::string& s : t.possible) {
+        const std::size_t k = static_cast<std::size_t>(
+            std::find(o.learn_times.begin(), o.learn_times.end(), s) - o.learn_times.begin());
+        e += t.p_own[k] / static_cast<double>(t.possible.size());
+      }
+      pick_mean.push_back(e);
+      diff.push_back(t.p_merged - e);
+      for (std::size_t k = 0; k < T; ++k) {
+        sown[k].push_back(t.success_own[k]);
+        pown[k].push_back(t.p_own[k]);
+      }
+      if (runs.insert(t.learning_run).second)
+        for (std::size_t k = 0; k < T; ++k) self[k].push_back(t.p_self[k]);
     }
-    auto line = [](const char* name, const std::vector<double>& x) {
+    auto line = [](const std::string& name, const std::vector<double>& x) {
       const krr::kb::MeanCi m = krr::kb::meanCi(x);
-      std::printf("  %-34s %.3f +- %.3f\n", name, m.mean, m.ci95);
+      std::printf("  %-44s %.3f +- %.3f\n", name.c_str(), m.mean, m.ci95);
     };
-    std::printf("new circumstances (%s, %s -> %s, br %g): %zu trials, setting unknown among {",
-                o.domain.c_str(), o.start.c_str(), o.goal.c_str(), o.blocking_rate, res.size());
-    for (std::size_t k = 0; k < o.unknown_times.size(); ++k)
-      std::printf("%s%s", k ? ", " : "", o.unknown_times[k].c_str());
+    std::printf("new circumstances (%s, %s -> %s, br %g): %zu trials, %zu learning run(s); the robot "
+                "is in one of %zu settings drawn from {",
+                o.domain.c_str(), o.start.c_str(), o.goal.c_str(), o.blocking_rate, res.size(),
+                runs.size(), o.unknown_count);
+    for (std::size_t k = 0; k < T; ++k) std::printf("%s%s", k ? ", " : "", o.learn_times[k].c_str());
     std::printf("}\n");
     line("success, merged (KRR-RL)", sm);
-    line("success, baseline (random policy)", sb);
-    line("success, oracle (knows the time)", so);
+    line("success, random pick (baseline)", sb);
+    line("success, oracle (knows the setting)", so);
+    for (std::size_t k = 0; k < T; ++k)
+      line("success, own controller of " + o.learn_times[k], sown[k]);
     line("exact P(success), merged", pm);
-    line("exact P(success), baseline", pb);
+    line("exact P(success), random pick", pb);
+    line("exact P(success), random pick, mean over the pick", pick_mean);
     line("exact P(success), oracle", po);
-    line("expected P(success), merged", em);
-    line("expected P(success), baseline", eb);
-    line("expected merged - baseline", diff);
-    for (std::size_t k = 0; k < self.size(); ++k)
-      line(("own controller in " + o.learn_times[k]).c_str(), self[k]);
+    for (std::size_t k = 0; k < T; ++k)
+      line("exact P(success), own controller of " + o.learn_times[k], pown[k]);
+    line("exact merged - random pick (mean over pick)", diff);
+    for (std::size_t k = 0; k < T; ++k)
+      line("own controller in " + o.learn_times[k] + " (per learning run)", self[k]);
     std::printf("  (%.1f s)\n", clock.seconds());
     return 0;
   } catch (const krr::Error& e) {
     std::cerr << "new_circumstances: " << e.what() << "\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "new_circumstances: internal error: " << e.what() << "\n";
     return 1;
   }
 }

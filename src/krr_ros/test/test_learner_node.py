@@ -54,11 +54,13 @@ class TestLearnerNode(unittest.TestCase):
 
     def test_1_free_time_learning_reaches_the_reasoner(self):
         self.wait_learning()
-        update = self.updates.wait(lambda u: u.source.endswith('learner') and u.atoms,
-                                   timeout=40)
+        update = self.updates.wait(lambda u: u.source.endswith('learner') and
+                                   u.area_statements, timeout=40)
         self.assertIsNotNone(update, 'the learner sent nothing to the reasoner')
+        self.assertEqual(update.area_time, 'morning')
+        self.assertIn('learned_area(', update.area_statements)
         self.assertTrue(os.path.exists(self.learned_file))
-        self.assertIn('learned(', open(self.learned_file).read())
+        self.assertIn('learned_area(', open(self.learned_file).read())
 
     def test_2_a_navigation_goal_pauses_learning(self):
         self.wait_learning()
@@ -66,13 +68,16 @@ class TestLearnerNode(unittest.TestCase):
         self.client.send_goal(NavigateGoal(place='room1'))
         self.wait_status('paused: navigation goal active', timeout=5, after=mark)
         n_updates = self.updates.count()
-        # While paused, the reasoner's knowledge does not change: check a learned atom.
-        a = self.updates.last().atoms[0]
-        q = '?{next_cell=%s} | do(curr_cell=%d), do(act_move=%s), obs(curr_time=%s)' % (
-            a.outcomes[0], a.cell, a.move, a.time)
-        res = self.query(query=q, knowledge_base='navigation')
+        # While paused, the reasoner's knowledge does not change: it answers with what the
+        # learner sent last (an area's walker rate).
+        u = self.updates.last()
+        line = next(l for l in u.area_statements.splitlines() if l.startswith('pr(walkers('))
+        area = line[len('pr(walkers('):line.index(')')]
+        num, den = line.rsplit('= ', 1)[1].rstrip('.').split('/')
+        res = self.query(query='?{walkers(%s)=true} | obs(curr_time=%s)' % (area, u.area_time),
+                         knowledge_base='navigation')
         self.assertTrue(res.success, res.message)
-        self.assertAlmostEqual(res.probability, float(a.counts[0]) / a.samples, places=9)
+        self.assertAlmostEqual(res.probability, float(num) / float(den), places=9)
         self.assertTrue(self.client.wait_for_result(rospy.Duration(40)))
         self.assertEqual(self.client.get_state(), GoalStatus.SUCCEEDED)
         self.assertEqual(self.updates.count(), n_updates, 'the learner sent knowledge while '
@@ -90,7 +95,8 @@ class TestLearnerNode(unittest.TestCase):
 
     def test_4_rests_when_practice_teaches_nothing_new(self):
         params = rospy.get_param('/learner')
-        params.update({'rest_threshold': 1000000, 'rest_after': 2, 'rest_period': 600,
+        params.update({'extraction': 'pairs', 'rest_threshold': 1000000, 'rest_after': 2,
+                       'rest_period': 600,
                        'knowledge_service': '/nowhere/add_knowledge', 'service_timeout': 0.1})
         status = Latest('/learner_rest/status', String)
         node = SpawnedNode('learner_node', 'learner_rest', params).start()

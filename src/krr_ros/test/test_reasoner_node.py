@@ -124,7 +124,7 @@ class TestReasonerNode(unittest.TestCase):
             ([atom(183, 'up', ['213', 'trapped'], [1, 1])], "'trapped' is impossible"),
             ([atom(183, 'up', ['213'], [0], samples=0)], 'atoms[0].'),
             ([atom(183, 'up', ['213'], [1]), atom(183, 'up', ['183'], [1])], 'a second atom'),
-            ([], 'neither atoms nor statements'),
+            ([], 'neither atoms, area knowledge nor statements'),
         ]
         for atoms, needle in cases:
             res = self.r.update(atoms)
@@ -142,6 +142,31 @@ class TestReasonerNode(unittest.TestCase):
         self.assertEqual(self.r.build(task='navigation', times=['morning']).num_learned, total)
         after = open(path).read() if os.path.exists(path) else None
         self.assertEqual(before, after)
+
+    def test_area_knowledge_is_validated_applied_and_persisted(self):
+        path = os.path.join(self.learned_dir, 'learned_navigation.plog')
+        before = open(path).read() if os.path.exists(path) else None
+        walkers = '?{walkers(ba1)=true} | obs(curr_time=%s)'
+        for time, text, needle in (
+                ('midnight', 'learned_noise(midnight).', "area_time 'midnight'"),
+                ('noon', 'pr(walkers(ba1)=true | curr_time=noon) = 1/', 'area knowledge'),
+                ('noon', 'pr(walkers(ba9)=true | curr_time=noon) = 1/4.', 'ba9')):
+            res = self.r.add(KnowledgeUpdate(source='test', area_time=time, area_statements=text))
+            self.assertFalse(res.success, text)
+            self.assertIn(needle, res.message)
+        after = open(path).read() if os.path.exists(path) else None
+        self.assertEqual(before, after)  # refused: nothing changed, nothing written
+        q = self.r.query(query=walkers % 'noon', knowledge_base='navigation')
+        self.assertAlmostEqual(q.probability, 0.5, places=9)  # human knowledge at noon
+        ok = self.r.add(KnowledgeUpdate(
+            source='test', area_time='noon',
+            area_statements='pr(walkers(ba1)=true | curr_time=noon) = 1/4.\n'
+                            'learned_area(ba1, noon).\n'))
+        self.assertTrue(ok.success, ok.message)
+        self.assertIn('area knowledge for noon', ok.message)
+        q = self.r.query(query=walkers % 'noon', knowledge_base='navigation')
+        self.assertAlmostEqual(q.probability, 0.25, places=9)
+        self.assertIn('learned_area(ba1, noon).', open(path).read())
 
     def test_build_task_model_errors(self):
         res = self.r.build(task='navigation', times=['midnight'])

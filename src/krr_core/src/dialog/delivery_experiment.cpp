@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "krr_core/common/errors.h"
+#include "krr_core/kb/simulated_navigation.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/pomdp/belief.h"
 
@@ -135,6 +136,10 @@ DeliveryExperiment::DeliveryExperiment(const kb::NavDomain& domain, const Dialog
 
   context_.time_of_day = domain.simulator->timeOfDayIndex(config_.time);
   context_.blocking_rate = options_.blocking_rate;
+  // What the robot's policies achieve in the true world, and the serve rewards there (the
+  // same builder as the robot's model: one definition of the reward).
+  true_trips_ = nav_->evaluate(kb::trueDynamics(*domain.simulator, *domain.space, context_));
+  true_dialog_ = std::make_unique<pomdp::DialogPomdp>(knowledge_->buildSpec(true_trips_, config_));
 }
 
 void DeliveryExperiment::setPolicy(const pomdp::TurnLimitedPolicy& policy) {
@@ -147,7 +152,8 @@ void DeliveryExperiment::setPolicy(const pomdp::TurnLimitedPolicy& policy) {
   policy_ = policy;
 }
 
-DeliveryTrialResult DeliveryExperiment::runTrial(std::size_t index, long fixed_request) const {
+DeliveryTrialResult DeliveryExperiment::runTrial(std::size_t index, long fixed_request,
+                                                 DecisionMemo* memo) const {
   const pomdp::DialogPomdp& d = *dialog_;
   if (fixed_request >= static_cast<long>(d.numRequests()))
     throw ConfigError("delivery trial: request " + std::to_string(fixed_request) +
@@ -166,11 +172,15 @@ DeliveryTrialResult DeliveryExperiment::runTrial(std::size_t index, long fixed_r
   SimulatedNavigator navigator(*nav_, *domain_.simulator, context_, navRng);
   if (policy_.size() == 0) throw ConfigError("delivery trial: no dialog policy (setPolicy first)");
   DeliveryManager manager(d, policy_, nullptr, config_);
+  manager.setDecisionMemo(memo);
   runDelivery(manager, person, navigator);
   r.delivery = manager.record();
   r.correct = r.delivery.served == r.request;
   r.fulfilled = r.delivery.outcome == DeliveryOutcome::kFulfilled;
   r.reward = deliveryReward(r.delivery, r.request, config_);
+  r.expected_reward = true_dialog_->model().getExpectedReward(
+                          r.request, true_dialog_->serveAction(r.delivery.served)) -
+                      r.delivery.qa_cost;
   return r;
 }
 
@@ -178,14 +188,15 @@ std::vector<DeliveryTrialResult> DeliveryExperiment::runTrials(std::size_t begin
                                                                std::size_t count,
                                                                std::size_t threads) const {
   return runParallelTrials<DeliveryTrialResult>(count, threads, [&]() {
-    return [&](std::size_t k) { return runTrial(begin + k); };
+    auto memo = std::make_shared<DecisionMemo>();  // per thread: the same beliefs recur
+    return [&, memo](std::size_t k) { return runTrial(begin + k, -1, memo.get()); };
   });
 }
 
 std::string deliveryCsvHeader() {
   return "trial,room,reward,fulfilled,qa_cost,turns,entropy,request,served,served_room,correct,"
          "forced,served_probability,max_probability,trips,nav_moves,nav_failed,redelivered,"
-         "delivery_reward,nav_cost,penalty,policy_lower,policy_upper";
+         "delivery_reward,nav_cost,penalty,policy_lower,policy_upper,expected_reward";
 }
 
 std::string deliveryCsvRow(const pomdp::DialogPomdp& d, const DeliveryTrialResult& r,
@@ -195,14 +206,14 @@ std::string deliveryCsvRow(const pomdp::DialogPomdp& d, const DeliveryTrialResul
   char buf[640];
   std::snprintf(buf, sizeof(buf),
                 "%zu,%s,%.6g,%d,%.6g,%d,%.6g,%s,%s,%s,%d,%d,%.6g,%.6g,%zu,%zu,%d,%d,%.6g,%.6g,%.6g,"
-                "%.10g,%.10g",
+                "%.10g,%.10g,%.10g",
                 r.trial, rooms[d.requestParts(r.request)[1]].c_str(), r.reward.total(),
                 r.fulfilled ? 1 : 0, x.qa_cost, x.turns, x.entropy, d.requestName(r.request).c_str(),
                 d.requestName(x.served).c_str(), rooms[d.requestParts(x.served)[1]].c_str(),
                 r.correct ? 1 : 0, x.forced ? 1 : 0, x.served_probability, x.max_probability,
                 x.legs.empty() ? 0 : x.legs.size() - 1, x.navMoves(), x.navFailed() ? 1 : 0,
                 x.redelivered ? 1 : 0, r.reward.delivery, r.reward.navigation, r.reward.penalty,
-                policy.lower, policy.upper);
+                policy.lower, policy.upper, r.expected_reward);
   return buf;
 }
 

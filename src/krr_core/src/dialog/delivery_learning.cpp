@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <cstring>
 #include <cstdio>
+#include <memory>
 #include <sstream>
 
 #include "krr_core/common/errors.h"
@@ -57,6 +58,17 @@ kb::NavTask DeliveryRouteSelector::next(const kb::NavModel& model, const kb::Nav
 
 namespace {
 
+/// Blocking areas with learned knowledge at `time`.
+std::size_t learnedAreaCount(const kb::NavigationKnowledge& k, const std::string& time) {
+  const auto it = k.learnedAreas().find(time);
+  if (it == k.learnedAreas().end()) return 0;
+  std::size_t n = 0;
+  for (std::size_t at = it->second.find("learned_area("); at != std::string::npos;
+       at = it->second.find("learned_area(", at + 1))
+    ++n;
+  return n;
+}
+
 /// Simulator parameters that change what is learned (part of the cache key).
 std::string simulatorKey(const kb::NavDomain& d) {
   const nav::SimulatorConfig& s = d.config.simulator;
@@ -87,7 +99,7 @@ std::string learnedCacheName(const kb::NavDomain& domain, const DialogConfig& c,
                              const std::string& domain_name) {
   std::ostringstream key;
   key.precision(17);
-  key << "v1|" << c.time << "|" << c.shop << "|" << c.known_threshold << "|" << c.refine_known
+  key << "v2|" << c.learning_mode << "|" << c.time << "|" << c.shop << "|" << c.known_threshold << "|" << c.refine_known
       << "|" << c.max_episodes_per_task << "|" << c.convergence_episodes << "|"
       << c.learning_rounds << "|" << c.step_cost << "|" << c.rmax;
   for (const auto& r : rooms) key << "|" << r;
@@ -112,13 +124,21 @@ LearningReport prepareLearnedKnowledge(const kb::NavDomain& domain,
   Stopwatch clock;
   LearningReport report;
   knowledge.clearLearned();
+  std::unique_ptr<FileLock> lock;  // parallel trial processes learn each entry once
   if (!cache_dir.empty()) {
     report.cache_file =
         cache_dir + "/" + learnedCacheName(domain, config, rooms, br, seed, domain_name);
+    makeDirectories(cache_dir);
+    try {
+      lock = std::make_unique<FileLock>(report.cache_file + ".lock");
+    } catch (const IoError&) {
+      // a read-only cache: load what is there, or work without caching below
+    }
     if (fileExists(report.cache_file)) {
       knowledge.loadLearned(report.cache_file);
       report.from_cache = true;
       report.pairs = knowledge.buildModel({config.time}).numLearned();
+      report.areas = learnedAreaCount(knowledge, config.time);
       report.seconds = clock.seconds();
       return report;
     }
@@ -131,18 +151,18 @@ LearningReport prepareLearnedKnowledge(const kb::NavDomain& domain,
   o.convergence_episodes = config.convergence_episodes;
   o.max_tasks = config.learning_rounds * selector.routesPerRound();
   o.rmax = config.rmaxParams();
+  o.extraction = kb::extractionFromString(config.learning_mode);
   kb::FreeTimeLearner learner(domain, knowledge, selector, o);
   char stream[64];
   std::snprintf(stream, sizeof(stream), "delivery/learning/br%.6g", br);
   Rng rng = makeRng(seed, stream);
   const kb::FreeTimeReport fr = learner.run(rng, {});
   report.tasks = fr.tasks.size();
+  report.samples = fr.samples;
   for (std::size_t e : fr.episodes) report.episodes += e;
   report.pairs = knowledge.buildModel({config.time}).numLearned();
-  if (!report.cache_file.empty()) {
-    makeDirectories(cache_dir);
-    knowledge.saveLearned(report.cache_file);
-  }
+  report.areas = learnedAreaCount(knowledge, config.time);
+  if (!report.cache_file.empty()) knowledge.saveLearned(report.cache_file);
   report.seconds = clock.seconds();
   return report;
 }

@@ -132,6 +132,26 @@ std::size_t DeliveryNavigation::roomIndex(const std::string& room) const {
 
 TripTable DeliveryNavigation::trips() const { return {options_.rooms, to_room_, to_shop_}; }
 
+TripTable DeliveryNavigation::evaluate(const mdp::SparseModel& dynamics) const {
+  if (dynamics.getS() != space_.numStates() || dynamics.getA() != space_.numActions())
+    throw ConfigError("delivery navigation: dynamics with " + std::to_string(dynamics.getS()) +
+                      " states to evaluate on a space of " + std::to_string(space_.numStates()));
+  TripTable t;
+  t.rooms = options_.rooms;
+  const mdp::StateId shop = space_.stateOf(shop_cell_);
+  auto task = [&](mdp::StateId goal) {
+    return mdp::makeNavigationTask(dynamics, {goal}, {space_.trappedState()}, options_.reward);
+  };
+  for (std::size_t r = 0; r < room_cell_.size(); ++r) {
+    const mdp::StateId g = space_.stateOf(room_cell_[r]);
+    t.to_room.push_back(estimate(task(g), policy_[r], shop, g));
+  }
+  const mdp::SparseModel back = task(shop);
+  for (std::size_t r = 0; r < room_cell_.size(); ++r)
+    t.to_shop.push_back(estimate(back, policy_.back(), space_.stateOf(room_cell_[r]), shop));
+  return t;
+}
+
 Eigen::VectorXd TripTable::reachFromShop() const {
   Eigen::VectorXd v(static_cast<Eigen::Index>(to_room.size()));
   for (std::size_t r = 0; r < to_room.size(); ++r) v(static_cast<Eigen::Index>(r)) = to_room[r].reach;

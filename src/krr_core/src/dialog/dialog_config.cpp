@@ -163,6 +163,8 @@ void DialogConfig::validate() const {
   if (max_episodes_per_task < 1) bad("learning.max_episodes_per_task", "0", "must be >= 1");
   if (convergence_episodes < 1) bad("learning.convergence_episodes", "0", "must be >= 1");
   if (learning_rounds < 1) bad("learning.rounds", "0", "must be >= 1");
+  if (learning_mode != "areas" && learning_mode != "pairs")
+    bad("learning.mode", "'" + learning_mode + "'", "must be areas or pairs");
   if (office_plog.empty()) bad("knowledge.office", "\"\"", "must be a file");
   if (speech_plog.empty()) bad("knowledge.speech", "\"\"", "must be a file");
 }
@@ -236,7 +238,7 @@ DialogConfig loadDialogConfig(const std::string& path) {
   if (top.has("learning")) {
     Section s(top.get("learning"), path, "learning",
               {"known_threshold", "refine_known", "max_episodes_per_task",
-               "convergence_episodes", "rounds"});
+               "convergence_episodes", "rounds", "mode"});
     c.known_threshold = static_cast<std::uint32_t>(s.integer("known_threshold", c.known_threshold, 1, 1000000));
     c.refine_known = s.boolean("refine_known", c.refine_known);
     c.max_episodes_per_task = static_cast<std::size_t>(
@@ -244,6 +246,10 @@ DialogConfig loadDialogConfig(const std::string& path) {
     c.convergence_episodes = static_cast<std::size_t>(
         s.integer("convergence_episodes", static_cast<long>(c.convergence_episodes), 1, 100000000));
     c.learning_rounds = static_cast<std::size_t>(s.integer("rounds", static_cast<long>(c.learning_rounds), 1, 1000));
+    c.learning_mode = s.string("mode", c.learning_mode);
+    if (c.learning_mode != "areas" && c.learning_mode != "pairs")
+      throw ConfigError(path + ": field 'learning.mode': value '" + c.learning_mode +
+                        "' must be areas or pairs");
   }
   if (top.has("knowledge")) {
     Section s(top.get("knowledge"), path, "knowledge", {"office", "speech"});

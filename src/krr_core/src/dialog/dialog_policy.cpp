@@ -3,6 +3,7 @@
 #include <sys/stat.h>
 
 #include <cstdio>
+#include <memory>
 #include <sstream>
 
 #include "krr_core/common/errors.h"
@@ -90,6 +91,7 @@ pomdp::TurnLimitedPolicy solveDialogPolicy(const pomdp::DialogPomdp& dialog,
   PolicyReport rep;
   const pomdp::TurnLimitedSolverOptions so = dialogSolverOptions(config);
   const int limit = dialog.spec().turnLimit;
+  std::unique_ptr<FileLock> lock;  // parallel trial processes solve each model once
   if (!cache_dir.empty()) {
     std::ostringstream key;
     key.precision(17);
@@ -101,6 +103,12 @@ pomdp::TurnLimitedPolicy solveDialogPolicy(const pomdp::DialogPomdp& dialog,
                   static_cast<unsigned long long>(stableHash(key.str())));
     rep.file = cache_dir + "/" + name + ".txt";
     const std::string boundsFile = cache_dir + "/" + name + ".bounds";
+    makeDirectories(cache_dir);
+    try {
+      lock = std::make_unique<FileLock>(cache_dir + "/" + name + ".lock");
+    } catch (const IoError&) {
+      // a read-only cache: load what is there, or work without caching below
+    }
     if (fileExists(rep.file) && fileExists(boundsFile)) {
       pomdp::TurnLimitedPolicy p = pomdp::TurnLimitedPolicy::load(rep.file);
       if (p.numStates() != dialog.model().getS() || p.turnLimit() != limit)
@@ -124,7 +132,6 @@ pomdp::TurnLimitedPolicy solveDialogPolicy(const pomdp::DialogPomdp& dialog,
                                        rep.bounds.time < so.timeout);
   pomdp::TurnLimitedPolicy policy = solver.policy();
   if (!rep.file.empty() && rep.reproducible) {
-    makeDirectories(cache_dir);
     // Bounds first: the policy file's presence marks a complete entry.
     writeFileAtomic(rep.file.substr(0, rep.file.size() - 4) + ".bounds", boundsText(rep));
     policy.save(rep.file);

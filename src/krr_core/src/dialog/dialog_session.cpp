@@ -57,16 +57,35 @@ std::size_t decideAction(const pomdp::DialogPomdp& d, const pomdp::TurnLimitedPo
   }
   if (!d.isServe(a)) return a;
   const double serve = policy.lookahead(d.model(), b, a, turns, true);
+  std::vector<std::size_t> questions;
+  for (std::size_t q = 0; q < d.model().getA() && d.isQuestion(q); ++q) questions.push_back(q);
+  const std::vector<double> values = policy.lookahead(d.model(), b, questions, turns);
   std::size_t best = a;
   double bestValue = serve;
-  for (std::size_t q = 0; q < d.model().getA() && d.isQuestion(q); ++q) {
-    const double v = policy.lookahead(d.model(), b, q, turns, false);
-    if (v > bestValue + 1e-9) {
-      bestValue = v;
-      best = q;
+  for (std::size_t k = 0; k < questions.size(); ++k)
+    if (values[k] > bestValue + 1e-9) {
+      bestValue = values[k];
+      best = questions[k];
     }
-  }
   return best;
+}
+
+std::size_t DecisionMemo::decide(const pomdp::DialogPomdp& d,
+                                 const pomdp::TurnLimitedPolicy& policy, const pomdp::Belief& b,
+                                 int turns) {
+  key_.assign(reinterpret_cast<const char*>(&turns), sizeof(turns));
+  key_.append(reinterpret_cast<const char*>(b.data()),
+              static_cast<std::size_t>(b.size()) * sizeof(double));
+  const auto it = memo_.find(key_);
+  if (it != memo_.end()) {
+    ++hits_;
+    return it->second;
+  }
+  ++misses_;
+  const std::size_t a = decideAction(d, policy, b, turns);
+  if (memo_.size() >= capacity_) memo_.clear();
+  memo_.emplace(key_, a);
+  return a;
 }
 
 std::size_t DialogSession::nextAction() const {
@@ -75,7 +94,8 @@ std::size_t DialogSession::nextAction() const {
     if (atTurnLimit()) return dialog_.serveAction(summary().mostLikely);
     throw ConfigError("dialog session: no policy to choose the next action");
   }
-  return decideAction(dialog_, *policy_, belief_, turns_);
+  return memo_ ? memo_->decide(dialog_, *policy_, belief_, turns_)
+               : decideAction(dialog_, *policy_, belief_, turns_);
 }
 
 void DialogSession::act(std::size_t a) {

@@ -1,12 +1,19 @@
 #include "krr_core/kb/free_time_learner.h"
 
-#include <algorithm>
-
+#include "krr_core/kb/area_knowledge.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/nav/grid_astar.h"
 
 namespace krr {
 namespace kb {
+
+std::string toString(Extraction e) { return e == Extraction::kPairs ? "pairs" : "areas"; }
+
+Extraction extractionFromString(const std::string& name) {
+  if (name == "pairs") return Extraction::kPairs;
+  if (name == "areas") return Extraction::kAreas;
+  throw ConfigError("extraction '" + name + "' must be areas or pairs");
+}
 
 LeastKnownSelector::LeastKnownSelector(std::vector<std::string> places, std::string start)
     : places_(std::move(places)), start_(std::move(start)) {
@@ -50,8 +57,10 @@ void FreeTimeOptions::validate() const {
 }
 
 FreeTimeLearner::FreeTimeLearner(const NavDomain& domain, NavigationKnowledge& knowledge,
-                                 TaskSelector& selector, const FreeTimeOptions& options)
-    : domain_(domain), knowledge_(knowledge), selector_(selector), options_(options) {
+                                 TaskSelector& selector, const FreeTimeOptions& options,
+                                 std::shared_ptr<mdp::VisitCounts> samples)
+    : domain_(domain), knowledge_(knowledge), selector_(selector), options_(options),
+      samples_(std::move(samples)) {
   options_.validate();
   options_.rmax.step_limit = static_cast<std::uint32_t>(domain.domain.step_limit);
 }
@@ -77,7 +86,21 @@ FreeTimeReport FreeTimeLearner::run(Rng& rng, const std::function<bool()>& inter
         learnUntilConverged(env, agent, options_.max_episodes_per_task,
                             options_.convergence_episodes, rng, interrupted, &converged);
     // Use what is known so far to update the knowledge base, interrupted or not.
-    report.pairs_extracted += knowledge_.addLearned(agent.model().knownPairs(), options_.time);
+    const mdp::VisitCounts& seen = agent.model().counts();
+    if (!samples_) samples_ = std::make_shared<mdp::VisitCounts>(seen.getS(), seen.getA());
+    samples_->merge(seen);
+    for (mdp::StateId s = 0; s < seen.getS(); ++s)
+      for (mdp::ActionId a = 0; a < seen.getA(); ++a) report.samples += seen.count(s, a);
+    if (options_.extraction == Extraction::kPairs) {
+      report.pairs_extracted += knowledge_.addLearned(agent.model().knownPairs(), options_.time);
+    } else {
+      // Pairs it covers are not marked known: later tasks keep exploring, and every later
+      // sample refines the pooled estimate (marking them known after M pooled moves raised the
+      // worst P^N error at br 0.7 from 0.018 to 0.064, test_delivery_learning).
+      const AreaKnowledge k = estimateAreaKnowledge(*samples_, *domain_.space, options_.time);
+      knowledge_.setLearnedAreas(options_.time, areaKnowledgeText(k));
+      report.pairs_extracted += k.areas.size();
+    }
     report.tasks.push_back(task);
     report.episodes.push_back(episodes);
     report.converged.push_back(converged);

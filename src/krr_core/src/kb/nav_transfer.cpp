@@ -121,8 +121,12 @@ NavTransferTrial runNavTransferTrial(const NavDomain& dom, NavigationKnowledge& 
   NavTransferTrial t;
   t.index = index;
 
-  // 1. Procedure 1 on the source task (from scratch), then extraction into the KB.
-  knowledge.clearLearned();
+  // 1. Procedure 1 on the source task (from scratch: the agent does not read the KB), then
+  // extraction into the KB, replacing what an earlier trial of this thread wrote (anything
+  // else learned is forgotten first).
+  if (!knowledge.learnedAreas().empty() ||
+      knowledge.learnedPairCount() != knowledge.learnedPairCount(o.time))
+    knowledge.clearLearned();
   {
     SimulatedNavigation env(*dom.simulator, sp, start, {dom.grid->placeCell(o.source)}, ctx,
                             p.navigationReward());
@@ -130,7 +134,7 @@ NavTransferTrial runNavTransferTrial(const NavDomain& dom, NavigationKnowledge& 
     Rng rng = makeRng(seed, "nav_transfer/source", index);
     t.source_episodes_run = learnUntilConverged(env, agent, o.source_episodes,
                                                 o.convergence_episodes, rng, {}, nullptr);
-    t.learned_pairs = knowledge.addLearned(agent.model().knownPairs(), o.time);
+    t.learned_pairs = knowledge.replaceLearned(agent.model().knownPairs(), o.time);
   }
 
   // 2. Procedure 2: the target task's model, computed by reasoning.

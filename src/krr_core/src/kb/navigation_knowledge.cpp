@@ -189,8 +189,10 @@ plog::Rule NavigationKnowledge::learnedFact(const std::tuple<int, int, std::stri
   return r;
 }
 
-void NavigationKnowledge::updateLearned(const LearnedMap& updates) {
-  std::vector<plog::PrAtom> old_prs, new_prs;
+void NavigationKnowledge::updateLearned(const LearnedMap& updates,
+                                        std::vector<plog::PrAtom> old_prs,
+                                        std::vector<plog::Rule> old_facts) {
+  std::vector<plog::PrAtom> new_prs;
   std::vector<plog::Rule> facts;
   for (const auto& [key, d] : updates) {
     auto it = learned_.find(key);
@@ -205,7 +207,7 @@ void NavigationKnowledge::updateLearned(const LearnedMap& updates) {
     appendPrAtoms(key, d, new_prs);
   }
   // Re-learned pairs: their old outcomes go (keeping one would make the sum exceed 1).
-  if (!old_prs.empty()) reasoner_.removeStatements({}, old_prs);
+  if (!old_prs.empty() || !old_facts.empty()) reasoner_.removeStatements(old_facts, old_prs);
   if (!new_prs.empty() || !facts.empty())
     reasoner_.addStatements(std::move(facts), std::move(new_prs), kLearnedTag);
 }
@@ -271,12 +273,48 @@ NavModel NavigationKnowledge::buildModel(const std::vector<std::string>& times, 
   return model;
 }
 
+std::size_t NavigationKnowledge::replaceLearned(const std::vector<mdp::KnownPair>& pairs,
+                                                const std::string& time) {
+  LearnedMap updates;
+  const std::size_t written = learnedDistributions(pairs, time, updates);
+  // Pairs of this time that are no longer learned go, with their learned(C, M, T) fact; pairs
+  // learned again with the same distribution stay untouched (no grounding or row to redo).
+  std::vector<plog::PrAtom> old_prs;
+  std::vector<plog::Rule> old_facts;
+  for (auto it = learned_.begin(); it != learned_.end();) {
+    if (std::get<2>(it->first) == time && !updates.count(it->first)) {
+      appendPrAtoms(it->first, it->second, old_prs);
+      old_facts.push_back(learnedFact(it->first));
+      it = learned_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  updateLearned(updates, std::move(old_prs), std::move(old_facts));
+  return written;
+}
+
+std::size_t NavigationKnowledge::learnedPairCount(const std::string& time) const {
+  if (time.empty()) return learned_.size();
+  std::size_t n = 0;
+  for (const auto& kv : learned_) n += std::get<2>(kv.first) == time ? 1 : 0;
+  return n;
+}
+
 std::size_t NavigationKnowledge::addLearned(const std::vector<mdp::KnownPair>& pairs,
                                             const std::string& time) {
+  LearnedMap updates;
+  const std::size_t written = learnedDistributions(pairs, time, updates);
+  updateLearned(updates);
+  return written;
+}
+
+std::size_t NavigationKnowledge::learnedDistributions(const std::vector<mdp::KnownPair>& pairs,
+                                                      const std::string& time,
+                                                      LearnedMap& updates) const {
   if (std::find(times_.begin(), times_.end(), time) == times_.end())
     throw UnknownSymbolError("time '" + time + "' is not a value of sort time");
   std::size_t written = 0;
-  LearnedMap updates;
   for (const mdp::KnownPair& kp : pairs) {
     if (kp.from_prior || kp.distribution.empty()) continue;
     const int cell = space_.cellOf(kp.state);
@@ -299,7 +337,6 @@ std::size_t NavigationKnowledge::addLearned(const std::vector<mdp::KnownPair>& p
     updates[std::make_tuple(cell, static_cast<int>(kp.action), time)] = std::move(d);
     ++written;
   }
-  updateLearned(updates);
   return written;
 }
 
@@ -311,9 +348,27 @@ std::vector<NavigationKnowledge::LearnedEntry> NavigationKnowledge::learnedEntri
   return out;
 }
 
+namespace {
+const char* const kAreaMarker = "% --- areas, time ";
+std::string areaTag(const std::string& time) { return std::string(kLearnedTag) + "/areas/" + time; }
+}  // namespace
+
+void NavigationKnowledge::setLearnedAreas(const std::string& time, const std::string& statements) {
+  if (std::find(times_.begin(), times_.end(), time) == times_.end())
+    throw UnknownSymbolError("area knowledge for time '" + time + "', which sort time does not have");
+  // Validate first (a refused update changes nothing): parse against a copy of the program.
+  plog::Program scratch = reasoner_.program();
+  plog::parseInto(scratch, statements, "<area knowledge, time " + time + ">");
+  reasoner_.removeStatementsWithTag(areaTag(time));
+  reasoner_.addStatements(statements, areaTag(time), "<area knowledge, time " + time + ">");
+  areas_[time] = statements;
+}
+
 void NavigationKnowledge::clearLearned() {
   learned_.clear();
   reasoner_.removeStatementsWithTag(kLearnedTag);
+  for (const auto& [time, text] : areas_) reasoner_.removeStatementsWithTag(areaTag(time));
+  areas_.clear();
 }
 
 std::string NavigationKnowledge::learnedText() const {
@@ -330,6 +385,7 @@ std::string NavigationKnowledge::learnedText() const {
     }
     o << "learned(" << cell << ", " << kMoveNames[move] << ", " << time << ").\n";
   }
+  for (const auto& [time, text] : areas_) o << kAreaMarker << time << " ---\n" << text;
   return o.str();
 }
 
@@ -338,7 +394,35 @@ void NavigationKnowledge::saveLearned(const std::string& path) const {
 }
 
 void NavigationKnowledge::loadLearned(const std::string& path) {
-  const std::string text = readFile(path);
+  std::string text = readFile(path);
+  // Area blocks come after the pairs, each after its marker line.
+  std::vector<std::pair<std::string, std::string>> areaBlocks;
+  for (std::size_t at = text.find(kAreaMarker); at != std::string::npos;) {
+    const std::size_t lineEnd = text.find('\n', at);
+    const std::string head = text.substr(at, lineEnd == std::string::npos ? std::string::npos : lineEnd - at);
+    const std::size_t nameBegin = std::string(kAreaMarker).size();
+    const std::size_t nameEnd = head.find(' ', nameBegin);
+    const std::string time = head.substr(nameBegin, nameEnd == std::string::npos ? std::string::npos : nameEnd - nameBegin);
+    const std::size_t next = lineEnd == std::string::npos ? std::string::npos : text.find(kAreaMarker, lineEnd);
+    const std::size_t bodyBegin = lineEnd == std::string::npos ? text.size() : lineEnd + 1;
+    areaBlocks.emplace_back(time, text.substr(bodyBegin, next == std::string::npos ? std::string::npos : next - bodyBegin));
+    at = next;
+  }
+  if (const std::size_t first = text.find(kAreaMarker); first != std::string::npos) {
+    // Keep the line count of the pairs part (errors name their lines); drop the area blocks.
+    text.erase(first);
+  }
+  for (const auto& [time, block] : areaBlocks) {
+    if (std::find(times_.begin(), times_.end(), time) == times_.end())
+      throw ParseError({path, 1, 1}, "area knowledge for time '" + time + "', which sort time does not have");
+    plog::Program scratch = reasoner_.program();
+    plog::parseInto(scratch, block, path);
+    if (scratch.random_rules.size() != reasoner_.program().random_rules.size() ||
+        scratch.sorts.size() != reasoner_.program().sorts.size() ||
+        scratch.attributes.size() != reasoner_.program().attributes.size())
+      throw ParseError({path, 1, 1}, "area knowledge may only contain pr-atoms and "
+                                     "learned_area / learned_noise facts");
+  }
   // Parse in the context of the current program so names resolve, then check that every
   // statement has the shape extraction writes; anything else is an error naming its location.
   plog::Program scratch = reasoner_.program();
@@ -399,6 +483,7 @@ void NavigationKnowledge::loadLearned(const std::string& path) {
     loaded[key] = std::move(d);
   }
   updateLearned(loaded);
+  for (const auto& [time, block] : areaBlocks) setLearnedAreas(time, block);
 }
 
 }  // namespace kb

@@ -1,15 +1,16 @@
-#include "krr_core/common/parallel.h"
 #include "krr_core/kb/new_circumstances.h"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <exception>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <set>
 
 #include "experiment_yaml.h"
 #include "krr_core/common/errors.h"
+#include "krr_core/common/parallel.h"
 #include "krr_core/common/random.h"
 #include "krr_core/kb/free_time_learner.h"
 #include "krr_core/mdp/reach_probability.h"
@@ -23,20 +24,25 @@ void NewCircumstancesOptions::validate() const {
     throw ConfigError("new circumstances: field '" + f + "' has invalid value " + v);
   };
   if (start == goal) bad("goal", goal + " (same as start)");
-  if (learn_times.empty()) bad("learn_times", "[] (no setting to learn in)");
+  if (learn_times.size() < 2)
+    bad("learn_times", "of " + std::to_string(learn_times.size()) +
+                           " setting(s) (at least two are needed: the robot must not know which)");
   std::set<std::string> seen;
-  for (const std::string& t : learn_times)
+  for (const std::string& t : learn_times) {
+    if (t.empty() || t.find_first_of(",+\" \t\n") != std::string::npos)
+      bad("learn_times", "'" + t + "' (a time of day: no empty names, commas, '+' or spaces)");
     if (!seen.insert(t).second) bad("learn_times", t + " (listed twice)");
-  if (unknown_times.empty()) bad("unknown_times", "[] (no possible setting)");
-  std::set<std::string> useen;
-  for (const std::string& t : unknown_times) {
-    if (!seen.count(t)) bad("unknown_times", t + " (not a learned setting)");
-    if (!useen.insert(t).second) bad("unknown_times", t + " (listed twice)");
   }
+  if (unknown_count < 2 || unknown_count > learn_times.size())
+    bad("unknown_count", std::to_string(unknown_count) + " (expected 2.." +
+                             std::to_string(learn_times.size()) +
+                             ": the robot is in one of that many learned settings)");
   if (!(blocking_rate <= 1)) bad("blocking_rate", std::to_string(blocking_rate));
   if (selector != "fixed" && selector != "least_known")
     bad("selector", "'" + selector + "' (expected fixed or least_known)");
   if (selector == "least_known" && places.empty()) bad("places", "[]");
+  if (extraction != "pairs" && extraction != "areas")
+    bad("extraction", "'" + extraction + "' (expected pairs or areas)");
   if (learn_tasks == 0) bad("learn_tasks", "0");
   if (learn_episodes == 0) bad("learn_episodes", "0");
   if (convergence_episodes == 0) bad("convergence_episodes", "0");
@@ -50,19 +56,24 @@ NewCircumstancesOptions loadNewCircumstancesOptions(const std::string& path,
                                                     const NewCircumstancesOptions& defaults) {
   using detail::YamlSection;
   const YAML::Node root = detail::loadYamlFile(path);
+  if (root.IsMap() && root["unknown_times"])
+    throw ConfigError(path + ": field 'unknown_times' is no longer read: the settings the robot "
+                             "may be in are drawn per trial (use unknown_count)");
   YamlSection s(root, path, "",
-                {"domain", "start", "goal", "learn_times", "unknown_times", "blocking_rate", "selector",
-                 "places", "learn_tasks", "learn_episodes", "convergence_episodes", "rmax",
-                 "plan"});
+                {"domain", "start", "goal", "learn_times", "unknown_count", "learning_runs",
+                 "blocking_rate", "selector", "places", "extraction", "learn_tasks", "learn_episodes",
+                 "convergence_episodes", "rmax", "plan"});
   NewCircumstancesOptions o = defaults;
   o.domain = s.string("domain", o.domain);
   o.start = s.string("start", o.start);
   o.goal = s.string("goal", o.goal);
   o.learn_times = s.strings("learn_times", o.learn_times);
-  o.unknown_times = s.strings("unknown_times", o.unknown_times);
+  o.unknown_count = s.count("unknown_count", o.unknown_count, 2, 1000);
+  o.learning_runs = s.count("learning_runs", o.learning_runs, 0, 1000000);
   o.blocking_rate = s.number("blocking_rate", o.blocking_rate, -1.0, 1.0);
   o.selector = s.string("selector", o.selector);
   o.places = s.strings("places", o.places);
+  o.extraction = s.string("extraction", o.extraction);
   o.learn_tasks = s.count("learn_tasks", o.learn_tasks, 1, 1000000);
   o.learn_episodes = s.count("learn_episodes", o.learn_episodes, 1, 100000000);
   o.convergence_episodes = s.count("convergence_episodes", o.convergence_episodes, 1, 100000000);
@@ -79,6 +90,47 @@ NewCircumstancesOptions loadNewCircumstancesOptions(const std::string& path,
     throw ConfigError(path + ": " + e.what());
   }
   return o;
+}
+
+std::vector<std::vector<std::size_t>> possibleSettingSets(const NewCircumstancesOptions& o) {
+  o.validate();
+  const std::size_t n = o.learn_times.size(), k = o.unknown_count;
+  std::vector<std::vector<std::size_t>> out;
+  std::vector<std::size_t> c(k);
+  for (std::size_t i = 0; i < k; ++i) c[i] = i;
+  while (true) {
+    out.push_back(c);
+    // Next combination in lexicographic order.
+    std::size_t i = k;
+    while (i > 0 && c[i - 1] == n - k + (i - 1)) --i;
+    if (i == 0) break;
+    ++c[i - 1];
+    for (std::size_t j = i; j < k; ++j) c[j] = c[j - 1] + 1;
+  }
+  return out;
+}
+
+std::size_t learningRunOf(const NewCircumstancesOptions& o, std::size_t index) {
+  return o.learning_runs == 0 ? index : index % o.learning_runs;
+}
+
+namespace {
+
+std::size_t uniformIndex(Rng& g, std::size_t n) {
+  return std::min(n - 1, static_cast<std::size_t>(uniform01(g) * static_cast<double>(n)));
+}
+
+}  // namespace
+
+SettingDraw drawSettings(const NewCircumstancesOptions& o, std::uint64_t seed, std::size_t index) {
+  const auto sets = possibleSettingSets(o);
+  Rng g = makeRng(seed, "new_circumstances/setting", index);
+  SettingDraw d;
+  d.set = uniformIndex(g, sets.size());
+  const std::vector<std::size_t>& s = sets[d.set];
+  d.truth = s[uniformIndex(g, s.size())];
+  d.pick = s[uniformIndex(g, s.size())];
+  return d;
 }
 
 namespace {
@@ -102,24 +154,40 @@ nav::Context contextOf(const NavDomain& dom, const std::string& time, double br)
   return c;
 }
 
+struct Endpoints {
+  int start_cell, goal_cell;
+  mdp::StateId start, goal;
+};
+
+Endpoints endpointsOf(const NavDomain& dom, const NewCircumstancesOptions& o) {
+  Endpoints e;
+  e.start_cell = dom.grid->placeCell(o.start);
+  e.goal_cell = dom.grid->placeCell(o.goal);
+  e.start = dom.space->stateOf(e.start_cell);
+  e.goal = dom.space->stateOf(e.goal_cell);
+  return e;
+}
+
 }  // namespace
 
-NewCircumstancesTrial runNewCircumstancesTrial(const NavDomain& dom, NavigationKnowledge& kb,
-                                               const NewCircumstancesOptions& o,
-                                               std::uint64_t seed, std::size_t index) {
+LearnedControllers learnControllers(const NavDomain& dom, NavigationKnowledge& kb,
+                                    const NewCircumstancesOptions& o, std::uint64_t seed,
+                                    std::size_t run) {
   o.validate();
   const NavStateSpace& sp = *dom.space;
-  const int start_cell = dom.grid->placeCell(o.start);
-  const int goal_cell = dom.grid->placeCell(o.goal);
-  const mdp::StateId start = sp.stateOf(start_cell), goal = sp.stateOf(goal_cell);
+  const Endpoints ep = endpointsOf(dom, o);
   const std::size_t limit = static_cast<std::size_t>(dom.domain.step_limit);
-  NewCircumstancesTrial t;
-  t.index = index;
+  const std::size_t T = o.learn_times.size();
+  for (const std::string& time : o.learn_times) dom.simulator->timeOfDayIndex(time);  // checks
+  LearnedControllers lc;
+  lc.run = run;
 
-  // 1. Procedure 1 in every setting; the KB collects what was learned, per time of day.
+  // Procedure 1 in every setting; the KB collects what was learned, per time of day. A time's
+  // knowledge is conditioned on curr_time = time, so it never enters another time's model.
   kb.clearLearned();
   for (const std::string& time : o.learn_times) {
     FreeTimeOptions fo;
+    fo.extraction = extractionFromString(o.extraction);
     fo.time = time;
     fo.blocking_rate = o.blocking_rate;
     fo.max_episodes_per_task = o.learn_episodes;
@@ -135,62 +203,143 @@ NewCircumstancesTrial runNewCircumstancesTrial(const NavDomain& dom, NavigationK
       selector = std::make_unique<LeastKnownSelector>(places, o.start);
     }
     FreeTimeLearner learner(dom, kb, *selector, fo);
-    Rng rng = makeRng(seed, "new_circumstances/learn/" + time, index);
-    t.learned_pairs.push_back(learner.run(rng, {}).pairs_extracted);
+    Rng rng = makeRng(seed, "new_circumstances/learn/" + time, run);
+    lc.learned_pairs.push_back(learner.run(rng, {}).pairs_extracted);
   }
 
-  // 2. Controllers from models the reasoner builds out of the KB (Procedure 2).
-  std::vector<std::vector<mdp::ActionId>> own;
+  // Controllers from models the reasoner builds out of the KB (Procedure 2).
   for (const std::string& time : o.learn_times)
-    own.push_back(controllerOf(kb.buildModel({time}, o.plan_discount), sp, goal, o));
-  const std::vector<mdp::ActionId> merged =
-      controllerOf(kb.buildModel(o.unknown_times, o.plan_discount), sp, goal, o);
-  auto ownOf = [&](const std::string& time) -> const std::vector<mdp::ActionId>& {
-    return own[static_cast<std::size_t>(
-        std::find(o.learn_times.begin(), o.learn_times.end(), time) - o.learn_times.begin())];
-  };
-  for (const auto& pol : own) t.differs_from.push_back(pol[start] != merged[start] ? 1 : 0);
-
-  // Exact success probability of a controller in a setting (simulator's true dynamics).
-  const mdp::NavigationReward sim_reward{o.plan_step_cost, o.plan_rmax};
-  auto exact = [&](const std::vector<mdp::ActionId>& policy, const std::string& time) {
-    SimulatedNavigation env(*dom.simulator, sp, start_cell, {goal_cell},
-                            contextOf(dom, time, o.blocking_rate), sim_reward);
-    return mdp::reachProbability(env.trueModel(1.0), policy, {goal}, limit)[start];
-  };
-  for (std::size_t k = 0; k < o.learn_times.size(); ++k)
-    t.p_self.push_back(exact(own[k], o.learn_times[k]));
-
-  // 3. Evaluation: the true setting and the baseline's pick, uniformly among unknown_times.
-  Rng pick = makeRng(seed, "new_circumstances/setting", index);
-  const std::size_t U = o.unknown_times.size();
-  t.setting = o.unknown_times[std::min(U - 1, static_cast<std::size_t>(uniform01(pick) * U))];
-  t.baseline_choice = o.unknown_times[std::min(U - 1, static_cast<std::size_t>(uniform01(pick) * U))];
-  const std::vector<mdp::ActionId>& baseline = ownOf(t.baseline_choice);
-  const std::vector<mdp::ActionId>& oracle = ownOf(t.setting);
-  SimulatedNavigation env(*dom.simulator, sp, start_cell, {goal_cell},
-                          contextOf(dom, t.setting, o.blocking_rate), sim_reward);
-  auto episode = [&](const std::vector<mdp::ActionId>& policy, std::size_t* steps) {
-    mdp::FixedPolicyAgent agent(policy);
-    // Common random numbers: every controller meets the same walkers.
-    Rng rng = makeRng(seed, "new_circumstances/episode", index);
-    const mdp::EpisodeResult r = mdp::runEpisode(env, agent, limit, o.plan_rmax, rng);
-    if (steps) *steps = r.steps;
-    return r.success;
-  };
-  t.success_merged = episode(merged, &t.steps_merged);
-  t.success_baseline = episode(baseline, &t.steps_baseline);
-  t.success_oracle = episode(oracle, nullptr);
-  for (const std::string& u : o.unknown_times) {
-    t.expected_merged += exact(merged, u) / static_cast<double>(U);
-    for (const std::string& v : o.unknown_times)
-      t.expected_baseline += exact(ownOf(v), u) / static_cast<double>(U * U);
+    lc.own.push_back(controllerOf(kb.buildModel({time}, o.plan_discount), sp, ep.goal, o));
+  for (const auto& set : possibleSettingSets(o)) {
+    std::vector<std::string> times;
+    for (std::size_t k : set) times.push_back(o.learn_times[k]);
+    lc.merged.push_back(controllerOf(kb.buildModel(times, o.plan_discount), sp, ep.goal, o));
   }
-  t.p_merged = exact(merged, t.setting);
-  t.p_baseline = exact(baseline, t.setting);
-  t.p_oracle = exact(oracle, t.setting);
+
+  // Exact success probability of every controller in every setting (true dynamics).
+  const mdp::NavigationReward sim_reward{o.plan_step_cost, o.plan_rmax};
+  lc.p_own.assign(T, std::vector<double>(T, 0.0));
+  lc.p_merged.assign(lc.merged.size(), std::vector<double>(T, 0.0));
+  for (std::size_t u = 0; u < T; ++u) {
+    SimulatedNavigation env(*dom.simulator, sp, ep.start_cell, {ep.goal_cell},
+                            contextOf(dom, o.learn_times[u], o.blocking_rate), sim_reward);
+    const mdp::SparseModel truth = env.trueModel(1.0);
+    for (std::size_t k = 0; k < T; ++k)
+      lc.p_own[k][u] = mdp::reachProbability(truth, lc.own[k], {ep.goal}, limit)[ep.start];
+    for (std::size_t m = 0; m < lc.merged.size(); ++m)
+      lc.p_merged[m][u] = mdp::reachProbability(truth, lc.merged[m], {ep.goal}, limit)[ep.start];
+  }
+  return lc;
+}
+
+EpisodeOutcome runControllerEpisode(const NavDomain& dom, const NewCircumstancesOptions& o,
+                                    const std::vector<mdp::ActionId>& policy, std::size_t setting,
+                                    std::uint64_t seed, std::size_t index) {
+  if (setting >= o.learn_times.size())
+    throw ConfigError("new circumstances: setting index " + std::to_string(setting) +
+                      " out of range (" + std::to_string(o.learn_times.size()) + " settings)");
+  if (policy.size() != dom.space->numStates())
+    throw ConfigError("new circumstances: controller has " + std::to_string(policy.size()) +
+                      " states, the domain " + std::to_string(dom.space->numStates()));
+  const Endpoints ep = endpointsOf(dom, o);
+  const mdp::NavigationReward reward{o.plan_step_cost, o.plan_rmax};
+  SimulatedNavigation env(*dom.simulator, *dom.space, ep.start_cell, {ep.goal_cell},
+                          contextOf(dom, o.learn_times[setting], o.blocking_rate), reward);
+  mdp::FixedPolicyAgent agent(policy);
+  // Common random numbers: every controller of trial `index` meets the same walkers and slips.
+  Rng rng = makeRng(seed, "new_circumstances/episode", index);
+  const mdp::EpisodeResult r =
+      mdp::runEpisode(env, agent, static_cast<std::size_t>(dom.domain.step_limit), o.plan_rmax, rng);
+  return {r.success, r.steps};
+}
+
+NewCircumstancesTrial evaluateNewCircumstancesTrial(const NavDomain& dom,
+                                                    const NewCircumstancesOptions& o,
+                                                    const LearnedControllers& lc,
+                                                    std::uint64_t seed, std::size_t index) {
+  o.validate();
+  const std::size_t T = o.learn_times.size();
+  const auto sets = possibleSettingSets(o);
+  if (lc.run != learningRunOf(o, index))
+    throw ConfigError("new circumstances: trial " + std::to_string(index) + " uses learning run " +
+                      std::to_string(learningRunOf(o, index)) + ", given run " +
+                      std::to_string(lc.run));
+  if (lc.own.size() != T || lc.merged.size() != sets.size() || lc.p_own.size() != T ||
+      lc.p_merged.size() != sets.size() || lc.learned_pairs.size() != T)
+    throw ConfigError("new circumstances: the learned controllers do not match the options (" +
+                      std::to_string(lc.own.size()) + " settings, " +
+                      std::to_string(lc.merged.size()) + " merged controllers; expected " +
+                      std::to_string(T) + " and " + std::to_string(sets.size()) + ")");
+  const SettingDraw d = drawSettings(o, seed, index);
+  NewCircumstancesTrial t;
+  t.index = index;
+  t.learning_run = lc.run;
+  for (std::size_t k : sets[d.set]) t.possible.push_back(o.learn_times[k]);
+  t.setting = o.learn_times[d.truth];
+  t.baseline_choice = o.learn_times[d.pick];
+
+  // One episode per distinct controller, all from the trial's episode stream. The baseline and
+  // the oracle *are* own controllers, so their episodes are those of the own controllers.
+  const EpisodeOutcome merged = runControllerEpisode(dom, o, lc.merged[d.set], d.truth, seed, index);
+  std::vector<EpisodeOutcome> own;
+  for (std::size_t k = 0; k < T; ++k)
+    own.push_back(runControllerEpisode(dom, o, lc.own[k], d.truth, seed, index));
+  t.success_merged = merged.success;
+  t.steps_merged = merged.steps;
+  t.success_baseline = own[d.pick].success;
+  t.steps_baseline = own[d.pick].steps;
+  t.success_oracle = own[d.truth].success;
+  t.steps_oracle = own[d.truth].steps;
+  for (const EpisodeOutcome& e : own) t.success_own.push_back(e.success ? 1 : 0);
+
+  t.p_merged = lc.p_merged[d.set][d.truth];
+  t.p_baseline = lc.p_own[d.pick][d.truth];
+  t.p_oracle = lc.p_own[d.truth][d.truth];
+  for (std::size_t k = 0; k < T; ++k) {
+    t.p_own.push_back(lc.p_own[k][d.truth]);
+    t.p_self.push_back(lc.p_own[k][k]);
+  }
+  t.learned_pairs = lc.learned_pairs;
   return t;
 }
+
+NewCircumstancesTrial runNewCircumstancesTrial(const NavDomain& dom, NavigationKnowledge& kb,
+                                               const NewCircumstancesOptions& o,
+                                               std::uint64_t seed, std::size_t index) {
+  const LearnedControllers lc = learnControllers(dom, kb, o, seed, learningRunOf(o, index));
+  return evaluateNewCircumstancesTrial(dom, o, lc, seed, index);
+}
+
+namespace {
+
+/// @brief Learning runs shared by the worker threads: each run is learned once, by the first
+/// worker that needs it (the others wait for it), and never depends on which worker it was.
+class RunCache {
+ public:
+  template <class Make>
+  std::shared_ptr<const LearnedControllers> get(std::size_t run, Make make) {
+    std::shared_ptr<Slot> slot;
+    {
+      std::lock_guard<std::mutex> lock(mu_);
+      std::shared_ptr<Slot>& s = slots_[run];
+      if (!s) s = std::make_shared<Slot>();
+      slot = s;
+    }
+    std::lock_guard<std::mutex> lock(slot->mu);
+    if (!slot->value) slot->value = std::make_shared<const LearnedControllers>(make());
+    return slot->value;
+  }
+
+ private:
+  struct Slot {
+    std::mutex mu;
+    std::shared_ptr<const LearnedControllers> value;
+  };
+  std::mutex mu_;
+  std::map<std::size_t, std::shared_ptr<Slot>> slots_;
+};
+
+}  // namespace
 
 std::vector<NewCircumstancesTrial> runNewCircumstances(const NavDomain& dom,
                                                        const NewCircumstancesOptions& o,
@@ -198,10 +347,14 @@ std::vector<NewCircumstancesTrial> runNewCircumstances(const NavDomain& dom,
                                                        std::size_t count, std::size_t threads) {
   o.validate();
   if (count == 0) throw ConfigError("new circumstances: trials must be at least 1");
-  return runParallelTrials<NewCircumstancesTrial>(count, threads, [&]() {
+  auto cache = std::make_shared<RunCache>();
+  return runParallelTrials<NewCircumstancesTrial>(count, threads, [&, cache]() {
     auto kb = std::make_shared<NavigationKnowledge>(*dom.grid, dom.knowledge_files);
-    return [&, kb](std::size_t i) {
-      return runNewCircumstancesTrial(dom, *kb, o, seed, begin + i);
+    return [&, kb, cache](std::size_t i) {
+      const std::size_t index = begin + i, run = learningRunOf(o, index);
+      if (o.learning_runs == 0) return runNewCircumstancesTrial(dom, *kb, o, seed, index);
+      const auto lc = cache->get(run, [&] { return learnControllers(dom, *kb, o, seed, run); });
+      return evaluateNewCircumstancesTrial(dom, o, *lc, seed, index);
     };
   });
 }
@@ -221,29 +374,37 @@ MeanCi meanCi(const std::vector<double>& x) {
 
 std::string newCircumstancesCsvHeader(const NewCircumstancesOptions& o) {
   std::string h =
-      "trial,setting,baseline_choice,success_merged,success_baseline,success_oracle,"
-      "steps_merged,steps_baseline,p_merged,p_baseline,p_oracle,expected_merged,"
-      "expected_baseline";
+      "trial,learning_run,possible_settings,true_setting,baseline_pick,success_merged,"
+      "success_baseline,success_oracle";
+  for (const std::string& t : o.learn_times) h += ",success_own_" + t;
+  h += ",steps_merged,steps_baseline,steps_oracle,p_merged,p_baseline,p_oracle";
+  for (const std::string& t : o.learn_times) h += ",p_own_" + t;
   for (const std::string& t : o.learn_times) h += ",p_self_" + t;
   for (const std::string& t : o.learn_times) h += ",learned_pairs_" + t;
-  for (const std::string& t : o.learn_times) h += ",merged_differs_" + t;
   return h;
 }
 
 std::string newCircumstancesCsvRow(const NewCircumstancesTrial& t) {
-  char buf[256];
-  std::snprintf(buf, sizeof(buf), "%zu,%s,%s,%d,%d,%d,%zu,%zu,%.6f,%.6f,%.6f,%.6f,%.6f",
-                t.index, t.setting.c_str(), t.baseline_choice.c_str(), t.success_merged ? 1 : 0,
-                t.success_baseline ? 1 : 0, t.success_oracle ? 1 : 0, t.steps_merged,
-                t.steps_baseline, t.p_merged, t.p_baseline, t.p_oracle, t.expected_merged,
-                t.expected_baseline);
-  std::string row = buf;
-  for (double p : t.p_self) {
+  std::string possible;
+  for (const std::string& s : t.possible) possible += (possible.empty() ? "" : "+") + s;
+  std::string row = std::to_string(t.index) + "," + std::to_string(t.learning_run) + "," +
+                    possible + "," + t.setting + "," + t.baseline_choice + "," +
+                    (t.success_merged ? "1" : "0") + "," + (t.success_baseline ? "1" : "0") + "," +
+                    (t.success_oracle ? "1" : "0");
+  for (std::uint8_t s : t.success_own) row += s ? ",1" : ",0";
+  row += "," + std::to_string(t.steps_merged) + "," + std::to_string(t.steps_baseline) + "," +
+         std::to_string(t.steps_oracle);
+  char buf[64];
+  auto num = [&](double p) {
     std::snprintf(buf, sizeof(buf), ",%.6f", p);
     row += buf;
-  }
+  };
+  num(t.p_merged);
+  num(t.p_baseline);
+  num(t.p_oracle);
+  for (double p : t.p_own) num(p);
+  for (double p : t.p_self) num(p);
   for (std::size_t n : t.learned_pairs) row += "," + std::to_string(n);
-  for (std::uint8_t d : t.differs_from) row += d ? ",1" : ",0";
   return row;
 }
 

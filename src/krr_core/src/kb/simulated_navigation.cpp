@@ -45,17 +45,21 @@ mdp::StepResult SimulatedNavigation::step(mdp::ActionId a, Rng& rng) {
 }
 
 mdp::SparseModel SimulatedNavigation::trueModel(double discount) const {
-  mdp::SparseModelBuilder b(space_.numStates(), 4, discount);
-  for (mdp::StateId s = 0; s < space_.trappedState(); ++s) {
+  return trueDynamics(sim_, space_, context_, discount);
+}
+
+mdp::SparseModel trueDynamics(const nav::BlockageSimulator& sim, const NavStateSpace& space,
+                              const nav::Context& context, double discount) {
+  mdp::SparseModelBuilder b(space.numStates(), 4, discount);
+  for (mdp::StateId s = 0; s < space.trappedState(); ++s) {
     for (int a = 0; a < 4; ++a) {
-      for (const auto& [c, p] : sim_.trueDistribution(space_.cellOf(s), a, context_)) {
-        const mdp::StateId s1 =
-            c == sim_.trappedState() ? space_.trappedState() : space_.stateOf(c);
+      for (const auto& [c, p] : sim.trueDistribution(space.cellOf(s), a, context)) {
+        const mdp::StateId s1 = c == sim.trappedState() ? space.trappedState() : space.stateOf(c);
         b.addTransition(s, static_cast<mdp::ActionId>(a), s1, p);
       }
     }
   }
-  b.setTerminal(space_.trappedState());
+  b.setTerminal(space.trappedState());
   return b.build();
 }
 

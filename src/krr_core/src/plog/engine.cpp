@@ -314,6 +314,38 @@ bool ExactEngine::bodyDead(const std::vector<GLit>& body) const {
   return false;
 }
 
+namespace {
+
+/// The conditioning literal that keys a body: its positive literal on a conditioning instance
+/// with the largest domain (the most selective), or nullptr.
+const GLit* keyLiteral(const GroundProgram& g, const std::vector<int>& cond_pos,
+                       const std::vector<GLit>& body) {
+  const GLit* best = nullptr;
+  size_t best_size = 0;
+  for (const auto& l : body) {
+    int k = cond_pos[static_cast<size_t>(l.inst)];
+    if (k >= 0 && !l.naf && !l.neg && l.value >= 0) {
+      size_t sz = g.instances[static_cast<size_t>(l.inst)].domain.size();
+      if (!best || sz > best_size) {
+        best = &l;
+        best_size = sz;
+      }
+    }
+  }
+  return best;
+}
+
+/// [first, last) of the entries of `v` (sorted by (k, value)) with this k and value.
+template <class E>
+std::pair<typename std::vector<E>::const_iterator, typename std::vector<E>::const_iterator>
+keyedRange(const std::vector<E>& v, int k, int value) {
+  return std::equal_range(v.begin(), v.end(), E{k, value, {}}, [](const E& a, const E& b) {
+    return a.k != b.k ? a.k < b.k : a.value < b.value;
+  });
+}
+
+}  // namespace
+
 void ExactEngine::indexBy(const std::vector<int>& conditioning) {
   indexed_ = true;
   index_inst_ = conditioning;
@@ -321,67 +353,43 @@ void ExactEngine::indexBy(const std::vector<int>& conditioning) {
   for (size_t k = 0; k < conditioning.size(); ++k)
     cond_pos_[static_cast<size_t>(conditioning[k])] = static_cast<int>(k);
   const size_t n = g_.instances.size();
-  buckets_.assign(n, {});
+  index_has_.assign(n, 0);
+  keyed_.assign(n, {});
   unkeyed_.assign(n, {});
-  rule_buckets_.assign(n, {});
+  rule_keyed_.assign(n, {});
   rule_unkeyed_.assign(n, {});
+  auto byKey = [](const auto& a, const auto& b) {
+    return a.k != b.k ? a.k < b.k : a.value < b.value;
+  };
   for (size_t i = 0; i < n; ++i) {
     const GInstance& gi = g_.instances[i];
     if (gi.random || gi.rules.empty()) continue;
-    rule_buckets_[i].resize(conditioning.size());
-    for (size_t k = 0; k < conditioning.size(); ++k)
-      rule_buckets_[i][k].resize(g_.instances[static_cast<size_t>(conditioning[k])].domain.size() + 1);
+    index_has_[i] = 1;
     for (size_t ri = 0; ri < gi.rules.size(); ++ri) {
-      const GLit* best = nullptr;
-      size_t best_size = 0;
-      for (const auto& l : gi.rules[ri].second) {
-        int k = cond_pos_[static_cast<size_t>(l.inst)];
-        if (k >= 0 && !l.naf && !l.neg && l.value >= 0) {
-          size_t sz = g_.instances[static_cast<size_t>(l.inst)].domain.size();
-          if (!best || sz > best_size) {
-            best = &l;
-            best_size = sz;
-          }
-        }
-      }
-      if (best)
-        rule_buckets_[i][static_cast<size_t>(cond_pos_[static_cast<size_t>(best->inst)])]
-                     [static_cast<size_t>(best->value)].push_back(static_cast<int>(ri));
+      if (const GLit* best = keyLiteral(g_, cond_pos_, gi.rules[ri].second))
+        rule_keyed_[i].push_back({cond_pos_[static_cast<size_t>(best->inst)], best->value,
+                                  static_cast<int>(ri)});
       else
         rule_unkeyed_[i].push_back(static_cast<int>(ri));
     }
+    std::stable_sort(rule_keyed_[i].begin(), rule_keyed_[i].end(), byKey);
   }
   for (size_t i = 0; i < n; ++i) {
     const GInstance& gi = g_.instances[i];
     if (!gi.random) continue;
-    buckets_[i].resize(conditioning.size());
-    for (size_t k = 0; k < conditioning.size(); ++k)
-      buckets_[i][k].resize(g_.instances[static_cast<size_t>(conditioning[k])].domain.size() + 1);
+    index_has_[i] = 1;
     // key each body by its most selective literal on a conditioning instance
     auto place = [&](const std::vector<GLit>& body, Item it) {
-      const GLit* best = nullptr;
-      size_t best_size = 0;
-      for (const auto& l : body) {
-        int k = cond_pos_[static_cast<size_t>(l.inst)];
-        if (k >= 0 && !l.naf && !l.neg && l.value >= 0) {
-          size_t sz = g_.instances[static_cast<size_t>(l.inst)].domain.size();
-          if (!best || sz > best_size) {
-            best = &l;
-            best_size = sz;
-          }
-        }
-      }
-      if (best) {
-        size_t k = static_cast<size_t>(cond_pos_[static_cast<size_t>(best->inst)]);
-        buckets_[i][k][static_cast<size_t>(best->value)].push_back(it);
-      } else {
+      if (const GLit* best = keyLiteral(g_, cond_pos_, body))
+        keyed_[i].push_back({cond_pos_[static_cast<size_t>(best->inst)], best->value, it});
+      else
         unkeyed_[i].push_back(it);
-      }
     };
     for (size_t s = 0; s < gi.selections.size(); ++s)
       place(gi.selections[s].body, Item{0, static_cast<int>(s)});
     for (size_t p = 0; p < gi.prs.size(); ++p)
       if (gi.prs[p].inactive == 0) place(gi.prs[p].body, Item{1, static_cast<int>(p)});
+    std::stable_sort(keyed_[i].begin(), keyed_[i].end(), byKey);
   }
 }
 
@@ -405,16 +413,17 @@ void ExactEngine::liveItems(int inst, std::vector<Item>& out) const {
                      : gi.prs[static_cast<size_t>(it.index)].body;
     if (!bodyDead(body)) out.push_back(it);
   };
-  if (indexed_ && !buckets_[static_cast<size_t>(inst)].empty()) {
+  if (indexed_ && index_has_[static_cast<size_t>(inst)]) {
     for (const auto& it : unkeyed_[static_cast<size_t>(inst)]) consider(it);
+    const auto& keyed = keyed_[static_cast<size_t>(inst)];
     for (size_t k = 0; k < index_inst_.size(); ++k) {
       int f = fixed_[static_cast<size_t>(index_inst_[k])];
-      const auto& bk = buckets_[static_cast<size_t>(inst)][k];
       if (f >= 0) {
-        for (const auto& it : bk[static_cast<size_t>(f)]) consider(it);
+        const auto r = keyedRange(keyed, static_cast<int>(k), f);
+        for (auto e = r.first; e != r.second; ++e) consider(e->item);
       } else {
-        for (const auto& b : bk)
-          for (const auto& it : b) consider(it);
+        for (const auto& e : keyed)
+          if (e.k == static_cast<int>(k)) consider(e.item);
       }
     }
     // keep the program order: selection rules first, then pr-atoms, each by index
@@ -456,16 +465,17 @@ void ExactEngine::scopeOfInstance(int inst, std::vector<int>& out) {
       live.push_back(static_cast<int>(ri));
       for (const auto& l : rules[ri].second) scopeOfLit(l, s);
     };
-    if (indexed_ && !rule_buckets_[i].empty()) {
+    if (indexed_ && index_has_[i]) {
       for (int ri : rule_unkeyed_[i]) consider(static_cast<size_t>(ri));
+      const auto& keyed = rule_keyed_[i];
       for (size_t k = 0; k < index_inst_.size(); ++k) {
         int f = fixed_[static_cast<size_t>(index_inst_[k])];
-        const auto& bk = rule_buckets_[i][k];
         if (f >= 0) {
-          for (int ri : bk[static_cast<size_t>(f)]) consider(static_cast<size_t>(ri));
+          const auto r = keyedRange(keyed, static_cast<int>(k), f);
+          for (auto e = r.first; e != r.second; ++e) consider(static_cast<size_t>(e->item));
         } else {
-          for (const auto& b : bk)
-            for (int ri : b) consider(static_cast<size_t>(ri));
+          for (const auto& e : keyed)
+            if (e.k == static_cast<int>(k)) consider(static_cast<size_t>(e.item));
         }
       }
       std::sort(live.begin(), live.end());

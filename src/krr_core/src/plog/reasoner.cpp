@@ -1,6 +1,8 @@
 #include "krr_core/plog/reasoner.h"
 
 #include <algorithm>
+#include <cstdio>
+#include <cstdlib>
 #include <iterator>
 #include <unordered_map>
 #include <unordered_set>
@@ -470,13 +472,17 @@ std::shared_ptr<Reasoner::GroundEntry> Reasoner::groundEntryFor(const std::set<s
     Stopwatch sw;
     IncrementalGrounder::Delta delta;
     std::unordered_set<std::uint64_t> added, removed;
-    for (const auto& c : log_) {
-      if (c.seq <= e->seq) continue;
-      if (c.kind == Change::kAddRule || c.kind == Change::kAddPr) added.insert(c.id);
-      else removed.insert(c.id);
+    // The log is in seq order: only its tail is newer than this grounding (other groundings
+    // may keep older entries alive).
+    const auto since = std::partition_point(log_.begin(), log_.end(),
+                                            [&](const Change& c) { return c.seq <= e->seq; });
+    for (auto c = since; c != log_.end(); ++c) {
+      if (c->kind == Change::kAddRule || c->kind == Change::kAddPr) added.insert(c->id);
+      else removed.insert(c->id);
     }
-    for (const auto& c : log_) {
-      if (c.seq <= e->seq || added.count(c.id)) continue;  // added and removed since: unseen
+    for (auto it = since; it != log_.end(); ++it) {
+      const Change& c = *it;
+      if (added.count(c.id)) continue;  // added and removed since: unseen
       if (c.kind == Change::kRemovePr) delta.removed_prs.push_back(c.id);
       else if (c.kind == Change::kRemoveRule) delta.removed_facts.push_back(c.rule.get());
     }
@@ -721,13 +727,19 @@ Table Reasoner::tableQuery(const std::string& target, const std::vector<std::str
     }
   }
 
+  // With a reusable cached table, rows are recomputed in place there and the result is one
+  // copy of it (the 50x50 office's table has about 5,000 rows of strings: copying them twice per query
+  // cost more than recomputing the changed rows).
+  std::vector<TableRow>* rows = &t.rows;
+  if (reuse) {
+    rows = &cache->table.rows;
+  } else {
+    t.rows.reserve(total);
+  }
   std::vector<int> cur(ci.size(), 0);
-  t.rows.reserve(total);
   size_t computed = 0;
   for (size_t row = 0; row < total; ++row) {
-    if (!todo[row]) {
-      t.rows.push_back(cache->table.rows[row]);
-    } else {
+    if (todo[row]) {
       ++computed;
       TableRow r;
       std::vector<GCondition> evr = evs;
@@ -757,7 +769,10 @@ Table Reasoner::tableQuery(const std::string& target, const std::vector<std::str
       } else {
         r.consistent = false;
       }
-      t.rows.push_back(std::move(r));
+      if (reuse)
+        (*rows)[row] = std::move(r);
+      else
+        rows->push_back(std::move(r));
     }
     for (size_t k = 0; k < cur.size(); ++k) {
       if (++cur[k] < static_cast<int>(g->instances[static_cast<size_t>(ci[k])].domain.size())) break;
@@ -771,7 +786,11 @@ Table Reasoner::tableQuery(const std::string& target, const std::vector<std::str
     cache->seq = entry->seq;
     cache->target = ti;
     cache->conditioning = ci;
-    cache->table = t;
+    if (reuse) {
+      t.rows = cache->table.rows;
+    } else {
+      cache->table = t;
+    }
     // Changes older than every table cached on this grounding are no longer needed.
     std::uint64_t oldest = entry->seq;
     for (const auto& kv : table_cache_)

@@ -1,6 +1,7 @@
 #include "krr_core/pomdp/turn_limited_policy.h"
 
 #include <algorithm>
+#include <limits>
 #include <sstream>
 
 #include "krr_core/common/errors.h"
@@ -14,6 +15,7 @@ TurnLimitedPolicy::TurnLimitedPolicy(std::size_t numStates, int turnLimit)
     : s_(numStates), limit_(turnLimit) {
   if (turnLimit < 0)
     throw ConfigError("turn-limited policy: turn limit " + std::to_string(turnLimit) + " < 0");
+  by_stage_.resize(static_cast<std::size_t>(turnLimit) + 1);
 }
 
 void TurnLimitedPolicy::add(const Eigen::VectorXd& alpha, std::size_t action, int stage) {
@@ -24,6 +26,9 @@ void TurnLimitedPolicy::add(const Eigen::VectorXd& alpha, std::size_t action, in
   if (stage < 0 || stage > limit_)
     throw ConfigError("alpha vector stage " + std::to_string(stage) + " outside [0, " +
                       std::to_string(limit_) + "]");
+  StageGroup& g = by_stage_[static_cast<std::size_t>(stage)];
+  g.rows.insert(g.rows.end(), alpha.data(), alpha.data() + alpha.size());
+  g.ids.push_back(alphas_.size());
   alphas_.push_back(alpha);
   actions_.push_back(action);
   stages_.push_back(stage);
@@ -34,14 +39,24 @@ std::size_t TurnLimitedPolicy::bestIndex(const Belief& b, int turns) const {
     throw ConfigError("belief has " + std::to_string(b.size()) + " entries, policy has " +
                       std::to_string(s_) + " states");
   const int t = std::clamp(turns, 0, limit_);
+  // One matrix-vector product per stage group (vectors usable after t turns: stages >= t);
+  // the highest value wins, the lowest index on ties.
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
   std::size_t best = alphas_.size();
   double bv = 0.0;
-  for (std::size_t i = 0; i < alphas_.size(); ++i) {
-    if (stages_[i] < t) continue;
-    const double v = alphas_[i].dot(b);
-    if (best == alphas_.size() || v > bv) {
-      bv = v;
-      best = i;
+  Eigen::VectorXd v;
+  for (std::size_t st = static_cast<std::size_t>(t); st < by_stage_.size(); ++st) {
+    const StageGroup& g = by_stage_[st];
+    if (g.ids.empty()) continue;
+    const Eigen::Map<const RowMajor> m(g.rows.data(), static_cast<Eigen::Index>(g.ids.size()),
+                                       static_cast<Eigen::Index>(s_));
+    v.noalias() = m * b;
+    for (std::size_t j = 0; j < g.ids.size(); ++j) {
+      const double x = v(static_cast<Eigen::Index>(j));
+      if (best == alphas_.size() || x > bv || (x == bv && g.ids[j] < best)) {
+        bv = x;
+        best = g.ids[j];
+      }
     }
   }
   if (best == alphas_.size())
@@ -54,23 +69,77 @@ double TurnLimitedPolicy::value(const Belief& b, int turns) const {
   return alphas_[bestIndex(b, turns)].dot(b);
 }
 
+Eigen::VectorXd TurnLimitedPolicy::values(const Eigen::MatrixXd& beliefs, int turns) const {
+  if (static_cast<std::size_t>(beliefs.rows()) != s_)
+    throw ConfigError("beliefs have " + std::to_string(beliefs.rows()) + " entries, policy has " +
+                      std::to_string(s_) + " states");
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const int t = std::clamp(turns, 0, limit_);
+  Eigen::VectorXd best = Eigen::VectorXd::Constant(beliefs.cols(),
+                                                   -std::numeric_limits<double>::infinity());
+  bool any = false;
+  Eigen::MatrixXd v;
+  for (std::size_t st = static_cast<std::size_t>(t); st < by_stage_.size(); ++st) {
+    const StageGroup& g = by_stage_[st];
+    if (g.ids.empty()) continue;
+    any = true;
+    const Eigen::Map<const RowMajor> m(g.rows.data(), static_cast<Eigen::Index>(g.ids.size()),
+                                       static_cast<Eigen::Index>(s_));
+    v.noalias() = m * beliefs;
+    best = best.cwiseMax(v.colwise().maxCoeff().transpose());
+  }
+  if (!any)
+    throw ConfigError("turn-limited policy has no vector usable after " + std::to_string(t) +
+                      " turns");
+  return best;
+}
+
 double TurnLimitedPolicy::lookahead(const Model& m, const Belief& b, std::size_t a, int turns,
                                     bool ends) const {
-  if (a >= m.getA() || m.getS() != s_)
-    throw ConfigError("turn-limited policy: lookahead of action " + std::to_string(a) +
-                      " on a model with " + std::to_string(m.getA()) + " actions and " +
-                      std::to_string(m.getS()) + " states");
-  double q = m.rewardMatrix().col(static_cast<Eigen::Index>(a)).dot(b);
-  if (ends) return q;
-  const Belief pred = m.isIdentityTransition(a) ? b : Belief(m.transitionMatrixTransposed(a) * b);
-  Belief child;
-  for (std::size_t o : m.possibleObservations(a)) {
-    child = m.observationMatrix(a).col(static_cast<Eigen::Index>(o)).cwiseProduct(pred);
-    const double p = child.sum();
-    if (!(p > 0.0)) continue;
-    child /= p;
-    q += m.getDiscount() * p * value(child, turns + 1);
+  if (ends) {
+    if (a >= m.getA() || m.getS() != s_)
+      throw ConfigError("turn-limited policy: lookahead of action " + std::to_string(a) +
+                        " on a model with " + std::to_string(m.getA()) + " actions and " +
+                        std::to_string(m.getS()) + " states");
+    return m.rewardMatrix().col(static_cast<Eigen::Index>(a)).dot(b);
   }
+  return lookahead(m, b, std::vector<std::size_t>{a}, turns).front();
+}
+
+std::vector<double> TurnLimitedPolicy::lookahead(const Model& m, const Belief& b,
+                                                 const std::vector<std::size_t>& actions,
+                                                 int turns) const {
+  if (m.getS() != s_)
+    throw ConfigError("turn-limited policy: lookahead on a model with " +
+                      std::to_string(m.getS()) + " states, policy has " + std::to_string(s_));
+  // Every successor belief of every action in one matrix: one product per stage group for all
+  // of them (the policy's vectors are read once per decision, not once per successor).
+  std::vector<double> q(actions.size(), 0.0);
+  std::vector<std::pair<std::size_t, double>> weight;  // (action slot, gamma P(o | b, a))
+  std::vector<Belief> children;
+  for (std::size_t k = 0; k < actions.size(); ++k) {
+    const std::size_t a = actions[k];
+    if (a >= m.getA())
+      throw ConfigError("turn-limited policy: lookahead of action " + std::to_string(a) +
+                        " on a model with " + std::to_string(m.getA()) + " actions");
+    q[k] = m.rewardMatrix().col(static_cast<Eigen::Index>(a)).dot(b);
+    const Belief pred =
+        m.isIdentityTransition(a) ? b : Belief(m.transitionMatrixTransposed(a) * b);
+    for (std::size_t o : m.possibleObservations(a)) {
+      Belief child = m.observationMatrix(a).col(static_cast<Eigen::Index>(o)).cwiseProduct(pred);
+      const double p = child.sum();
+      if (!(p > 0.0)) continue;
+      child /= p;
+      weight.emplace_back(k, m.getDiscount() * p);
+      children.push_back(std::move(child));
+    }
+  }
+  if (children.empty()) return q;
+  Eigen::MatrixXd all(static_cast<Eigen::Index>(s_), static_cast<Eigen::Index>(children.size()));
+  for (std::size_t c = 0; c < children.size(); ++c) all.col(static_cast<Eigen::Index>(c)) = children[c];
+  const Eigen::VectorXd v = values(all, turns + 1);
+  for (std::size_t c = 0; c < children.size(); ++c)
+    q[weight[c].first] += weight[c].second * v(static_cast<Eigen::Index>(c));
   return q;
 }
 

@@ -1,7 +1,10 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <atomic>
+#include <chrono>
 #include <cstdlib>
+#include <thread>
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
@@ -57,6 +60,24 @@ TEST(Files, MakeDirectoriesCreatesParentsAndRefusesFilesInThePath) {
     EXPECT_NE(std::string(e.what()).find(nested + "/file"), std::string::npos) << e.what();
   }
   std::system(("rm -rf " + dir).c_str());
+}
+
+TEST(Files, FileLockExcludesOtherHoldersUntilReleased) {
+  const std::string lock = tempDir() + "/entry.lock";
+  std::atomic<bool> got{false};
+  std::thread other;
+  {
+    krr::FileLock held(lock);
+    other = std::thread([&] {
+      krr::FileLock second(lock);  // another open file description: waits for `held`
+      got = true;
+    });
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    EXPECT_FALSE(got) << "a second holder got the lock while the first held it";
+  }
+  other.join();
+  EXPECT_TRUE(got);
+  EXPECT_THROW(krr::FileLock("/nonexistent_dir_krr/x.lock"), krr::IoError);
 }
 
 TEST(Files, StableHashIsFnv1a) {

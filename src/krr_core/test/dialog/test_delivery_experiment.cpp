@@ -319,3 +319,33 @@ TEST(DeliveryExperiment, ConditionsUseKnowledgeLearnedAtTheirBlockingRate) {
 }
 
 }  // namespace
+
+// The expected reward of a trial under the true world (the robot's policies driven in the
+// simulator's exact dynamics) is what the realised rewards average to: one definition of the
+// reward (dialog_knowledge.h), realised by the trials, expected by the model report.
+TEST(DeliveryExperiment, ExpectedRewardIsTheMeanOfTheRealisedReward) {
+  const kb::NavDomain d = delivery_test::corridor(40);
+  DeliveryExperiment ex(d, penalisedConfig(), options(0.5, 11));
+  const TripTable& truth = ex.trueTrips();
+  ASSERT_EQ(truth.rooms, (std::vector<std::string>{"room1", "room2"}));
+  EXPECT_NEAR(truth.to_room[0].reach, ex.navigation().toRoom(0).reach, 0.05);  // never blocked
+  EXPECT_LT(truth.to_room[1].reach, 0.95);                                    // across ba1
+  const auto rs = ex.runTrials(0, 6000, 2);
+  double realised = 0, expected = 0, sq = 0;
+  for (const auto& r : rs) {
+    realised += r.reward.total();
+    expected += r.expected_reward;
+    sq += (r.reward.total() - r.expected_reward) * (r.reward.total() - r.expected_reward);
+  }
+  const double n = static_cast<double>(rs.size());
+  const double se = std::sqrt(sq / n / n);
+  EXPECT_NEAR(realised / n, expected / n, 4 * se + 1e-9)
+      << "realised " << realised / n << " vs expected " << expected / n;
+  // At br 0 with exact moves the true world never fails: P^N = 1 both ways.
+  const kb::NavDomain easy = delivery_test::corridor(40, delivery_test::exactMoves());
+  DeliveryExperiment calm(easy, penalisedConfig(), options(0.0, 11));
+  for (std::size_t r = 0; r < 2; ++r) {
+    EXPECT_DOUBLE_EQ(calm.trueTrips().to_room[r].reach, 1.0);
+    EXPECT_DOUBLE_EQ(calm.trueTrips().to_shop[r].reach, 1.0);
+  }
+}

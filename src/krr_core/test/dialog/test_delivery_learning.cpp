@@ -2,11 +2,16 @@
 // knowledge cache (a rerun loads instead of relearning).
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdio>
 #include <set>
+#include <thread>
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/dialog/delivery_learning.h"
+#include "krr_core/dialog/delivery_navigation.h"
+#include "krr_core/kb/simulated_navigation.h"
 #include "delivery_test_support.h"
 
 namespace {
@@ -57,7 +62,9 @@ TEST(DeliveryLearning, LearnsOnceAndReloadsFromTheCache) {
   EXPECT_FALSE(first.from_cache);
   EXPECT_EQ(first.tasks, 4u);
   EXPECT_GT(first.episodes, 0u);
-  EXPECT_GT(first.pairs, 0u);
+  EXPECT_EQ(first.pairs, 0u);  // the default: knowledge per blocking area, not per pair
+  EXPECT_EQ(first.areas, 1u);
+  EXPECT_GT(first.samples, 0u);
   EXPECT_EQ(first.cache_file.find(cache), 0u);
   const std::string learned = kb.learnedText();
   EXPECT_EQ(readFile(first.cache_file), learned);
@@ -69,6 +76,7 @@ TEST(DeliveryLearning, LearnsOnceAndReloadsFromTheCache) {
   EXPECT_EQ(again.tasks, 0u);
   EXPECT_EQ(again.cache_file, first.cache_file);
   EXPECT_EQ(again.pairs, first.pairs);
+  EXPECT_EQ(again.areas, first.areas);
   EXPECT_EQ(kb2.learnedText(), learned);
 
   // Learning is deterministic per seed (what makes concurrent cache writers agree), and the
@@ -82,6 +90,15 @@ TEST(DeliveryLearning, LearnsOnceAndReloadsFromTheCache) {
   DialogConfig other = c;
   other.known_threshold = 4;
   EXPECT_NE(n, learnedCacheName(d, other, {"room1", "room2"}, 0.5, 7, "corridor"));
+  DialogConfig pairs = c;
+  pairs.learning_mode = "pairs";
+  EXPECT_NE(n, learnedCacheName(d, pairs, {"room1", "room2"}, 0.5, 7, "corridor"));
+  // Per-pair learning (kept for comparison) writes pairs, no area knowledge.
+  kb::NavigationKnowledge kbPairs(*d.grid, d.knowledge_files);
+  const LearningReport perPair =
+      prepareLearnedKnowledge(d, kbPairs, pairs, {"room1", "room2"}, 0.5, 7, "", "corridor");
+  EXPECT_GT(perPair.pairs, 0u);
+  EXPECT_EQ(perPair.areas, 0u);
 
   EXPECT_THROW(prepareLearnedKnowledge(d, kb3, c, {"room1", "room2"}, 1.5, 7, "", "corridor"),
                ConfigError);
@@ -110,3 +127,53 @@ TEST(DeliveryLearning, HigherBlockingRatesAreLearnedAsHarderNavigation) {
 }
 
 }  // namespace
+
+namespace {
+
+/// |believed - true| of P^N(shop, room) and P^N(room, shop), worst over the rooms, after the
+/// default learning budget of config/dialog.yaml on the office map at blocking rate br.
+double worstReachError(double br, const std::string& mode) {
+  using namespace krr;
+  using namespace krr::dialog;
+  const kb::NavDomain d = kb::NavDomain::load(
+      delivery_test::repo("config/navigation.yaml"), "office_30x30",
+      delivery_test::repo("maps/office_30x30_geometry.plog"),
+      delivery_test::repo("config/navigation.plog"));
+  DialogConfig c = loadDialogConfig(delivery_test::repo("config/dialog.yaml"));
+  c.learning_mode = mode;
+  const std::vector<std::string> rooms = {"room1", "room2", "room3", "room4", "room5"};
+  kb::NavigationKnowledge k(*d.grid, d.knowledge_files);
+  prepareLearnedKnowledge(d, k, c, rooms, br, 1, "", "office_30x30");
+  const auto nav = deliveryNavigationFromKnowledge(d, k, c, rooms);
+  nav::Context ctx;
+  ctx.time_of_day = d.simulator->timeOfDayIndex(c.time);
+  ctx.blocking_rate = br;
+  const TripTable believed = nav->trips(), truth = nav->evaluate(kb::trueDynamics(*d.simulator, *d.space, ctx));
+  double worst = 0.0;
+  for (std::size_t r = 0; r < rooms.size(); ++r) {
+    worst = std::max(worst, std::fabs(believed.to_room[r].reach - truth.to_room[r].reach));
+    worst = std::max(worst, std::fabs(believed.to_shop[r].reach - truth.to_shop[r].reach));
+  }
+  return worst;
+}
+
+}  // namespace
+
+// The requirement: with the default learning budget the believed P^N lie within 0.03
+// of the true ones for every room at br 0.1, 0.3, 0.5 and 0.7 (pooled per blocking area).
+TEST(DeliveryLearning, AreaKnowledgeGivesTrueReachProbabilities) {
+  double worst[4];
+  const double brs[4] = {0.1, 0.3, 0.5, 0.7};
+  std::thread t0([&] { worst[0] = worstReachError(brs[0], "areas"); });
+  std::thread t1([&] { worst[1] = worstReachError(brs[1], "areas"); });
+  t0.join();
+  t1.join();
+  std::thread t2([&] { worst[2] = worstReachError(brs[2], "areas"); });
+  std::thread t3([&] { worst[3] = worstReachError(brs[3], "areas"); });
+  t2.join();
+  t3.join();
+  for (int i = 0; i < 4; ++i) {
+    std::printf("br %.1f: worst |believed - true| P^N = %.4f\n", brs[i], worst[i]);
+    EXPECT_LE(worst[i], 0.03) << "br " << brs[i];
+  }
+}

@@ -266,6 +266,32 @@ TEST(DecideAction, LookaheadAsksWhenAQuestionIsWorthMoreThanTheServe) {
   EXPECT_EQ(s.nextAction(), a);
 }
 
+TEST(DecideAction, TheMemoDecidesExactlyLikeTheRule) {
+  pomdp::DialogSpec spec = officeSpec();
+  pomdp::DialogPomdp d(spec);
+  const pomdp::Model& m = d.model();
+  const std::size_t target = d.requestIndex(0, 1, 1);
+  pomdp::TurnLimitedPolicy p(m.getS(), spec.turnLimit);
+  p.add(constant(d, 0.0), d.serveAction(target), spec.turnLimit);
+  p.add(constant(d, -1.0), d.confirmRoom(1), spec.turnLimit - 1);
+  p.add(constant(d, -0.5), d.askItem(), 2);
+  DecisionMemo memo(3);  // tiny: it also forgets
+  // Beliefs along real answer sequences, revisited: the memo answers as decideAction does.
+  for (int round = 0; round < 3; ++round) {
+    DialogSession s(d, nullptr, &p);
+    s.setDecisionMemo(&memo);
+    for (int turn = 0; turn < spec.turnLimit && !s.finished(); ++turn) {
+      const std::size_t expected = decideAction(d, p, s.belief(), s.turns());
+      ASSERT_EQ(s.nextAction(), expected);
+      if (!d.isQuestion(expected)) break;
+      s.act(expected);
+      s.observe(expected, m.possibleObservations(expected).front());
+    }
+  }
+  EXPECT_GT(memo.hits(), 0u);
+  EXPECT_GT(memo.misses(), 0u);
+}
+
 TEST(DialogSession, RefusesBadActionsAndPolicies) {
   pomdp::DialogPomdp d(officeSpec());
   LanguageFrontEnd lang(d, config());

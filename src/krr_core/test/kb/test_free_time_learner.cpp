@@ -71,11 +71,27 @@ TEST(LeastKnownSelector, PicksTheRouteTheKnowledgeBaseKnowsLeast) {
   EXPECT_THROW(LeastKnownSelector({"shop"}), krr::ConfigError);
 }
 
-TEST(FreeTimeLearner, LearnsTasksAndWritesKnowledgeBack) {
+/// @brief How much the knowledge base learned at `time`, in the extraction's own unit: learned
+/// (cell, move) pairs, or areas whose pooled rates were written.
+std::size_t learnedAt(const NavigationKnowledge& kb, const std::string& time, Extraction e) {
+  if (e == Extraction::kPairs) return kb.learnedPairCount(time);
+  const auto it = kb.learnedAreas().find(time);
+  if (it == kb.learnedAreas().end()) return 0;
+  std::size_t areas = 0;  // one learned_area(A, T) fact per area
+  for (std::size_t p = it->second.find("learned_area("); p != std::string::npos;
+       p = it->second.find("learned_area(", p + 1))
+    ++areas;
+  return areas;
+}
+
+class FreeTimeLearnerBoth : public ::testing::TestWithParam<Extraction> {};
+
+TEST_P(FreeTimeLearnerBoth, LearnsTasksAndWritesKnowledgeBack) {
   NavDomain d = corridor();
   NavigationKnowledge kb(*d.grid, d.knowledge_files);
   LeastKnownSelector sel({"room1", "room2"});
   auto o = options();
+  o.extraction = GetParam();
   o.max_tasks = 1;
   FreeTimeLearner learner(d, kb, sel, o);
   krr::Rng rng = krr::makeRng(5, "ftl");
@@ -86,23 +102,29 @@ TEST(FreeTimeLearner, LearnsTasksAndWritesKnowledgeBack) {
   EXPECT_FALSE(first.interrupted);
   EXPECT_TRUE(first.converged[0]);
   EXPECT_GT(first.pairs_extracted, 0u);
-  const std::size_t learned1 = kb.buildModel({"morning"}).numLearned();
+  const std::size_t learned1 = learnedAt(kb, "morning", o.extraction);
   EXPECT_EQ(learned1, first.pairs_extracted);
-  EXPECT_EQ(kb.buildModel({"noon"}).numLearned(), 0u);  // learned in the morning only
+  EXPECT_EQ(learnedAt(kb, "noon", o.extraction), 0u);  // learned in the morning only
+  EXPECT_EQ(kb.learnedPairCount(), o.extraction == Extraction::kPairs ? learned1 : 0u)
+      << "area extraction writes no per-pair knowledge";
 
   // The next session starts from the knowledge base (Procedure 2 priors): it knows at least as
-  // much afterwards, and converges in fewer episodes than the first task needed.
+  // much afterwards. Learned pairs start known, so it converges in fewer episodes than the
+  // first task needed; area knowledge does not mark pairs known (free_time_learner.cpp).
   auto second = learner.run(rng, [] { return false; });
   ASSERT_EQ(second.tasks.size(), 1u);
-  EXPECT_GE(kb.buildModel({"morning"}).numLearned(), learned1);
-  EXPECT_LT(second.episodes[0], first.episodes[0]);
+  EXPECT_GE(learnedAt(kb, "morning", o.extraction), learned1);
+  if (o.extraction == Extraction::kPairs) EXPECT_LT(second.episodes[0], first.episodes[0]);
+  else EXPECT_EQ(second.pairs_extracted, learned1) << "the same areas, re-estimated";
 }
 
-TEST(FreeTimeLearner, InterruptionKeepsWhatWasLearnedSoFar) {
+TEST_P(FreeTimeLearnerBoth, InterruptionKeepsWhatWasLearnedSoFar) {
   NavDomain d = corridor();
   NavigationKnowledge kb(*d.grid, d.knowledge_files);
   LeastKnownSelector sel({"room1", "room2"});
-  FreeTimeLearner learner(d, kb, sel, options());
+  auto o = options();
+  o.extraction = GetParam();
+  FreeTimeLearner learner(d, kb, sel, o);
   krr::Rng rng = krr::makeRng(9, "ftl");
   int checks = 0;
   // The interruption is checked once before a task is selected and once before every episode:
@@ -112,8 +134,14 @@ TEST(FreeTimeLearner, InterruptionKeepsWhatWasLearnedSoFar) {
   ASSERT_EQ(report.tasks.size(), 1u);
   EXPECT_EQ(report.episodes[0], 3u);
   EXPECT_FALSE(report.converged[0]);
-  EXPECT_GT(kb.buildModel({"morning"}).numLearned(), 0u);
+  EXPECT_GT(learnedAt(kb, "morning", o.extraction), 0u);
 }
+
+INSTANTIATE_TEST_SUITE_P(Extractions, FreeTimeLearnerBoth,
+                         ::testing::Values(Extraction::kPairs, Extraction::kAreas),
+                         [](const ::testing::TestParamInfo<Extraction>& i) {
+                           return toString(i.param);
+                         });
 
 TEST(FreeTimeLearner, InvalidOptionsAreRefused) {
   NavDomain d = corridor();

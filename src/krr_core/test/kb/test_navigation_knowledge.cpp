@@ -9,6 +9,8 @@
 #include <unistd.h>
 
 #include <cstdlib>
+#include <tuple>
+#include <vector>
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
@@ -209,6 +211,59 @@ TEST(NavigationKnowledge, IncrementalRebuildsEqualAFreshKnowledgeBase) {
   kb.clearLearned();
   expectSame({"noon"});
   EXPECT_TRUE(kb.reasoner().stats().ground_incremental);
+}
+
+/// R-Max known pairs: each (cell, move) tried with these outcomes (cells; -1 = trapped), all
+/// the same number of times.
+krr::mdp::RMaxModel learnPairs(const NavigationKnowledge& kb,
+                               const std::vector<std::tuple<int, int, std::vector<int>>>& tries) {
+  const auto& sp = kb.space();
+  krr::mdp::NavigationReward reward;
+  auto task = krr::mdp::makeNavigationRMaxTask(sp.numStates(), 4, {sp.placeState("room1")},
+                                               {sp.trappedState()}, reward);
+  krr::mdp::RMaxModel model(task, 0.95, 2, 40.0);
+  for (const auto& [cell, move, outcomes] : tries)
+    for (int c : outcomes)
+      model.observe(sp.stateOf(cell), static_cast<krr::mdp::ActionId>(move),
+                    c < 0 ? sp.trappedState() : sp.stateOf(c));
+  return model;
+}
+
+// replaceLearned = forget that time's pairs, then addLearned; but what is learned again
+// unchanged is not rewritten (fewer rows recomputed).
+TEST(NavigationKnowledge, ReplacingLearnedPairsEqualsClearingAndAdding) {
+  NavigationKnowledge kb(tinyGrid(), {kGeometry, kNavPlog});
+  const auto morning = learnPairs(kb, {{0, kUp, {3, 3}}}).knownPairs();
+  const auto first = learnPairs(kb, {{3, kRight, {4, -1}}, {0, kRight, {1, 1}},
+                                     {1, kUp, {4, 4}}}).knownPairs();
+  // (3, right) again the same, (0, right) changed, (1, up) gone, (2, up) new
+  const auto second = learnPairs(kb, {{3, kRight, {4, -1}}, {0, kRight, {1, 0}},
+                                      {2, kUp, {5, 5}}}).knownPairs();
+  kb.addLearned(morning, "morning");
+  EXPECT_EQ(kb.replaceLearned(first, "noon"), 3u);
+  kb.buildModel({"noon"});
+  EXPECT_EQ(kb.replaceLearned(second, "noon"), 3u);
+  const auto noon = kb.buildModel({"noon"});
+  EXPECT_EQ(kb.reasoner().stats().table_rows_computed, 3u);  // (0, right), (1, up), (2, up)
+  EXPECT_EQ(kb.learnedPairCount("noon"), 3u);
+  EXPECT_EQ(kb.learnedPairCount(), 4u);
+
+  NavigationKnowledge fresh(tinyGrid(), {kGeometry, kNavPlog});
+  fresh.addLearned(morning, "morning");
+  fresh.addLearned(second, "noon");
+  EXPECT_EQ(kb.learnedText(), fresh.learnedText());
+  for (const std::vector<std::string>& times :
+       {std::vector<std::string>{"noon"}, {"morning"}, {"morning", "noon"}}) {
+    const auto a = kb.buildModel(times), b = fresh.buildModel(times);
+    for (StateId s = 0; s + 1 < kb.space().numStates(); ++s)
+      for (krr::mdp::ActionId m = 0; m < 4; ++m)
+        for (StateId s1 = 0; s1 < kb.space().numStates(); ++s1)
+          ASSERT_NEAR(a.dynamics.getTransitionProbability(s, m, s1),
+                      b.dynamics.getTransitionProbability(s, m, s1), 1e-14);
+    EXPECT_EQ(a.learned, b.learned);
+  }
+  // (1, up) is back on human knowledge: into ba1, free of walkers (0.5 at noon) 0.8
+  EXPECT_NEAR(row(noon, kb, 1, kUp, 4), 0.5 * 0.8, 1e-12);
 }
 
 TEST(NavigationKnowledge, MalformedLearnedFileIsRejectedAndNothingIsLost) {

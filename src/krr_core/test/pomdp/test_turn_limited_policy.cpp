@@ -1,6 +1,9 @@
 // Tests of TurnLimitedPolicy: which vectors a turn may use, text round trip, bad files.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+#include <vector>
+
 #include "krr_core/common/errors.h"
 #include "krr_core/pomdp/turn_limited_policy.h"
 
@@ -26,6 +29,44 @@ TEST(TurnLimitedPolicy, VectorsServeUpToTheirStage) {
   TurnLimitedPolicy noEnd(2, 3);
   noEnd.add(Eigen::Vector2d(1, 1), 0, 1);
   EXPECT_THROW(noEnd.bestIndex(b, 2), ConfigError);
+}
+
+TEST(TurnLimitedPolicy, ManyBeliefsAtOnceMatchOneByOne) {
+  // Random vectors over several stages, ties included: values() of a batch and bestIndex()
+  // (one product per stage group) agree with the definition, max over usable vectors, lowest
+  // index on ties.
+  std::srand(7);
+  const std::size_t S = 6;
+  TurnLimitedPolicy p(S, 4);
+  std::vector<Eigen::VectorXd> alphas;
+  std::vector<int> stages;
+  for (int i = 0; i < 40; ++i) {
+    Eigen::VectorXd a = Eigen::VectorXd::Random(static_cast<Eigen::Index>(S));
+    if (i % 7 == 3) a = alphas[static_cast<std::size_t>(i - 3)];  // exact duplicates: ties
+    const int stage = i % 5;
+    p.add(a, static_cast<std::size_t>(i), stage);
+    alphas.push_back(a);
+    stages.push_back(stage);
+  }
+  Eigen::MatrixXd beliefs = Eigen::MatrixXd::Random(static_cast<Eigen::Index>(S), 25).cwiseAbs();
+  for (Eigen::Index c = 0; c < beliefs.cols(); ++c) beliefs.col(c) /= beliefs.col(c).sum();
+  for (int t = 0; t <= 5; ++t) {
+    const Eigen::VectorXd v = p.values(beliefs, t);
+    for (Eigen::Index c = 0; c < beliefs.cols(); ++c) {
+      const Eigen::VectorXd b = beliefs.col(c);
+      std::size_t best = alphas.size();
+      double bv = 0;
+      for (std::size_t i = 0; i < alphas.size(); ++i) {
+        if (stages[i] < std::min(t, 4)) continue;
+        const double x = alphas[i].dot(b);
+        if (best == alphas.size() || x > bv) best = i, bv = x;
+      }
+      EXPECT_EQ(p.bestIndex(b, t), best) << "turn " << t << ", belief " << c;
+      EXPECT_NEAR(v(c), bv, 1e-12);
+      EXPECT_NEAR(p.value(b, t), bv, 1e-12);
+    }
+  }
+  EXPECT_THROW(p.values(Eigen::MatrixXd::Zero(3, 2), 0), ConfigError);
 }
 
 TEST(TurnLimitedPolicy, TextRoundTripIsExact) {

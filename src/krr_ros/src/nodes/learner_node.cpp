@@ -9,6 +9,9 @@
 // <navigation_action>/status) and for ~task_hold seconds after a service request or a user
 // utterance (the dialog that precedes a delivery). Learning is interrupted between episodes;
 // what was learned so far is extracted and sent before the node pauses.
+#include <cstdlib>
+#include <cmath>
+#include <sstream>
 #include <actionlib_msgs/GoalStatusArray.h>
 #include <krr_msgs/AddKnowledge.h>
 #include <krr_msgs/ServiceRequest.h>
@@ -78,6 +81,9 @@ struct LearnerParams {
     p.rest_after = r.integer("rest_after", 10, 1, 1000000);
     p.rest_period = r.number("rest_period", 60, 0, 86400);
     krr::kb::FreeTimeOptions& o = p.options;
+    // What extraction writes back: per blocking area (the default, as in the experiments) or
+    // per (cell, move) pair.
+    o.extraction = krr::kb::extractionFromString(r.str("extraction", "areas", {"areas", "pairs"}));
     o.time = r.str("time", "morning");
     o.blocking_rate = r.number("blocking_rate", -1, -1, 1);
     o.max_episodes_per_task = static_cast<std::size_t>(r.integer("max_episodes_per_task", 300, 1, 1000000));
@@ -116,6 +122,8 @@ class LearnerNode {
     if (!p_.learned_file.empty() && std::filesystem::exists(p_.learned_file)) {
       knowledge_.loadLearned(p_.learned_file);
       for (const Entry& e : knowledge_.learnedEntries()) sent_[key(e)] = e;
+      const auto a = knowledge_.learnedAreas().find(p_.options.time);
+      if (a != knowledge_.learnedAreas().end()) sent_areas_ = taught_ = a->second;
     }
     client_ = nh.serviceClient<krr_msgs::AddKnowledge>(p_.knowledge_service);
     status_pub_ = pnh.advertise<std_msgs::String>("status", 10, true);
@@ -164,7 +172,9 @@ class LearnerNode {
       krr::kb::FreeTimeOptions o = p_.options;
       if (o.max_tasks) o.max_tasks -= done;
       try {
-        krr::kb::FreeTimeLearner learner(dom_, knowledge_, selector_, o);
+        if (!samples_)
+          samples_ = std::make_shared<krr::mdp::VisitCounts>(dom_.space->numStates(), 4);
+        krr::kb::FreeTimeLearner learner(dom_, knowledge_, selector_, o, samples_);
         setStatus("learning");
         const krr::kb::FreeTimeReport r = learner.run(
             rng_,
@@ -206,6 +216,7 @@ class LearnerNode {
 
   /// @brief After each practised task: send what changed to the reasoner.
   void onTask(const krr::kb::NavTask& task) {
+    if (p_.options.extraction == krr::kb::Extraction::kAreas) return sendAreas(task);
     std::vector<Entry> changed;
     for (const Entry& e : knowledge_.learnedEntries()) {
       auto it = sent_.find(key(e));
@@ -239,6 +250,72 @@ class LearnerNode {
     ROS_INFO_NAMED(kLog, "task %s->%s: sent %zu distribution(s); the reasoner knows %u",
                    task.start.c_str(), task.goal.c_str(), changed.size(),
                    srv.response.total_learned);
+  }
+
+  /// @brief The probabilities of area statements by statement (text before " = k/n").
+  static std::map<std::string, double> probabilities(const std::string& text) {
+    std::map<std::string, double> out;
+    std::istringstream in(text);
+    std::string line;
+    while (std::getline(in, line)) {
+      const auto eq = line.rfind(") = ");
+      if (line.rfind("pr(", 0) != 0 || eq == std::string::npos) continue;
+      const std::string v = line.substr(eq + 4);
+      const auto slash = v.find('/');
+      out[line.substr(0, eq)] = slash == std::string::npos
+                                    ? std::atof(v.c_str())
+                                    : std::atof(v.substr(0, slash).c_str()) /
+                                          std::atof(v.substr(slash + 1).c_str());
+    }
+    return out;
+  }
+  /// @brief The largest change of a probability between two texts of area knowledge (1 for a
+  /// statement only one of them has).
+  static double maxChange(const std::string& before, const std::string& after) {
+    const auto a = probabilities(before), b = probabilities(after);
+    double worst = 0.0;
+    for (const auto& [k, v] : b) {
+      const auto f = a.find(k);
+      worst = std::max(worst, f == a.end() ? 1.0 : std::fabs(f->second - v));
+    }
+    return worst;
+  }
+
+  /// @brief Area extraction: send the time's area knowledge when it changed.
+  void sendAreas(const krr::kb::NavTask& task) {
+    const auto& areas = knowledge_.learnedAreas();
+    const auto it = areas.find(p_.options.time);
+    const bool changed = it != areas.end() && it->second != sent_areas_;
+    // Practice teaches something while some probability moves by 0.005 or more per task.
+    const std::string now = it != areas.end() ? it->second : std::string();
+    const double moved = maxChange(taught_, now);
+    taught_ = now;
+    setStatus("learned " + task.start + "->" + task.goal + ": area knowledge " +
+              (changed ? "updated (largest change " + std::to_string(moved).substr(0, 6) + ")"
+                       : "unchanged"));
+    unproductive_ = moved >= 0.005 ? 0 : unproductive_ + 1;
+    if (unproductive_ >= p_.rest_after) {
+      unproductive_ = 0;
+      rest_until_ = ros::WallTime::now() + ros::WallDuration(p_.rest_period);
+    }
+    if (!changed) return;
+    krr_msgs::AddKnowledge srv;
+    srv.request.update.header.stamp = ros::Time::now();
+    srv.request.update.source = ros::this_node::getName();
+    srv.request.update.area_time = p_.options.time;
+    srv.request.update.area_statements = it->second;
+    if (!client_.waitForExistence(ros::Duration(p_.service_timeout)) || !client_.call(srv)) {
+      ROS_WARN_NAMED(kLog, "service %s unavailable: area knowledge kept for the next attempt",
+                     p_.knowledge_service.c_str());
+      return;
+    }
+    if (!srv.response.success) {
+      ROS_ERROR_NAMED(kLog, "the reasoner refused the update: %s", srv.response.message.c_str());
+      return;
+    }
+    sent_areas_ = it->second;
+    ROS_INFO_NAMED(kLog, "task %s->%s: sent area knowledge for %s", task.start.c_str(),
+                   task.goal.c_str(), p_.options.time.c_str());
   }
 
   void onGoalStatus(const actionlib_msgs::GoalStatusArrayConstPtr& msg) {
@@ -282,6 +359,9 @@ class LearnerNode {
   krr::kb::LeastKnownSelector selector_;
   krr::Rng rng_;
   std::map<std::tuple<int, int, std::string>, Entry> sent_;
+  std::string sent_areas_;                          // area knowledge last sent (its time)
+  std::string taught_;                              // area knowledge after the last task
+  std::shared_ptr<krr::mdp::VisitCounts> samples_;  // every sample, pooled across sessions
   long unproductive_ = 0;           // tasks in a row that changed nothing (learning thread)
   ros::WallTime rest_until_;        // learning thread only
   ros::ServiceClient client_;

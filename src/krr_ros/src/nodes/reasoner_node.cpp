@@ -5,6 +5,7 @@
 // learned). Services: ~query_probability, ~add_knowledge, ~build_task_model. Learned knowledge
 // is written atomically to ~learned_file (navigation) and ~domain_learned_file (statements)
 // after every accepted update and reloaded at start, so a restart loses nothing.
+#include <algorithm>
 #include <krr_msgs/AddKnowledge.h>
 #include <krr_msgs/BuildTaskModel.h>
 #include <krr_msgs/KnowledgeUpdate.h>
@@ -127,8 +128,13 @@ class ReasonerNode {
     try {
       // Validate everything before changing anything.
       const auto pairs = krr_ros::toKnownPairs(u.atoms, *domain_.space, times_);
-      if (u.atoms.empty() && u.statements.find_first_not_of(" \t\r\n") == std::string::npos)
-        throw krr::ConfigError("the update holds neither atoms nor statements");
+      const bool hasAreas = u.area_statements.find_first_not_of(" \t\r\n") != std::string::npos;
+      if (u.atoms.empty() && !hasAreas &&
+          u.statements.find_first_not_of(" \t\r\n") == std::string::npos)
+        throw krr::ConfigError("the update holds neither atoms, area knowledge nor statements");
+      if (hasAreas && std::find(times_.begin(), times_.end(), u.area_time) == times_.end())
+        throw krr::ConfigError("area_time '" + u.area_time + "' is not a time of day of the "
+                               "navigation knowledge base");
       const std::string tag = "update" + std::to_string(++updates_);
       const std::string nav_before = nav_->learnedText();
       if (!u.statements.empty()) {
@@ -139,6 +145,7 @@ class ReasonerNode {
       try {
         for (const auto& [time, list] : pairs)
           res.atoms_added += static_cast<std::uint32_t>(nav_->addLearned(list, time));
+        if (hasAreas) nav_->setLearnedAreas(u.area_time, u.area_statements);
         persist(u.statements, u.source);
       } catch (...) {
         rollback(tag, nav_before);
@@ -146,8 +153,9 @@ class ReasonerNode {
       }
       res.total_learned = static_cast<std::uint32_t>(nav_->learnedEntries().size());
       res.success = true;
-      res.message = "added " + std::to_string(res.atoms_added) + " learned distribution(s) and " +
-                    std::to_string(res.statements_added) + " statement(s)";
+      res.message = "added " + std::to_string(res.atoms_added) + " learned distribution(s)" +
+                    (hasAreas ? ", area knowledge for " + u.area_time : std::string()) +
+                    " and " + std::to_string(res.statements_added) + " statement(s)";
       ROS_INFO_NAMED(kLog, "update from '%s': %s; %u learned in total, saved to %s",
                      u.source.c_str(), res.message.c_str(), res.total_learned,
                      params_.learned_file.c_str());

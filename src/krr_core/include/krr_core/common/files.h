@@ -32,6 +32,24 @@ std::uint64_t stableHash(const std::string& text);
 
 
 /**
+ * @brief An exclusive advisory lock on a lock file (flock), held until destruction; the kernel
+ * releases it if the process dies. Cache entries that are expensive to make (learned knowledge,
+ * solved policies) are made under one, so parallel trial processes make each entry once and
+ * the others wait and load it.
+ */
+class FileLock {
+ public:
+  /// @brief Create `path` if needed and lock it (blocks). @throws IoError naming it.
+  explicit FileLock(const std::string& path);
+  ~FileLock();
+  FileLock(const FileLock&) = delete;
+  FileLock& operator=(const FileLock&) = delete;
+
+ private:
+  int fd_;
+};
+
+/**
  * @brief The repository root (the directory holding `marker`, e.g. config/navigation.yaml), so
  * programs find the knowledge base and configs wherever they are started from. Tries, in order:
  * `hint` if not empty, $KRR_ROOT, the working directory and its parents, the executable's

@@ -80,6 +80,10 @@ struct DeliveryTrialResult {
   bool correct = false;           ///< served == request (identification)
   bool fulfilled = false;         ///< the right request was delivered in the end
   DeliveryReward reward;
+  /// E[reward | request, served] under the true world (the simulator's exact dynamics with
+  /// the robot's policies) minus the realised QA cost: the trial's reward without the luck of
+  /// navigation (decision theory's measure of the knowledge behind the serve).
+  double expected_reward = 0.0;
 };
 
 /// @brief Timings and figures of the preparation.
@@ -104,7 +108,8 @@ class DeliveryExperiment {
 
   /// @brief Run trial `index` (deterministic per (seed, index)); fixed_request >= 0 replaces
   /// the drawn hidden request (tests, per-room analyses).
-  DeliveryTrialResult runTrial(std::size_t index, long fixed_request = -1) const;
+  DeliveryTrialResult runTrial(std::size_t index, long fixed_request = -1,
+                               DecisionMemo* memo = nullptr) const;
   /// @brief Trials begin..begin+count-1 on `threads` threads, in index order; results do not
   /// depend on threads.
   std::vector<DeliveryTrialResult> runTrials(std::size_t begin, std::size_t count,
@@ -117,6 +122,8 @@ class DeliveryExperiment {
   const pomdp::DialogPomdp& dialog() const { return *dialog_; }
   const pomdp::TurnLimitedPolicy& policy() const { return policy_; }
   const DeliveryNavigation& navigation() const { return *nav_; }
+  /// @brief The trips of the robot's navigation policies in the true world at the trial's br.
+  const TripTable& trueTrips() const { return true_trips_; }
   const DialogKnowledge& dialogKnowledge() const { return *knowledge_; }
   const PreparationReport& preparation() const { return prep_; }
   const DeliveryExperimentOptions& options() const { return options_; }
@@ -132,6 +139,8 @@ class DeliveryExperiment {
   std::unique_ptr<DialogKnowledge> knowledge_;
   std::unique_ptr<DeliveryNavigation> nav_;
   std::unique_ptr<pomdp::DialogPomdp> dialog_;
+  TripTable true_trips_;
+  std::unique_ptr<pomdp::DialogPomdp> true_dialog_;  // the serve rewards under true_trips_
   pomdp::TurnLimitedPolicy policy_;
   nav::Context context_;
   PreparationReport prep_;

@@ -51,6 +51,8 @@ struct LearningReport {
   std::size_t tasks = 0;          ///< tasks practised (0 from the cache)
   std::size_t episodes = 0;       ///< R-Max episodes run
   std::size_t pairs = 0;          ///< learned (cell, move) pairs in the knowledge base
+  std::size_t areas = 0;          ///< blocking areas with learned knowledge (learning.mode areas)
+  std::size_t samples = 0;        ///< moves the robot made while learning (0 from the cache)
   double seconds = 0.0;
 };
 

@@ -126,6 +126,8 @@ class DeliveryManager {
 
   DeliveryPhase phase() const { return phase_; }
   const DialogSession& session() const { return session_; }
+  /// @brief Remember the dialog decisions in `memo` (not owned; one per thread; nullptr: none).
+  void setDecisionMemo(DecisionMemo* memo) { session_.setDecisionMemo(memo); }
   const pomdp::DialogPomdp& dialog() const { return dialog_; }
   const DeliveryRecord& record() const { return record_; }
   const std::vector<std::string>& decisions() const { return decisions_; }

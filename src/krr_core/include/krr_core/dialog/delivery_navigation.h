@@ -115,6 +115,12 @@ class DeliveryNavigation {
   const TripEstimate& toShop(std::size_t r) const { return to_shop_.at(r); }
   /// @brief Every trip's figures, for the dialog model.
   TripTable trips() const;
+  /**
+   * @brief The same trips, driven with the same policies (chosen on this model), under other
+   * dynamics over the same states, e.g. the simulator's true ones (kb::trueDynamics): what the
+   * robot actually achieves with the knowledge it has. @throws ConfigError on a size mismatch.
+   */
+  TripTable evaluate(const mdp::SparseModel& dynamics) const;
 
   /// @brief The robot's move in each state (trapped: 0) when heading to room r / to the shop.
   const std::vector<mdp::ActionId>& policyToRoom(std::size_t r) const { return policy_.at(r); }

@@ -64,6 +64,9 @@ struct DialogConfig {
   std::size_t max_episodes_per_task = 300;
   std::size_t convergence_episodes = 20;
   std::size_t learning_rounds = 1;     ///< passes over the 2 x rooms delivery routes
+  /// What extraction writes back: "areas" (pooled per blocking area, kb/area_knowledge.h) or
+  /// "pairs" (each known (cell, move) pair, for comparison).
+  std::string learning_mode = "areas";
   // knowledge: (absolute after loading; relative paths are resolved against the YAML's dir)
   std::string office_plog = "office.plog";  ///< people, items, rooms, request prior
   std::string speech_plog = "dialog.plog";  ///< speech understanding model

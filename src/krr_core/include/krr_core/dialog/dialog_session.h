@@ -20,6 +20,7 @@
 #include <array>
 #include <cstddef>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "krr_core/dialog/language.h"
@@ -48,6 +49,28 @@ struct BeliefSummary {
   double mostLikelyProbability = 0.0;
 };
 
+/**
+ * @brief decideAction() remembered per (belief, turns) for one dialog model and policy. The
+ * belief is a function of the questions and answers so far, so the deliveries of an experiment
+ * revisit the same beliefs again and again; an exact key (the belief's bits) returns exactly
+ * the decision decideAction() would make. Not thread-safe: one per thread. Bounded: forgets
+ * everything past `capacity` entries.
+ */
+class DecisionMemo {
+ public:
+  explicit DecisionMemo(std::size_t capacity = 1u << 16) : capacity_(capacity) {}
+  std::size_t decide(const pomdp::DialogPomdp& dialog, const pomdp::TurnLimitedPolicy& policy,
+                     const pomdp::Belief& b, int turns);
+  std::size_t hits() const { return hits_; }
+  std::size_t misses() const { return misses_; }
+
+ private:
+  std::size_t capacity_;
+  std::unordered_map<std::string, std::size_t> memo_;
+  std::string key_;
+  std::size_t hits_ = 0, misses_ = 0;
+};
+
 /// @brief A dialog in progress (see the file comment).
 class DialogSession {
  public:
@@ -64,6 +87,8 @@ class DialogSession {
 
   /// @brief Back to the prior, no question asked.
   void reset();
+  /// @brief Remember nextAction()'s decisions in `memo` (not owned; nullptr: none).
+  void setDecisionMemo(DecisionMemo* memo) { memo_ = memo; }
   /// @brief The policy's action at the current belief and turn, or serve(most likely request)
   /// at the turn limit. @throws ConfigError without a policy before the turn limit, when
   /// finished, or when the policy asks a question at the turn limit.
@@ -95,6 +120,7 @@ class DialogSession {
   const pomdp::DialogPomdp& dialog_;
   const LanguageFrontEnd* language_;
   const pomdp::TurnLimitedPolicy* policy_;
+  DecisionMemo* memo_ = nullptr;
   pomdp::Belief belief_;
   int turns_ = 0;
   long lastQuestion_ = -1;
@@ -119,3 +145,4 @@ BeliefSummary summarizeBelief(const pomdp::DialogPomdp& dialog, const pomdp::Bel
 
 }  // namespace dialog
 }  // namespace krr
+

@@ -6,13 +6,16 @@
  * For each selected task the learner starts R-Max from the model the knowledge base gives
  * (Procedure 2: pairs backed by learned knowledge start known), runs episodes until the task
  * converged (no newly known pair for `convergence_episodes` episodes) or the episode budget is
- * spent, and extracts the known pairs into the knowledge base. An interruption (a task
+ * spent, and extracts into the knowledge base either the known pairs or (the default) the
+ * pooled estimates of what the knowledge says is shared: every sample of the learner so far,
+ * pooled per blocking area (kb/area_knowledge.h). An interruption (a task
  * arrived) is checked between episodes; the pairs known so far are extracted before returning,
  * so an interrupted session loses nothing it learned.
  */
 #pragma once
 
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -61,8 +64,19 @@ class FixedTaskSelector : public TaskSelector {
   NavTask task_;
 };
 
+/// @brief What knowledge extraction writes back.
+enum class Extraction {
+  kPairs,  ///< each (cell, move) pair R-Max knows, as its own distribution
+  kAreas,  ///< what the knowledge base says is shared: per blocking area (area_knowledge.h)
+};
+
+/// @brief "pairs" / "areas". @throws ConfigError for another name (fromString).
+std::string toString(Extraction e);
+Extraction extractionFromString(const std::string& name);
+
 /// @brief Parameters of a free-time learning session.
 struct FreeTimeOptions {
+  Extraction extraction = Extraction::kAreas;
   std::string time = "morning";     ///< time of day the robot learns in (the KB context)
   double blocking_rate = -1;        ///< simulated br (< 0: the simulator's configuration)
   std::size_t max_episodes_per_task = 300;
@@ -77,14 +91,19 @@ struct FreeTimeReport {
   std::vector<NavTask> tasks;          ///< tasks practised, in order
   std::vector<std::size_t> episodes;   ///< episodes run per task
   std::vector<bool> converged;         ///< per task
-  std::size_t pairs_extracted = 0;     ///< pairs written to the KB (last write per task)
+  std::size_t pairs_extracted = 0;     ///< pairs (or areas) written to the KB, summed over tasks
+  std::size_t samples = 0;             ///< own samples of the session (every move)
   bool interrupted = false;
 };
 
 class FreeTimeLearner {
  public:
+  /// @param samples where the learner pools its samples (area extraction estimates from all of
+  ///        them); pass the same one to later learners to keep pooling (a node learning between
+  ///        tasks), or nothing for a private one.
   FreeTimeLearner(const NavDomain& domain, NavigationKnowledge& knowledge,
-                  TaskSelector& selector, const FreeTimeOptions& options);
+                  TaskSelector& selector, const FreeTimeOptions& options,
+                  std::shared_ptr<mdp::VisitCounts> samples = nullptr);
 
   /**
    * @brief Run Procedure 1 until `interrupted()` returns true (checked before every episode)
@@ -99,6 +118,8 @@ class FreeTimeLearner {
   NavigationKnowledge& knowledge_;
   TaskSelector& selector_;
   FreeTimeOptions options_;
+  /// Every own sample of the learner's sessions (area extraction pools them all).
+  std::shared_ptr<mdp::VisitCounts> samples_;
 };
 
 }  // namespace kb

@@ -104,8 +104,9 @@ struct NavTransferTrial {
 };
 
 /**
- * @brief Run trial `index`. `knowledge` is this worker's knowledge base (its learned part is
- * cleared first), so a worker reuses one parsed program across trials.
+ * @brief Run trial `index`. `knowledge` is this worker's knowledge base: its learned part is
+ * replaced by this trial's extraction (NavigationKnowledge::replaceLearned), so a worker reuses
+ * one parsed and grounded program across trials.
  */
 NavTransferTrial runNavTransferTrial(const NavDomain& domain, NavigationKnowledge& knowledge,
                                      const NavTransferOptions& options, std::uint64_t seed,

@@ -69,8 +69,9 @@ class NavStateSpace {
 struct NavModel {
   /// S = free cells + trapped, A = 4, rewards 0, trapped terminal, discount as requested.
   mdp::SparseModel dynamics;
-  /// S*A flags: 1 where the row comes from learned knowledge in every context of the query
-  /// (these pairs start "known" for R-Max; the rest are left to human knowledge).
+  /// S*A flags: 1 where the row comes from learned per-pair knowledge in every context of the
+  /// query (these pairs start "known" for R-Max; the rest, area knowledge included, are
+  /// explored again).
   std::vector<std::uint8_t> learned;
   std::size_t numLearned() const;
 };
@@ -105,6 +106,14 @@ class NavigationKnowledge {
    * @return the number of (cell, move) pairs written.
    */
   std::size_t addLearned(const std::vector<mdp::KnownPair>& pairs, const std::string& time);
+  /**
+   * @brief Like clearing the pairs learned at `time` and then addLearned(), but only what
+   * differs is rewritten (a new experiment trial's knowledge mostly repeats the last one's).
+   * Area knowledge and other times are kept. @return the number of pairs written.
+   */
+  std::size_t replaceLearned(const std::vector<mdp::KnownPair>& pairs, const std::string& time);
+  /// @brief Number of learned pairs (of time `time`; all times if empty).
+  std::size_t learnedPairCount(const std::string& time = "") const;
 
   /// @brief One learned distribution, structured: P(next_cell = outcomes[i].first | cell,
   /// move, time) = outcomes[i].second / denominator (numerators sum to the denominator).
@@ -119,9 +128,18 @@ class NavigationKnowledge {
   /// content of learnedText(), for sending it elsewhere (e.g. to a ROS reasoner node).
   std::vector<LearnedEntry> learnedEntries() const;
 
-  /// @brief Forget everything learned (all statements tagged "learned").
+  /**
+   * @brief Knowledge extraction of what is shared (kb/area_knowledge.h): the pooled walker,
+   * trap and noise rates of one time of day, replacing earlier ones of that time.
+   */
+  void setLearnedAreas(const std::string& time, const std::string& statements);
+  /// @brief Times with area knowledge, and its statements.
+  const std::map<std::string, std::string>& learnedAreas() const { return areas_; }
+
+  /// @brief Forget everything learned (pairs and areas).
   void clearLearned();
-  /// @brief Everything learned, as P-log text that loadLearned() reads back.
+  /// @brief Everything learned, as P-log text that loadLearned() reads back (pairs, then one
+  /// block per time of area knowledge, each after a line "% --- areas, time T ---").
   std::string learnedText() const;
   /// @brief Save learnedText() atomically: a crash never leaves a half-written file.
   void saveLearned(const std::string& path) const;
@@ -147,7 +165,12 @@ class NavigationKnowledge {
   std::string evidenceFor(const std::vector<std::string>& times) const;
   /// @brief Set these learned distributions (new keys or replacements) in learned_ and hand
   /// the reasoner only the difference.
-  void updateLearned(const LearnedMap& updates);
+  /// Write `updates`, removing `old_prs` / `old_facts` too (one removal: it re-indexes).
+  void updateLearned(const LearnedMap& updates, std::vector<plog::PrAtom> old_prs = {},
+                     std::vector<plog::Rule> old_facts = {});
+  /// The distributions of R-Max's own known pairs (`updates`); @return how many.
+  std::size_t learnedDistributions(const std::vector<mdp::KnownPair>& pairs,
+                                   const std::string& time, LearnedMap& updates) const;
   /// @brief The statements of one learned distribution (copies of the parsed prototypes).
   void appendPrAtoms(const std::tuple<int, int, std::string>& key, const LearnedDistribution& d,
                      std::vector<plog::PrAtom>& out);
@@ -158,6 +181,7 @@ class NavigationKnowledge {
   plog::Reasoner reasoner_;
   std::vector<std::string> times_;  // values of sort time
   LearnedMap learned_;
+  std::map<std::string, std::string> areas_;  // time -> area statements
   // Parsed prototypes of the learned statements and the ground terms to put in them.
   plog::PrAtom pr_proto_;
   plog::Rule fact_proto_;

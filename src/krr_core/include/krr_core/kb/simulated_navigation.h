@@ -18,6 +18,11 @@
 namespace krr {
 namespace kb {
 
+/// @brief The simulator's exact dynamics under `context` over the states of `space` (free cells,
+/// then the absorbing trapped state): what the robot's knowledge should converge to.
+mdp::SparseModel trueDynamics(const nav::BlockageSimulator& sim, const NavStateSpace& space,
+                              const nav::Context& context, double discount = 1.0);
+
 class SimulatedNavigation : public mdp::Environment {
  public:
   /// @throws UnknownSymbolError for non-free start/goal cells, ConfigError when the start is a goal.

@@ -129,10 +129,20 @@ class ExactEngine {
   // index for table queries
   bool indexed_ = false;
   std::vector<int> index_inst_;             // conditioning instances
-  std::vector<std::vector<std::vector<std::vector<Item>>>> buckets_;  // inst -> cond k -> value -> items
+  /// One keyed entry of the index: an item (or rule index) whose body has the literal
+  /// index_inst_[k] = value. Sorted by (k, value) per instance, so the index is proportional to
+  /// the program, not to instances x conditioning domain (a 50x50 grid has 2,500 cells).
+  template <class T>
+  struct Keyed {
+    int k;
+    int value;
+    T item;
+  };
+  std::vector<char> index_has_;             // instance -> indexed (random, or derived with rules)
+  std::vector<std::vector<Keyed<Item>>> keyed_;  // inst -> items keyed by a conditioning literal
   std::vector<std::vector<Item>> unkeyed_;  // inst -> items without a conditioning literal
   std::vector<int> cond_pos_;               // instance -> position in index_inst_ or -1
-  std::vector<std::vector<std::vector<std::vector<int>>>> rule_buckets_;  // derived rules
+  std::vector<std::vector<Keyed<int>>> rule_keyed_;  // derived rules, keyed likewise
   std::vector<std::vector<int>> rule_unkeyed_;
   size_t last_factors_ = 0, last_max_factor_ = 0;
   std::vector<PendingError> pending_errors_;

@@ -55,6 +55,12 @@ class TurnLimitedPolicy {
    * episode: `ends`). Acting by it and then by the policy is worth at least this.
    */
   double lookahead(const Model& m, const Belief& b, std::size_t a, int turns, bool ends) const;
+  /// @brief lookahead() of several continuing actions at once (one pass over the vectors for
+  /// all their successor beliefs; what a decision between questions needs).
+  std::vector<double> lookahead(const Model& m, const Belief& b,
+                                const std::vector<std::size_t>& actions, int turns) const;
+  /// @brief value() of every column of `beliefs` (S x k).
+  Eigen::VectorXd values(const Eigen::MatrixXd& beliefs, int turns) const;
 
   /// @brief Text format: "krr-turn-limited-policy 1", "states S", "turn_limit L",
   /// "vectors N", then N lines "stage action v1 ... vS" (exact round trip).
@@ -70,6 +76,13 @@ class TurnLimitedPolicy {
   std::vector<Eigen::VectorXd> alphas_;
   std::vector<std::size_t> actions_;
   std::vector<int> stages_;
+  /// @brief The vectors of one stage, row-major and contiguous, with their indices: bestIndex
+  /// is then one matrix-vector product per stage (it runs at every lookahead of every trial).
+  struct StageGroup {
+    std::vector<double> rows;
+    std::vector<std::size_t> ids;
+  };
+  std::vector<StageGroup> by_stage_;
 };
 
 }  // namespace pomdp

@@ -1,0 +1,81 @@
+#!/usr/bin/env bash
+# Record the README's example ROS session: start the headless stack (sim.launch, no simulated
+# user, no free-time learner, human knowledge only, a fresh learned_dir, seed 1) on its own
+# master, run the commands below (reasoner queries, a dialog typed through /user_utterance,
+# navigation goals, knowledge updates), and write their real output to
+# docs/example_session.txt; tools/record_results.py then puts that file into README.md (so the
+# README never shows output that was typed by hand).
+#   bash tools/record_session.sh        (after bash tools/build.sh)
+set -euo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+export PATH="/usr/bin:/bin:$PATH"
+set +u; source "$ROOT/catkin_ws/devel/setup.bash"; set -u
+WORK=$(mktemp -d /tmp/krr_session_XXXXXX)
+export ROS_HOME="$WORK/ros_home"
+PORT=$(/usr/bin/python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])')
+export ROS_MASTER_URI="http://127.0.0.1:$PORT"
+roslaunch -p "$PORT" "$ROOT/launch/sim.launch" user:=false learner:=false seed:=1 sim_rate:=0 \
+  learned_dir:="$WORK/kb" > "$WORK/roslaunch.log" 2>&1 &
+LAUNCH=$!
+cleanup() { kill -INT "$LAUNCH" 2>/dev/null || true; wait "$LAUNCH" 2>/dev/null || true; }
+trap cleanup EXIT
+for s in /reasoner/query_probability /reasoner/add_knowledge /dialog/get_loggers; do
+  timeout 120 bash -c "until rosservice list 2>/dev/null | grep -qx $s; do sleep 0.5; done" \
+    || { echo "record_session: $s did not come up (see $WORK/roslaunch.log)" >&2; exit 1; }
+done
+OUT="$WORK/session.txt"
+run() {  # run "command" [filter]: print "$ command", then its output
+  echo "\$ $1" >> "$OUT"
+  if [ -n "${2:-}" ]; then bash -c "$1" 2>&1 | grep -E "$2" >> "$OUT" || true
+  else bash -c "$1" >> "$OUT" 2>&1 || true; fi
+}
+goal() {  # goal "{goal: ...}" filter: send a navigation goal, print its (unlatched) result
+  echo "\$ rostopic pub -1 /navigate/goal krr_msgs/NavigateActionGoal \"$1\"" >> "$OUT"
+  echo "\$ rostopic echo -n 1 /navigate/result/result     # (listening since before the goal)" >> "$OUT"
+  rostopic echo -n 1 /navigate/result/result > "$WORK/result.txt" 2>&1 &
+  local echo_pid=$!
+  sleep 2
+  rostopic pub -1 /navigate/goal krr_msgs/NavigateActionGoal "$1" > /dev/null 2>&1 || true
+  timeout 120 tail --pid=$echo_pid -f /dev/null || kill $echo_pid 2>/dev/null || true
+  grep -E "$2" "$WORK/result.txt" >> "$OUT" || true
+}
+run "rosservice call /reasoner/query_probability \"{query: '?{curr_room(bob)=room2} | do(curr_person=bob).'}\""
+run "rosservice call /reasoner/query_probability \"{query: '?{curr_room(carol)=room2}'}\""
+run "rosservice call /reasoner/query_probability \"{attribute: 'curr_room(bob)', evidence: 'do(curr_person=bob)'}\""
+# A dialog as a person types it; the robot's lines are what /robot_utterance/text carried
+# after each utterance.
+PYTHONUNBUFFERED=1 rostopic echo /robot_utterance/text > "$WORK/robot.txt" 2>&1 &
+ECHO=$!
+sleep 2
+echo "\$ rostopic echo /robot_utterance/text &     # the robot's lines below" >> "$OUT"
+say() {  # say "text": publish an utterance, then print what the robot said in reply
+  echo "\$ rostopic pub -1 /user_utterance krr_msgs/UserUtterance \"text: '$1'\"" >> "$OUT"
+  local before
+  before=$(wc -l < "$WORK/robot.txt")
+  rostopic pub -1 /user_utterance krr_msgs/UserUtterance "text: '$1'" > /dev/null 2>&1 || true
+  sleep "${2:-2}"
+  tail -n +"$((before + 1))" "$WORK/robot.txt" | grep -v '^---$' >> "$OUT" || true
+}
+say "I would like a coke for Bob to office2, please"
+run "rostopic echo -n 1 /dialog_belief" "^(entropy|most_likely|  (item|room|person):)"
+say "coke"
+say "room2"
+say "yes" 4
+say "yes" 3
+say "xyzzy"
+say "Could you bring a soda for John to room 3?"
+say "room3"
+say "soda"
+say "yes"
+say "yes"
+say "room3"
+say "yes" 4
+kill "$ECHO" 2> /dev/null || true
+goal "{goal: {place: room1}}" "^(success|outcome|final_cell|steps|failure_reason)"
+goal "{goal: {cell: 5000}}" "^(success|outcome|failure_reason)"
+run "rosservice call /reasoner/add_knowledge \"{update: {source: me, atoms: [{cell: 182, move: up, time: morning, outcomes: ['212', '182'], counts: [7, 3], samples: 10}]}}\""
+run "rosservice call /reasoner/add_knowledge \"{update: {source: me, atoms: [{cell: 182, move: up, time: morning, outcomes: ['212', '182'], counts: [7, 2], samples: 10}]}}\"" '^(success|message|  \\)'
+run "rosservice call /reasoner/build_task_model \"{task: navigation, times: [morning]}\"" "^(success|message)"
+mkdir -p "$ROOT/docs"
+sed -e 's/\x1b\[[0-9;]*m//g' "$OUT" > "$ROOT/docs/example_session.txt"
+echo "record_session: wrote docs/example_session.txt ($(wc -l < "$ROOT/docs/example_session.txt") lines)"
