@@ -92,6 +92,52 @@ class DeterminismTest(FakeBinTest):
         self.assertEqual(nav.trial_indices(), sorted(nav.trial_indices()))
         self.assertNotEqual(one["a"], one["b"])
 
+    def test_prefetched_sets_give_the_same_tables_and_run_once(self):
+        specs = [delivery("a", 9), delivery("b", 5, br="0.1"), delivery("c", 7, br="0.7")]
+        plain = self.run_with(2, specs=specs)
+
+        def prefetched(twice):
+            before = len(self.calls())
+            r = Runner(workers=2, chunks_per_worker=4, progress=None)
+            try:
+                r.prefetch(specs[:2])
+                if twice:
+                    r.prefetch(specs[:1])  # already started: not started again
+                got = {k: t.to_text() for k, t in r.run(specs[1:]).items()}  # b waits, c runs
+                got.update({k: t.to_text() for k, t in r.run(specs[:1]).items()})
+                ran = len(self.calls()) - before
+                r.run(specs)  # all cached now
+                self.assertEqual(len(self.calls()) - before, ran)
+            finally:
+                r.close()
+            return got, ran
+
+        once, ran_once = prefetched(False)
+        twice, ran_twice = prefetched(True)
+        self.assertEqual(once, plain)
+        self.assertEqual(twice, plain)
+        self.assertEqual(ran_twice, ran_once)
+        self.assertGreater(ran_once, 3, "the sets were split into chunks")
+        r2 = Runner(workers=1, progress=None)
+        try:
+            r2.prefetch([delivery("a", 9)])
+            with self.assertRaisesRegex(ValueError, "different settings"):
+                r2.run([delivery("a", 10)])
+        finally:
+            r2.close()
+
+    def test_a_failed_prefetched_chunk_fails_only_its_set(self):
+        os.environ["FAKE_KRR_MODE"] = "fail"
+        r = Runner(workers=2, progress=None)
+        try:
+            r.prefetch([delivery("a", 4)])
+            with self.assertRaisesRegex(RuntimeError, "delivery_trials failed"):
+                r.run([delivery("a", 4)])
+            os.environ.pop("FAKE_KRR_MODE")
+            self.assertEqual(len(r.run([delivery("b", 4)])["b"]), 4)
+        finally:
+            r.close()
+
     def test_min_chunk_limits_processes_not_results(self):
         big = [TrialSpec("d", "delivery_trials", ["--br", "0.5", "--condition", "learned"], 7,
                          23, min_chunk=10)]

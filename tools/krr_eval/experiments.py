@@ -222,12 +222,18 @@ def nav_spec(ctx, domain, trials, episodes=None):
                      cost=NAV_TRIAL_COST.get(grid, 1.0))
 
 
+def exp1_specs(ctx):
+    n, eps = ctx.trials("exp1"), ctx.setting("exp1", "target_episodes")
+    return collections.OrderedDict((d, nav_spec(ctx, d, n, eps))
+                                   for d in ctx.setting("exp1", "domains"))
+
+
 def exp1_nav_transfer(ctx):
     res = Result("exp1", TITLES["exp1"])
-    n, eps = ctx.trials("exp1"), ctx.setting("exp1", "target_episodes")
+    n = ctx.trials("exp1")
     window, early = ctx.setting("exp1", "window"), ctx.setting("exp1", "early_episodes")
     domains = ctx.setting("exp1", "domains")
-    specs = {d: nav_spec(ctx, d, n, eps) for d in domains}
+    specs = exp1_specs(ctx)
     tables = ctx.runner.run(list(specs.values()), label="exp1")
     curves, gains, rows = {}, {}, []
     for d in domains:
@@ -793,17 +799,23 @@ def exp2_table1(ctx):
     return res
 
 
+def ablation_specs(ctx):
+    """exp2's learned trials with the wrong-delivery penalty set to 0, per br."""
+    n = ctx.setting("exp2", "ablation_trials")
+    return collections.OrderedDict(
+        (br, TrialSpec("delivery_br%g_learned_no_penalty" % br, "delivery_trials",
+                       ["--br", "%g" % br, "--condition", "learned",
+                        "--wrong-delivery-penalty", "0"], ctx.seed, n,
+                       min_chunk=CHEAP_TRIALS_CHUNK)) for br in ctx.setting("exp2", "brs"))
+
+
 def serve_reward_ablation(ctx, tables, specs):
     """What the wrong-delivery penalty of the serve reward does: the learned condition's trials
     against the same trials with the penalty set to 0 (delivery_trials
     --wrong-delivery-penalty 0; the navigation cost of the trips driven stays)."""
     n = ctx.setting("exp2", "ablation_trials")
     brs = ctx.params["exp2"]["brs"]
-    abl = collections.OrderedDict(
-        (br, TrialSpec("delivery_br%g_learned_no_penalty" % br, "delivery_trials",
-                       ["--br", "%g" % br, "--condition", "learned",
-                        "--wrong-delivery-penalty", "0"], ctx.seed, n,
-                       min_chunk=CHEAP_TRIALS_CHUNK)) for br in brs)
+    abl = ablation_specs(ctx)
     got = ctx.runner.run(list(abl.values()), label="exp2 ablation")
     rows = []
     for br in brs:
@@ -1009,14 +1021,19 @@ def _nav_flat(ctx, room, brs):
     return max(v) - min(v) < 0.02
 
 
+def entropy_specs(ctx):
+    n, cond = ctx.trials("exp4"), ctx.setting("exp4", "condition")
+    return collections.OrderedDict(
+        (br, TrialSpec("entropy_br%g_%s" % (br, cond), "dialog_entropy",
+                       ["--br", "%g" % br, "--condition", cond], ctx.seed, n,
+                       min_chunk=CHEAP_TRIALS_CHUNK)) for br in ctx.setting("exp4", "brs"))
+
+
 def exp4_table2(ctx):
     res = Result("exp4", TITLES["exp4"])
     n, brs = ctx.trials("exp4"), ctx.setting("exp4", "brs")
     rooms, cond = ctx.setting("exp4", "rooms"), ctx.setting("exp4", "condition")
-    specs = collections.OrderedDict(
-        (br, TrialSpec("entropy_br%g_%s" % (br, cond), "dialog_entropy",
-                       ["--br", "%g" % br, "--condition", cond], ctx.seed, n,
-                       min_chunk=CHEAP_TRIALS_CHUNK)) for br in brs)
+    specs = entropy_specs(ctx)
     tables = ctx.runner.run(list(specs.values()), label="exp4")
     res.tables.append(policy_report(ctx, "exp4", collections.OrderedDict(
         ("br %g %s" % (br, cond), tables[s.name]) for br, s in specs.items())))
@@ -1509,13 +1526,17 @@ def exp5_analysis(t, alpha=0.05):
     return exp5_tables(ev), exp5_claims(ev, alpha), exp5_notes(ev)
 
 
+def exp5_spec(ctx):
+    runs = ctx.setting("exp5", "learning_runs")
+    args = [] if runs is None else ["--learning-runs", int(runs)]
+    return TrialSpec("new_circumstances", "new_circumstances", args, ctx.seed,
+                     ctx.trials("exp5"), min_chunk=EXP5_MIN_CHUNK)
+
+
 def exp5_new_circumstances(ctx):
     res = Result("exp5", TITLES["exp5"])
     n = ctx.trials("exp5")
-    runs = ctx.setting("exp5", "learning_runs")
-    args = [] if runs is None else ["--learning-runs", int(runs)]
-    spec = TrialSpec("new_circumstances", "new_circumstances", args, ctx.seed, n,
-                     min_chunk=EXP5_MIN_CHUNK)
+    spec = exp5_spec(ctx)
     t = ctx.runner.run([spec], label="exp5")[spec.name]
     tables, claims, notes = exp5_analysis(t, ctx.alpha)
     res.tables += tables
@@ -1782,6 +1803,20 @@ def _wrap(text, width):
 EXPERIMENTS = collections.OrderedDict([
     ("exp1", exp1_nav_transfer), ("exp2", exp2_table1), ("exp3", exp3_cdf),
     ("exp4", exp4_table2), ("exp5", exp5_new_circumstances), ("exp6", exp6_dialog)])
+# The trial sets of each experiment, for Runner.prefetch (the experiments ask for the same).
+TRIAL_SETS = {
+    "exp1": lambda ctx: list(exp1_specs(ctx).values()),
+    "exp2": lambda ctx: list(delivery_specs(ctx).values()) + list(ablation_specs(ctx).values()),
+    "exp4": lambda ctx: list(entropy_specs(ctx).values()),
+    "exp5": lambda ctx: [exp5_spec(ctx)],
+}
+
+
+def trial_sets(ctx, keys):
+    """Every trial set the experiments `keys` will run, in their order."""
+    return [s for k in keys if k in TRIAL_SETS for s in TRIAL_SETS[k](ctx)]
+
+
 COLUMNS = {"nav_transfer (--trials-out)": NAV_COLUMNS, "delivery_trials": DELIVERY_COLUMNS,
            "dialog_entropy": ENTROPY_COLUMNS, "new_circumstances": MERGED_COLUMNS,
            "dialog_script": SCRIPT_COLUMNS}

@@ -161,6 +161,8 @@ class Runner(object):
         self.chunks_per_worker, self.progress, self.timeout = chunks_per_worker, progress, timeout
         self.records = collections.OrderedDict()
         self._cache = {}
+        self._pending = collections.OrderedDict()  # name -> (spec, [(job, future)])
+        self._pool = None
         self._client = None
         self._connect_timeout = "20s"
         self._replayed = None
@@ -174,11 +176,38 @@ class Runner(object):
                     self._replayed = json.load(f).get("trial_sets", {})
 
     # ---- public
+    def prefetch(self, specs):
+        """Start trial sets in the background on the local pool, in this order, each split as
+        run() would split it (a no-op when replaying or on a Dask cluster). A later run() of a
+        prefetched set waits for its chunks instead of starting them, so the workers go on
+        with the next experiment's chunks while one experiment finishes: no idle tails between
+        experiments. Tables are the same as without (trial i depends only on (seed, i))."""
+        if self.replay_dir is not None or self.scheduler:
+            return
+        todo = [s for s in specs if s.name not in self._cache and s.name not in self._pending]
+        if not todo:
+            return
+        if self._pool is None:
+            self._pool = concurrent.futures.ThreadPoolExecutor(max_workers=self.workers)
+        jobs, _ = self._plan(todo)
+        threads = self._threads(jobs)
+        for s in todo:
+            self._pending[s.name] = (s, [])
+        for j in jobs:
+            f = self._pool.submit(chunk_mod.run_chunk, *self._args(j, threads))
+            self._pending[j[0].name][1].append((j, f))
+
     def run(self, specs, label="trials"):
         """Run (or replay, or reuse from this runner's cache) the specs; {name: TrialTable}."""
-        out, todo = collections.OrderedDict(), []
+        out, todo, waiting = collections.OrderedDict(), [], []
         for s in specs:
-            if s.name in self._cache:
+            if s.name in self._pending:
+                spec = self._pending[s.name][0]
+                if spec.key() != s.key():
+                    raise ValueError("trial set %s requested with different settings in one run"
+                                     % s.name)
+                waiting.append(s.name)
+            elif s.name in self._cache:
                 key, table = self._cache[s.name]
                 if key != s.key():
                     raise ValueError("trial set %s requested with different settings in one run"
@@ -188,6 +217,8 @@ class Runner(object):
                 raise ValueError("trial set name %s used twice" % s.name)
             else:
                 todo.append(s)
+        if waiting:
+            self._collect(waiting, label)
         if todo:
             if self.replay_dir is not None:
                 tables = {s.name: self._replay(s) for s in todo}
@@ -225,6 +256,13 @@ class Runner(object):
         return table
 
     def close(self):
+        if self._pool is not None:
+            for _, jobs in self._pending.values():
+                for _, f in jobs:
+                    f.cancel()
+            self._pool.shutdown(wait=True)
+            self._pool = None
+            self._pending.clear()
         if self._client is not None:
             self._client.close()
             self._client = None
@@ -317,6 +355,26 @@ class Runner(object):
         chunk of a CLI whose start-up is too costly to split): then the idle slots go to
         them. Trial i depends only on (seed, i), so threads never change a table."""
         return max(1, self.slots() // len(jobs)) if jobs else 1
+
+    def _collect(self, names, label):
+        """Wait for prefetched sets, assemble and save them (a failed chunk raises here)."""
+        entries = [self._pending.pop(n) for n in names]
+        bar = Progress(sum(s.trials for s, _ in entries), label, self.progress)
+        try:
+            futs = {f: j for _, jobs in entries for j, f in jobs}
+            parts = collections.defaultdict(list)
+            for f in concurrent.futures.as_completed(futs):
+                s, _, begin, count = futs[f]
+                parts[s.name].append((begin, count, f.result()[0]))
+                bar.update(count)
+        except BaseException:
+            for f in futs:
+                f.cancel()
+            raise
+        finally:
+            bar.finish()
+        for s, _ in entries:
+            self._save(s, assemble(s, parts[s.name]))
 
     def _execute_local(self, jobs, parts, bar):
         threads = self._threads(jobs)

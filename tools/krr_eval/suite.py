@@ -221,6 +221,12 @@ def main(argv=None, stdout=sys.stdout, stderr=sys.stderr):
         ("Dask scheduler %s" % a.scheduler if a.scheduler else "%d workers" % a.workers),
         " (quick)" if a.quick else "", out))
     try:
+        # Every experiment's trials go to the workers now, in order, so no worker idles while
+        # one experiment's last chunks run and its tables are computed.
+        try:
+            runner.prefetch(experiments.trial_sets(ctx, only))
+        except (OSError, ValueError) as e:  # e.g. a CLI is missing: each experiment reports it
+            say("prefetch skipped: %s" % e)
         for key in only:
             say("\n== %s" % experiments.TITLES[key])
             note("starting %s" % key)

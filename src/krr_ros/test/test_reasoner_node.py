@@ -125,6 +125,11 @@ class TestReasonerNode(unittest.TestCase):
             ([atom(183, 'up', ['213'], [0], samples=0)], 'atoms[0].'),
             ([atom(183, 'up', ['213'], [1]), atom(183, 'up', ['183'], [1])], 'a second atom'),
             ([], 'neither atoms, area knowledge nor statements'),
+            # Counts near INT64_MAX must not wrap around the "sum to samples" check.
+            ([atom(183, 'up', ['213', '183'], [9223372036854775807, 3], samples=10)],
+             'atoms[0].counts[0]: 9223372036854775807 is not in [1, samples = 10]'),
+            ([atom(183, 'up', ['213', '183'], [4611686018427387904, 4611686018427387904],
+                   samples=10)], 'is not in [1, samples = 10]'),
         ]
         for atoms, needle in cases:
             res = self.r.update(atoms)
@@ -142,6 +147,31 @@ class TestReasonerNode(unittest.TestCase):
         self.assertEqual(self.r.build(task='navigation', times=['morning']).num_learned, total)
         after = open(path).read() if os.path.exists(path) else None
         self.assertEqual(before, after)
+
+    def answers(self, r=None):
+        """What the node answers on both knowledge bases (to compare states)."""
+        r = r or self.r
+        out = [r.query(query=BOB_QUERY).probability,
+               tuple(r.query(attribute='curr_room(john)', evidence='do(curr_person=john)')
+                     .probabilities),
+               r.query(query='?{request(coke, room2, bob)}').probability,
+               r.query(query=nav_query(213, 'up', '243'), knowledge_base='navigation')
+               .probability]
+        return out
+
+    def test_a_refused_statement_update_leaves_the_state_identical(self):
+        before = self.answers()
+        self.assertTrue(all(x is not None for x in before))
+        for statements in ('obs(curr_person=john).', 'obs(curr_person=john). obs(curr_person=bob).',
+                           'pr(curr_room(bob)=room3 | place(bob,room2)=true) = 5/10.'):
+            res = self.r.update(statements=statements)
+            self.assertFalse(res.success, statements)
+            self.assertIn('nothing changed', res.message)
+            self.assertEqual(self.answers(), before, statements)
+        # Later updates still work (the refused one did not poison the knowledge base).
+        ok = self.r.update([atom(184, 'up', ['214', '184'], [1, 1])])
+        self.assertTrue(ok.success, ok.message)
+        self.assertTrue(self.r.query(query=BOB_QUERY).success)
 
     def test_area_knowledge_is_validated_applied_and_persisted(self):
         path = os.path.join(self.learned_dir, 'learned_navigation.plog')
@@ -183,6 +213,103 @@ class TestReasonerNode(unittest.TestCase):
         res = self.r.build(task='navigation')  # all times marginalised
         self.assertTrue(res.success, res.message)
         self.assertEqual(res.num_states, 470)  # 469 free cells + trapped
+
+    def test_start_up_recovers_and_never_refuses_what_it_wrote(self):
+        params = rospy.get_param('/reasoner')
+        d = os.path.join(self.learned_dir, 'startup')
+        shutil.rmtree(d, ignore_errors=True)
+        os.makedirs(d)
+        nav, dom = os.path.join(d, 'nav.plog'), os.path.join(d, 'domain.plog')
+        params['learned_file'], params['domain_learned_file'] = nav, dom
+        # An update a kill interrupted after its commit point: the journal holds both files.
+        nav_text = ('pr(next_cell=212 | curr_cell=182, act_move=up, curr_time=morning) = 7/10.\n'
+                    'pr(next_cell=182 | curr_cell=182, act_move=up, curr_time=morning) = 3/10.\n'
+                    'learned(182, up, morning).\n')
+        dom_text = 'pr(curr_room(bob)=room2 | place(bob,room2)=true) = 9/10.\n'
+        entries = ''.join('file %d %d\n%s%s\n' % (len(p), len(t), p, t)
+                          for p, t in ((nav, nav_text), (dom, dom_text)))
+        with open(nav + '.journal', 'w') as f:
+            f.write('krr-file-transaction 1\n' + entries + 'end\n')
+        orphan = os.path.join(d, '.tmp_Ab12Cd')
+        with open(orphan, 'w') as f:
+            f.write('half a write')
+        os.utime(orphan, (0, 0))
+        node = SpawnedNode('reasoner_node', 'reasoner_startup', params).start()
+        try:
+            r = Reasoner('/reasoner_startup')
+            self.assertAlmostEqual(r.query(query=BOB_QUERY).probability, 0.9, places=9)
+            q = r.query(query=nav_query(182, 'up', '212'), knowledge_base='navigation')
+            self.assertAlmostEqual(q.probability, 0.7, places=9)
+            self.assertFalse(os.path.exists(nav + '.journal'))
+            self.assertFalse(os.path.exists(orphan))
+            node.kill()
+            # A corrupt learned file (e.g. edited by hand) is moved aside, the node starts.
+            with open(nav, 'w') as f:
+                f.write('pr(next_cell=212 | curr_cell=182, act_move=up, curr_time=morning) = '
+                        '-9223372036854775808/1000000.\n')
+            with open(dom, 'w') as f:
+                f.write('this is not P-log\n')
+            node.start()
+            r = Reasoner('/reasoner_startup')
+            self.assertAlmostEqual(r.query(query=BOB_QUERY).probability, 0.8, places=9)
+            self.assertEqual(r.build(task='navigation', times=['morning']).num_learned, 0)
+            aside = sorted(os.listdir(d))
+            self.assertTrue(any(n.startswith('nav.plog.corrupt-') for n in aside), aside)
+            self.assertTrue(any(n.startswith('domain.plog.corrupt-') for n in aside), aside)
+            ok = r.update([atom(182, 'up', ['212', '182'], [1, 1])], statements=dom_text)
+            self.assertTrue(ok.success, ok.message)
+            node.kill()
+            node.start()  # what it wrote itself loads again
+            r = Reasoner('/reasoner_startup')
+            self.assertAlmostEqual(r.query(query=BOB_QUERY).probability, 0.9, places=9)
+            self.assertEqual(r.build(task='navigation', times=['morning']).num_learned, 1)
+        finally:
+            node.kill()
+            node.clear_params()
+
+    def test_kills_during_mixed_updates_lose_or_half_apply_nothing(self):
+        # Update n writes the pair (182, up) as n/(n+1) and one statement block: after every
+        # kill -9 and restart both files must hold the same update, the last acknowledged one
+        # or the one in flight.
+        import random
+        import threading
+        params = rospy.get_param('/reasoner')
+        d = os.path.join(self.learned_dir, 'kills')
+        shutil.rmtree(d, ignore_errors=True)
+        params['learned_file'] = os.path.join(d, 'nav.plog')
+        params['domain_learned_file'] = os.path.join(d, 'domain.plog')
+        dom = params['domain_learned_file']
+        node = SpawnedNode('reasoner_node', 'reasoner_kills', params).start()
+        rng = random.Random(7)
+        acked = 0
+        try:
+            for round_ in range(6):
+                r = Reasoner('/reasoner_kills')
+                n = open(dom).read().count('% added by') if os.path.exists(dom) else 0
+                self.assertIn(n, (acked, acked + 1), 'round %d: statements' % round_)
+                q = r.query(query=nav_query(182, 'up', '212'), knowledge_base='navigation')
+                self.assertAlmostEqual(q.probability, n / (n + 1.0) if n else 0.8, places=9,
+                                       msg='round %d: the pair belongs to the same update' % round_)
+                acked = n
+                killer = threading.Timer(rng.uniform(0.05, 0.5), node.kill)
+                killer.start()
+                try:
+                    for _ in range(200):
+                        k = acked + 1
+                        res = r.update([atom(182, 'up', ['212', '182'], [k, 1])],
+                                       statements='%% update %d\n' % k)
+                        self.assertTrue(res.success, res.message)
+                        acked = k
+                except (rospy.ServiceException, rospy.ROSException):
+                    pass
+                killer.join()
+                node.kill()
+                rospy.loginfo('kill round %d: %d updates acknowledged so far', round_, acked)
+                node.start()
+            self.assertGreater(acked, 6, 'updates must have run between the kills')
+        finally:
+            node.kill()
+            node.clear_params()
 
     def test_knowledge_survives_a_crash_and_restart(self):
         # A second reasoner with its own files, killed with SIGKILL (no clean shutdown).

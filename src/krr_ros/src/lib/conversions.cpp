@@ -212,9 +212,11 @@ std::map<std::string, std::vector<krr::mdp::KnownPair>> toKnownPairs(
     long sum = 0;
     std::set<krr::mdp::StateId> outcome_states;
     for (std::size_t k = 0; k < a.outcomes.size(); ++k) {
-      if (a.counts[k] <= 0)
+      // Bounded by samples (<= 1e9) before summing: counts near INT64_MAX cannot overflow.
+      if (a.counts[k] <= 0 || a.counts[k] > a.samples)
         throw krr::ConfigError(atomField(i, "counts[" + std::to_string(k) + "]") + ": " +
-                               std::to_string(a.counts[k]) + " is not positive");
+                               std::to_string(a.counts[k]) + " is not in [1, samples = " +
+                               std::to_string(a.samples) + "]");
       krr::mdp::StateId s1;
       const std::string field = atomField(i, "outcomes[" + std::to_string(k) + "]");
       if (a.outcomes[k] == "trapped") {

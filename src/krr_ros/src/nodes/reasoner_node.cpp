@@ -2,9 +2,12 @@
 //
 // Two P-log knowledge bases: the domain KB (config/office.plog: people, items, rooms, the
 // request prior) and the navigation KB (grid geometry + config/navigation.plog + what the robot
-// learned). Services: ~query_probability, ~add_knowledge, ~build_task_model. Learned knowledge
-// is written atomically to ~learned_file (navigation) and ~domain_learned_file (statements)
-// after every accepted update and reloaded at start, so a restart loses nothing.
+// learned). Services: ~query_probability, ~add_knowledge, ~build_task_model. An update is
+// validated completely (statements on a scratch copy of the domain KB) before anything
+// changes; an accepted one is written to ~learned_file (navigation) and ~domain_learned_file
+// (statements) as one FileTransaction, so a kill never leaves half of it. At start an
+// interrupted transaction is finished, orphaned temporaries are removed, and a learned file
+// that does not load is moved aside with a warning (the node starts from the rest).
 #include <algorithm>
 #include <krr_msgs/AddKnowledge.h>
 #include <krr_msgs/BuildTaskModel.h>
@@ -12,6 +15,7 @@
 #include <krr_msgs/QueryProbability.h>
 #include <ros/ros.h>
 
+#include <ctime>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -19,6 +23,7 @@
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
+#include "krr_core/common/journal.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/kb/navigation_knowledge.h"
 #include "krr_core/plog/reasoner.h"
@@ -64,9 +69,9 @@ class ReasonerNode {
   ReasonerNode(ros::NodeHandle& pnh, ReasonerParams params)
       : params_(std::move(params)), domain_(params_.nav.loadDomain()) {
     krr::Stopwatch clock;
-    loadDomainKb();
-    nav_ = std::make_unique<krr::kb::NavigationKnowledge>(*domain_.grid, domain_.knowledge_files);
-    if (std::filesystem::exists(params_.learned_file)) nav_->loadLearned(params_.learned_file);
+    recoverFiles();
+    domain_kb_ = loadDomainKb(added_text_, &num_added_);
+    nav_ = loadNavigationKb();
     times_ = nav_->reasoner().sortValues("time");
     ROS_INFO_NAMED(kLog, "knowledge loaded in %.2f s: domain KB %zu file(s), %zu added "
                    "statement(s); navigation KB %s (%zu free cells), %zu learned distribution(s) "
@@ -80,18 +85,74 @@ class ReasonerNode {
   }
 
  private:
-  void loadDomainKb() {
-    domain_kb_.loadFile(params_.domain_files.front());
-    for (std::size_t i = 1; i < params_.domain_files.size(); ++i)
-      domain_kb_.addStatements(krr::readFile(params_.domain_files[i]), "", params_.domain_files[i]);
-    if (std::filesystem::exists(params_.domain_learned_file)) {
-      added_text_ = krr::readFile(params_.domain_learned_file);
-      num_added_ = domain_kb_.addStatements(added_text_, "added", params_.domain_learned_file);
+  std::string journalPath() const { return params_.learned_file + ".journal"; }
+
+  /// @brief Finish an update a kill interrupted, and remove temporaries of killed writes.
+  void recoverFiles() {
+    try {
+      if (const std::size_t n = krr::FileTransaction::recover(journalPath()))
+        ROS_WARN_NAMED(kLog, "finished an interrupted knowledge update (%zu file(s)) from %s", n,
+                       journalPath().c_str());
+    } catch (const krr::ParseError& e) {
+      moveAside(journalPath(), e.what());
     }
+    for (const std::string& f : {params_.learned_file, params_.domain_learned_file})
+      for (const std::string& orphan : krr::removeOrphanTemporaries(krr::dirName(f)))
+        ROS_WARN_NAMED(kLog, "removed %s, left by a write that was killed", orphan.c_str());
+  }
+
+  /// @brief Keep a file that cannot be used for inspection, out of the node's way.
+  static void moveAside(const std::string& path, const std::string& why) {
+    char stamp[32];
+    const std::time_t now = std::time(nullptr);
+    std::strftime(stamp, sizeof(stamp), "%Y%m%dT%H%M%S", std::gmtime(&now));
+    const std::string aside = path + ".corrupt-" + stamp;
+    std::error_code ec;
+    std::filesystem::rename(path, aside, ec);
+    ROS_WARN_NAMED(kLog, "%s cannot be loaded (%s); moved aside to %s, starting without it",
+                   path.c_str(), why.c_str(), ec ? "(rename failed)" : aside.c_str());
+  }
+
+  /// @brief The domain KB from its files plus the added statements (`added`, read from
+  /// ~domain_learned_file when `count` is given: a file that does not load is moved aside).
+  std::unique_ptr<krr::plog::Reasoner> loadDomainKb(std::string& added, std::size_t* count) {
+    auto kb = std::make_unique<krr::plog::Reasoner>();
+    kb->loadFile(params_.domain_files.front());
+    for (std::size_t i = 1; i < params_.domain_files.size(); ++i)
+      kb->addStatements(krr::readFile(params_.domain_files[i]), "", params_.domain_files[i]);
+    if (count && std::filesystem::exists(params_.domain_learned_file)) {
+      added = krr::readFile(params_.domain_learned_file);
+      try {
+        auto with = loadDomainKb(added, nullptr);
+        *count = with->addStatements(added, "added", params_.domain_learned_file);
+        with->answerProgramQueries();
+        return with;
+      } catch (const krr::Error& e) {
+        moveAside(params_.domain_learned_file, e.what());
+        added.clear();
+        *count = 0;
+      }
+    }
+    return kb;
+  }
+
+  /// @brief The navigation KB with ~learned_file (moved aside if it does not load).
+  std::unique_ptr<krr::kb::NavigationKnowledge> loadNavigationKb() {
+    auto nav = std::make_unique<krr::kb::NavigationKnowledge>(*domain_.grid,
+                                                               domain_.knowledge_files);
+    if (!std::filesystem::exists(params_.learned_file)) return nav;
+    try {
+      nav->loadLearned(params_.learned_file);
+      nav->buildModel({});  // a file that loads but gives no model is as unusable
+      return nav;
+    } catch (const krr::Error& e) {
+      moveAside(params_.learned_file, e.what());
+    }
+    return std::make_unique<krr::kb::NavigationKnowledge>(*domain_.grid, domain_.knowledge_files);
   }
 
   krr::plog::Reasoner& kbFor(const std::string& name) {
-    if (name.empty() || name == "domain") return domain_kb_;
+    if (name.empty() || name == "domain") return *domain_kb_;
     if (name == "navigation") return nav_->reasoner();
     throw krr::ConfigError("knowledge_base '" + name + "' is neither 'domain' nor 'navigation'");
   }
@@ -129,28 +190,53 @@ class ReasonerNode {
       // Validate everything before changing anything.
       const auto pairs = krr_ros::toKnownPairs(u.atoms, *domain_.space, times_);
       const bool hasAreas = u.area_statements.find_first_not_of(" \t\r\n") != std::string::npos;
-      if (u.atoms.empty() && !hasAreas &&
-          u.statements.find_first_not_of(" \t\r\n") == std::string::npos)
+      const bool hasStatements = u.statements.find_first_not_of(" \t\r\n") != std::string::npos;
+      if (u.atoms.empty() && !hasAreas && !hasStatements)
         throw krr::ConfigError("the update holds neither atoms, area knowledge nor statements");
       if (hasAreas && std::find(times_.begin(), times_.end(), u.area_time) == times_.end())
         throw krr::ConfigError("area_time '" + u.area_time + "' is not a time of day of the "
                                "navigation knowledge base");
       const std::string tag = "update" + std::to_string(++updates_);
-      const std::string nav_before = nav_->learnedText();
-      if (!u.statements.empty()) {
-        res.statements_added = static_cast<std::uint32_t>(
-            domain_kb_.addStatements(u.statements, tag, "<update from " + u.source + ">"));
-        checkDomainCoherent(tag);
+      const std::string where = "<update from " + u.source + ">";
+      std::unique_ptr<krr::plog::Reasoner> domain_next;
+      if (hasStatements) {
+        // On a copy: the live domain KB is never touched by statements that are refused.
+        std::string added = added_text_;
+        domain_next = loadDomainKb(added, nullptr);
+        if (!added_text_.empty())
+          domain_next->addStatements(added_text_, "added", params_.domain_learned_file);
+        res.statements_added =
+            static_cast<std::uint32_t>(domain_next->addStatements(u.statements, tag, where));
+        try {
+          domain_next->answerProgramQueries();
+        } catch (const krr::Error& e) {
+          throw krr::IncoherentError(std::string("the statements make the domain knowledge "
+                                                 "base incoherent: ") + e.what());
+        }
       }
+      const std::string added_next =
+          hasStatements ? added_text_ + "% added by " + (u.source.empty() ? "?" : u.source) +
+                              "\n" + u.statements + "\n"
+                        : added_text_;
+      // Apply, then write both files as one transaction; if anything fails, the old files are
+      // written back (one transaction too) and both knowledge bases reloaded from them.
+      const std::string nav_before = nav_->learnedText();
       try {
         for (const auto& [time, list] : pairs)
           res.atoms_added += static_cast<std::uint32_t>(nav_->addLearned(list, time));
         if (hasAreas) nav_->setLearnedAreas(u.area_time, u.area_statements);
-        persist(u.statements, u.source);
+        krr_ros::ensureParentDirectory(params_.learned_file);
+        krr_ros::ensureParentDirectory(params_.domain_learned_file);
+        krr::FileTransaction t(journalPath());
+        t.write(params_.learned_file, nav_->learnedText());
+        if (hasStatements) t.write(params_.domain_learned_file, added_next);
+        t.commit();
       } catch (...) {
-        rollback(tag, nav_before);
+        restoreFiles(nav_before, hasStatements);
         throw;
       }
+      if (domain_next) domain_kb_ = std::move(domain_next);
+      added_text_ = added_next;
       res.total_learned = static_cast<std::uint32_t>(nav_->learnedEntries().size());
       res.success = true;
       res.message = "added " + std::to_string(res.atoms_added) + " learned distribution(s)" +
@@ -170,36 +256,20 @@ class ReasonerNode {
     return true;
   }
 
-  /// @brief Added statements must leave the domain KB's own queries answerable.
-  void checkDomainCoherent(const std::string& tag) {
+  /// @brief Undo a failed update: the files get their old contents back (replacing the
+  /// update's journal, if it was written), and both KBs are reloaded from them.
+  void restoreFiles(const std::string& nav_before, bool statements) {
     try {
-      domain_kb_.answerProgramQueries();
-    } catch (const krr::Error& e) {
-      domain_kb_.removeStatementsWithTag(tag);
-      throw krr::IncoherentError(std::string("the statements make the domain knowledge base "
-                                             "incoherent: ") + e.what());
+      krr::FileTransaction undo(journalPath());
+      undo.write(params_.learned_file, nav_before);
+      if (statements) undo.write(params_.domain_learned_file, added_text_);
+      undo.commit();
+    } catch (const std::exception& e) {
+      ROS_ERROR_NAMED(kLog, "after a failed update, the old knowledge files could not be "
+                      "written back: %s", e.what());
     }
-  }
-
-  /// @brief Undo a failed update: in memory and, if it was already written, on disk.
-  void rollback(const std::string& tag, const std::string& nav_before) {
-    domain_kb_.removeStatementsWithTag(tag);
-    if (std::filesystem::exists(params_.learned_file) &&
-        krr::readFile(params_.learned_file) != nav_before)
-      krr::writeFileAtomic(params_.learned_file, nav_before);
-    nav_->clearLearned();
-    if (std::filesystem::exists(params_.learned_file)) nav_->loadLearned(params_.learned_file);
-  }
-
-  void persist(const std::string& statements, const std::string& source) {
-    krr_ros::ensureParentDirectory(params_.learned_file);
-    nav_->saveLearned(params_.learned_file);
-    if (statements.find_first_not_of(" \t\r\n") == std::string::npos) return;
-    const std::string text = added_text_ + "% added by " + (source.empty() ? "?" : source) +
-                             "\n" + statements + "\n";
-    krr_ros::ensureParentDirectory(params_.domain_learned_file);
-    krr::writeFileAtomic(params_.domain_learned_file, text);
-    added_text_ = text;
+    domain_kb_ = loadDomainKb(added_text_, &num_added_);
+    nav_ = loadNavigationKb();
   }
 
   bool build(krr_msgs::BuildTaskModel::Request& req, krr_msgs::BuildTaskModel::Response& res) {
@@ -230,7 +300,7 @@ class ReasonerNode {
 
   ReasonerParams params_;
   krr::kb::NavDomain domain_;
-  krr::plog::Reasoner domain_kb_;
+  std::unique_ptr<krr::plog::Reasoner> domain_kb_;
   std::unique_ptr<krr::kb::NavigationKnowledge> nav_;
   std::vector<std::string> times_;
   std::string added_text_;
