@@ -129,7 +129,9 @@ void PointBasedSolver::initLower() {
     Eigen::VectorXd alpha = lhs.partialPivLu().solve(r.col(static_cast<Eigen::Index>(a)));
     // Rounding safety: shift down by a relative epsilon so the vector stays a lower bound.
     alpha.array() -= 1e-9 * (1.0 + alpha.cwiseAbs().maxCoeff());
-    addAlpha(alpha, a);
+    // Its plan continues with itself after every observation.
+    const auto self = static_cast<std::uint32_t>(alphaAction_.size());
+    addAlpha(alpha, a, std::vector<std::uint32_t>(obsCol_[a].size(), self));
   }
   pruneAlphas();
 }
@@ -288,9 +290,11 @@ double PointBasedSolver::upperBound(const Belief& b) const {
   return upperRaw(b.data());
 }
 
-void PointBasedSolver::addAlpha(const Eigen::VectorXd& alpha, std::size_t action) {
+void PointBasedSolver::addAlpha(const Eigen::VectorXd& alpha, std::size_t action,
+                                std::vector<std::uint32_t> children) {
   alpha_.insert(alpha_.end(), alpha.data(), alpha.data() + s_);
   alphaAction_.push_back(action);
+  alphaChildren_.push_back(std::move(children));
 }
 
 std::uint64_t PointBasedSolver::beliefKey(const double* b) const {
@@ -349,8 +353,15 @@ void PointBasedSolver::pruneAlphas() {
   // 2. Once there are belief points, keep only vectors that are the best at b0 or at some
   //    stored point (SARSOP-style pruning): the bound stays valid everywhere and unchanged
   //    at b0 and at the points, it may only loosen elsewhere.
+  //    A removed vector's plan is replaced by the one dominating it (`into`).
+  // 3. The vectors the kept ones' plans continue with are kept too (closure over
+  //    alphaChildren_): every kept vector is then at most the backup of the kept set, so the
+  //    greedy policy of the written set earns its bound (SARSOP's invariant; without it the
+  //    simulated value fell below the certified bound, test TheLowerBoundNeverExceedsItsOwnBackup).
   const std::size_t n = alphaAction_.size();
   std::vector<char> keep(n, 1);
+  std::vector<std::size_t> into(n);
+  for (std::size_t i = 0; i < n; ++i) into[i] = i;
   for (std::size_t i = 0; i < n; ++i) {
     if (!keep[i]) continue;
     const double* ai = &alpha_[i * s_];
@@ -359,9 +370,16 @@ void PointBasedSolver::pruneAlphas() {
       const double* aj = &alpha_[j * s_];
       bool dominated = true;  // is j <= i everywhere?
       for (std::size_t s = 0; s < s_ && dominated; ++s) dominated = aj[s] <= ai[s];
-      if (dominated) keep[j] = 0;
+      if (dominated) {
+        keep[j] = 0;
+        into[j] = i;
+      }
     }
   }
+  auto survivor = [&](std::size_t i) {  // the kept vector standing for i
+    while (into[i] != i) i = into[i];
+    return i;
+  };
   const std::size_t np = improve_.size();
   if (np > 0 && options_.witnessPruning) {
     std::vector<char> witness(n, 0);
@@ -382,18 +400,41 @@ void PointBasedSolver::pruneAlphas() {
     };
     mark(b0_.data());
     for (std::size_t k = 0; k < np; ++k) mark(&point_[k * s_]);
+    std::vector<std::size_t> stack;
+    for (std::size_t i = 0; i < n; ++i)
+      if (keep[i] && witness[i]) stack.push_back(i);
+    while (!stack.empty()) {
+      const std::size_t i = stack.back();
+      stack.pop_back();
+      for (std::uint32_t c : alphaChildren_[i]) {
+        const std::size_t k = survivor(c);
+        if (!witness[k]) {
+          witness[k] = 1;
+          stack.push_back(k);
+        }
+      }
+    }
     for (std::size_t i = 0; i < n; ++i) keep[i] = keep[i] && witness[i];
   }
+  std::vector<std::uint32_t> newIndex(n, 0);
+  std::uint32_t next = 0;
+  for (std::size_t i = 0; i < n; ++i)
+    if (keep[i]) newIndex[i] = next++;
   std::vector<double> na;
   std::vector<std::size_t> nact;
+  std::vector<std::vector<std::uint32_t>> nchild;
   for (std::size_t i = 0; i < n; ++i)
     if (keep[i]) {
       na.insert(na.end(), alpha_.begin() + static_cast<long>(i * s_),
                 alpha_.begin() + static_cast<long>((i + 1) * s_));
       nact.push_back(alphaAction_[i]);
+      std::vector<std::uint32_t> ch = alphaChildren_[i];
+      for (std::uint32_t& c : ch) c = newIndex[survivor(c)];
+      nchild.push_back(std::move(ch));
     }
   alpha_.swap(na);
   alphaAction_.swap(nact);
+  alphaChildren_.swap(nchild);
   prunedAt_ = alphaAction_.size();
 }
 
@@ -490,11 +531,13 @@ void PointBasedSolver::lowerBackup(const Eigen::VectorXd& b) {
   for (std::size_t a = 0; a < a_; ++a) {
     const bool ident = m_.isIdentityTransition(a);
     acc_.setZero();
+    candChildren_.assign(obsCol_[a].size(), 0);
     for (std::size_t k = 0; k < obsCol_[a].size(); ++k) {
       const auto slot = static_cast<Eigen::Index>(obsOffset_[a] + k);
       // A zero-probability observation may take any vector (index 0).
       Eigen::Index bestI = 0;
       if (children_.col(slot).sum() > 0.0) scores_.col(slot).maxCoeff(&bestI);
+      candChildren_[k] = static_cast<std::uint32_t>(bestI);
       const double* al = &alpha_[static_cast<std::size_t>(bestI) * s_];
       acc_ += obsCol_[a][k].cwiseProduct(Eigen::Map<const Eigen::VectorXd>(al, S));
     }
@@ -509,9 +552,11 @@ void PointBasedSolver::lowerBackup(const Eigen::VectorXd& b) {
       bestLower = qL;
       bestLowerAction = a;
       bestAlpha_.swap(candidate_);
+      bestChildren_.swap(candChildren_);
     }
   }
-  if (bestLower > lowerRaw(b.data()) + 1e-12) addAlpha(bestAlpha_, bestLowerAction);
+  if (bestLower > lowerRaw(b.data()) + 1e-12)
+    addAlpha(bestAlpha_, bestLowerAction, bestChildren_);
   if (alphaAction_.size() > 2 * prunedAt_ + 32) pruneAlphas();
 }
 

@@ -110,7 +110,9 @@ class PointBasedSolver {
   void lowerBackup(const Eigen::VectorXd& b);
   double lowerRaw(const double* b) const;
   double upperRaw(const double* b) const;
-  void addAlpha(const Eigen::VectorXd& alpha, std::size_t action);
+  /// children[k]: the vector the plan of `alpha` follows after observation slot k of action.
+  void addAlpha(const Eigen::VectorXd& alpha, std::size_t action,
+                std::vector<std::uint32_t> children);
   void addPoint(const Eigen::VectorXd& b, double v);
   void pruneAlphas();
   /// Unnormalised successor O_ao .* (T_a^T b); returns its mass.
@@ -126,6 +128,11 @@ class PointBasedSolver {
   // Lower bound: flat alpha storage (N x S), action per vector.
   std::vector<double> alpha_;
   std::vector<std::size_t> alphaAction_;
+  // Per vector, the vectors its plan continues with (one per observation slot of its action).
+  // Pruning keeps them (or a vector dominating them): then every vector is at most the backup
+  // of the set at every belief, so the greedy policy of the set earns the lower bound.
+  std::vector<std::vector<std::uint32_t>> alphaChildren_;
+  std::vector<std::uint32_t> bestChildren_, candChildren_;
   std::size_t prunedAt_ = 0;
   // Upper bound: corner values and sawtooth points.
   Eigen::VectorXd corner_;
