@@ -76,6 +76,22 @@ class TestNodeParams(unittest.TestCase):
         self.refused('learner_node', {'enabled': 'yes'}, "enabled = 'yes': must be true or false")
         self.refused('learner_node', {'step_cost': 50.0}, 'step_cost')
 
+    def test_help_needs_no_master_and_lists_the_parameters(self):
+        import subprocess
+        from krr_test_utils import node_binary
+        for node, param in (('reasoner_node', 'discount:'), ('navigation_node', 'sim_rate:'),
+                            ('learner_node', 'max_episodes_per_task:'),
+                            ('dialog_node', 'seed:')):
+            for flag in ('--help', '-h'):
+                env = dict(os.environ, ROS_MASTER_URI='http://127.0.0.1:9')  # nobody there
+                out = subprocess.run([node_binary(node), flag], env=env, timeout=20,
+                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                     universal_newlines=True)
+                self.assertEqual(out.returncode, 0, '%s %s:\n%s' % (node, flag, out.stdout))
+                self.assertIn('usage: rosrun krr_ros %s' % node, out.stdout)
+                self.assertIn(os.path.join(ROOT, 'config', node + '.yaml'), out.stdout)
+                self.assertIn(param, out.stdout)
+
 
 if __name__ == '__main__':
     rostest.rosrun('krr_ros', 'node_params', TestNodeParams)

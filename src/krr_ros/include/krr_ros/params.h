@@ -82,4 +82,11 @@ void ensureParentDirectory(const std::string& file);
 /// @brief The default directory for files a node writes: $ROS_HOME/krr_rl or ~/.ros/krr_rl.
 std::string defaultDataDirectory();
 
+/**
+ * @brief `-h` / `--help` among the arguments: print how to start `node` and its parameters
+ * (config/<node>.yaml, which documents each with its default), then exit 0 - before
+ * ros::init, so no ROS master is needed (without this the node would wait for one forever).
+ */
+void exitOnHelp(int argc, char** argv, const std::string& node);
+
 }  // namespace krr_ros

@@ -3,8 +3,10 @@
 #include <ros/package.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <sstream>
 
 #include "krr_core/common/errors.h"
@@ -40,6 +42,37 @@ std::string defaultDataDirectory() {
   if (const char* home = std::getenv("HOME"); home && *home)
     return std::string(home) + "/.ros/krr_rl";
   return "/tmp/krr_rl";
+}
+
+void exitOnHelp(int argc, char** argv, const std::string& node) {
+  bool help = false;
+  for (int i = 1; i < argc; ++i)
+    help = help || std::string(argv[i]) == "-h" || std::string(argv[i]) == "--help";
+  if (!help) return;
+  std::printf("usage: rosrun krr_ros %s [__name:=NAME] [_param:=value ...]\n"
+              "       (or through launch/sim.launch; a ROS master must be running)\n"
+              "Private parameters (~name), each with its default; unknown ones are refused:\n",
+              node.c_str());
+  std::string root;
+  if (const char* env = std::getenv("KRR_ROOT"); env && *env) {
+    root = env;
+  } else {
+    const std::string pkg = ros::package::getPath("krr_ros");
+    root = pkg.empty() ? fs::current_path().string() : pkg + "/../..";
+  }
+  const fs::path cfg = fs::path(root) / "config" / (node + ".yaml");
+  std::ifstream in(cfg);
+  if (!in) {
+    std::printf("  (see config/%s.yaml in the repository and README.md, section %s)\n",
+                node.c_str(), node.c_str());
+  } else {
+    std::error_code ec;
+    const fs::path shown = fs::weakly_canonical(cfg, ec);
+    std::printf("  from %s:\n", (ec ? cfg : shown).c_str());
+    for (std::string line; std::getline(in, line);) std::printf("  %s\n", line.c_str());
+  }
+  std::fflush(stdout);
+  std::exit(0);
 }
 
 ParamReader::ParamReader(const ros::NodeHandle& nh) : nh_(nh) {

@@ -557,6 +557,7 @@ class DialogNode {
 }  // namespace
 
 int main(int argc, char** argv) {
+  krr_ros::exitOnHelp(argc, argv, "dialog_node");
   ros::init(argc, argv, "dialog");
   ros::NodeHandle nh, pnh("~");
   std::unique_ptr<DialogNode> node;

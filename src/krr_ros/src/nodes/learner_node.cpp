@@ -376,6 +376,7 @@ class LearnerNode {
 }  // namespace
 
 int main(int argc, char** argv) {
+  krr_ros::exitOnHelp(argc, argv, "learner_node");
   ros::init(argc, argv, "learner");
   ros::NodeHandle nh, pnh("~");
   std::unique_ptr<LearnerNode> node;

@@ -387,6 +387,7 @@ class NavigationNode {
 }  // namespace
 
 int main(int argc, char** argv) {
+  krr_ros::exitOnHelp(argc, argv, "navigation_node");
   ros::init(argc, argv, "navigation");
   ros::NodeHandle nh, pnh("~");
   std::unique_ptr<NavigationNode> node;

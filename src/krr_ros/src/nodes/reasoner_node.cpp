@@ -313,6 +313,7 @@ class ReasonerNode {
 }  // namespace
 
 int main(int argc, char** argv) {
+  krr_ros::exitOnHelp(argc, argv, "reasoner_node");
   ros::init(argc, argv, "reasoner");
   ros::NodeHandle pnh("~");
   std::unique_ptr<ReasonerNode> node;
