@@ -14,6 +14,7 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/json.h"
+#include "krr_core/common/main_guard.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/dialog/delivery_experiment.h"
 #include "krr_core/dialog/experiment_cli.h"
@@ -48,7 +49,8 @@ struct Mean {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+/// @brief The program; main() runs it under guardedMain so that no exception aborts it.
+static int mainBody(int argc, char** argv) {
   krr::dialog::ExperimentCli cli;
   long trials = -1;
   std::string exportPomdp;
@@ -182,4 +184,8 @@ int main(int argc, char** argv) {
     std::cerr << "delivery_trials: error: " << e.what() << "\n";
     return 1;
   }
+}
+
+int main(int argc, char** argv) {
+  return krr::guardedMain("delivery_trials", mainBody, argc, argv);
 }

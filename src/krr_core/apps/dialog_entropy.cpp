@@ -12,6 +12,7 @@
 #include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
+#include "krr_core/common/main_guard.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/dialog/belief_entropy_survey.h"
 #include "krr_core/dialog/delivery_experiment.h"
@@ -31,7 +32,8 @@ const char* kHelp =
 
 }  // namespace
 
-int main(int argc, char** argv) {
+/// @brief The program; main() runs it under guardedMain so that no exception aborts it.
+static int mainBody(int argc, char** argv) {
   krr::dialog::ExperimentCli cli;
   long count = -1;
   krr::dialog::BeliefSamplerOptions sampler;
@@ -107,4 +109,8 @@ int main(int argc, char** argv) {
     std::cerr << "dialog_entropy: error: " << e.what() << "\n";
     return 1;
   }
+}
+
+int main(int argc, char** argv) {
+  return krr::guardedMain("dialog_entropy", mainBody, argc, argv);
 }

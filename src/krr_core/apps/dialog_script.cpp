@@ -30,6 +30,7 @@
 #include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
+#include "krr_core/common/main_guard.h"
 #include "krr_core/dialog/delivery_navigation.h"
 #include "krr_core/dialog/dialog_knowledge.h"
 #include "krr_core/dialog/dialog_policy.h"
@@ -109,7 +110,8 @@ Args parse(int argc, char** argv) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+/// @brief The program; main() runs it under guardedMain so that no exception aborts it.
+static int mainBody(int argc, char** argv) {
   Args a;
   try {
     a = parse(argc, argv);
@@ -170,4 +172,8 @@ int main(int argc, char** argv) {
     return 1;
   }
   return 0;
+}
+
+int main(int argc, char** argv) {
+  return krr::guardedMain("dialog_script", mainBody, argc, argv);
 }

@@ -18,6 +18,8 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/json.h"
+#include "krr_core/common/limits.h"
+#include "krr_core/common/main_guard.h"
 #include "krr_core/nav/grid_astar.h"
 #include "krr_core/nav/nav_grid.h"
 #include "krr_core/nav/navigation_config.h"
@@ -42,7 +44,8 @@ std::string stem(const std::string& p) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+/// @brief The program; main() runs it under guardedMain so that no exception aborts it.
+static int mainBody(int argc, char** argv) {
   std::string config_path = "config/navigation.yaml";
   bool generate = false;
   for (int i = 1; i < argc; ++i) {
@@ -71,6 +74,11 @@ int main(int argc, char** argv) {
     PlacesFile places = loadPlaces(cfg.places);
     const std::string dir = dirName(cfg.map);
     for (const DomainConfig& d : cfg.domains) {
+      // The loader already refuses such names; this guards the file names written below.
+      if (!isPlainName(d.name)) {
+        throw ConfigError(config_path + ": domain name '" + d.name +
+                          "' must be a plain identifier [A-Za-z0-9_-]+");
+      }
       NavGridOptions opt;
       opt.cols = d.cols;
       opt.rows = d.rows;
@@ -114,4 +122,8 @@ int main(int argc, char** argv) {
     return 1;
   }
   return 0;
+}
+
+int main(int argc, char** argv) {
+  return krr::guardedMain("make_nav_domain", mainBody, argc, argv);
 }

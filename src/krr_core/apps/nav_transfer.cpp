@@ -15,6 +15,7 @@
 #include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
+#include "krr_core/common/main_guard.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/kb/nav_transfer.h"
 
@@ -99,7 +100,8 @@ void applyOverride(krr::kb::NavTransferOptions& o, const std::string& f, const s
 
 }  // namespace
 
-int main(int argc, char** argv) {
+/// @brief The program; main() runs it under guardedMain so that no exception aborts it.
+static int mainBody(int argc, char** argv) {
   Args a;
   try {
     a = parse(argc, argv);
@@ -168,4 +170,8 @@ int main(int argc, char** argv) {
     std::cerr << "nav_transfer: " << e.what() << "\n";
     return 1;
   }
+}
+
+int main(int argc, char** argv) {
+  return krr::guardedMain("nav_transfer", mainBody, argc, argv);
 }

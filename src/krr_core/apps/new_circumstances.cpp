@@ -20,6 +20,7 @@
 #include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
+#include "krr_core/common/main_guard.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/kb/new_circumstances.h"
 
@@ -47,7 +48,8 @@ std::size_t toCount(const std::string& flag, const std::string& v) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+/// @brief The program; main() runs it under guardedMain so that no exception aborts it.
+static int mainBody(int argc, char** argv) {
   std::string repo, options_file, config, domain, geometry, knowledge, out;
   std::size_t trials = 0, threads = std::max(1u, std::thread::hardware_concurrency()), begin = 0;
   std::uint64_t seed = 1;
@@ -179,4 +181,8 @@ int main(int argc, char** argv) {
     std::cerr << "new_circumstances: internal error: " << e.what() << "\n";
     return 1;
   }
+}
+
+int main(int argc, char** argv) {
+  return krr::guardedMain("new_circumstances", mainBody, argc, argv);
 }

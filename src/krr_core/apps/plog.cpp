@@ -23,6 +23,7 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/json.h"
+#include "krr_core/common/main_guard.h"
 #include "krr_core/plog/asp_backend.h"
 #include "krr_core/plog/parser.h"
 #include "krr_core/plog/reasoner.h"
@@ -56,7 +57,8 @@ struct Job {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+/// @brief The program; main() runs it under guardedMain so that no exception aborts it.
+static int mainBody(int argc, char** argv) {
   std::vector<std::string> files, cli_queries;
   bool json = false, asp = false;
   std::string clingo = "clingo";
@@ -169,4 +171,8 @@ int main(int argc, char** argv) {
     std::cerr << "plog: internal error: " << e.what() << "\n";
     return 1;
   }
+}
+
+int main(int argc, char** argv) {
+  return krr::guardedMain("plog", mainBody, argc, argv);
 }

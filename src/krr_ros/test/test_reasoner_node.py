@@ -214,6 +214,35 @@ class TestReasonerNode(unittest.TestCase):
         self.assertTrue(res.success, res.message)
         self.assertEqual(res.num_states, 470)  # 469 free cells + trapped
 
+    def test_a_runaway_rule_is_refused_within_the_budget(self):
+        # q has no sort to stop its recursion: only the grounding budget ends it.
+        import time
+        params = rospy.get_param('/reasoner')
+        d = os.path.join(self.learned_dir, 'budget')
+        shutil.rmtree(d, ignore_errors=True)
+        params['learned_file'] = os.path.join(d, 'nav.plog')
+        params['domain_learned_file'] = os.path.join(d, 'domain.plog')
+        params['query_seconds'] = 1.0
+        node = SpawnedNode('reasoner_node', 'reasoner_budget', params).start()
+        try:
+            r = Reasoner('/reasoner_budget')
+            before = self.answers(r)
+            t0 = time.monotonic()
+            res = r.update(statements='q(X + 1) :- q(X).\nq(0).\n')
+            took = time.monotonic() - t0
+            self.assertFalse(res.success, res.message)
+            self.assertIn('nothing changed', res.message)
+            self.assertIn('<update from test>:1:', res.message)  # the rule is named
+            self.assertLess(took, 15.0)
+            self.assertEqual(self.answers(r), before)
+            self.assertFalse(os.path.exists(params['domain_learned_file']))
+            node.kill()
+            node.start()
+            self.assertEqual(self.answers(Reasoner('/reasoner_budget')), before)
+        finally:
+            node.kill()
+            node.clear_params()
+
     def test_start_up_recovers_and_never_refuses_what_it_wrote(self):
         params = rospy.get_param('/reasoner')
         d = os.path.join(self.learned_dir, 'startup')

@@ -14,16 +14,67 @@
 #include <vector>
 
 #include "krr_core/common/errors.h"
+#include "krr_core/common/limits.h"
 
 namespace krr {
 
+namespace {
+
+/// @brief What kind of file st is, for the "not a regular file" error.
+const char* fileKind(const struct stat& st) {
+  if (S_ISDIR(st.st_mode)) return "a directory";
+  if (S_ISCHR(st.st_mode)) return "a character device";
+  if (S_ISBLK(st.st_mode)) return "a block device";
+  if (S_ISFIFO(st.st_mode)) return "a pipe";
+  if (S_ISSOCK(st.st_mode)) return "a socket";
+  return "not a regular file";
+}
+
+}  // namespace
+
 std::string readFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw IoError(path + ": cannot open for reading: " + std::strerror(errno));
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  if (in.bad()) throw IoError(path + ": read error");
-  return ss.str();
+  // O_NONBLOCK: opening a FIFO without a writer must not hang; it is refused just below.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+  if (fd < 0) throw IoError(path + ": cannot open for reading: " + std::strerror(errno));
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) {
+    const int e = errno;
+    ::close(fd);
+    throw IoError(path + ": cannot stat: " + std::strerror(e));
+  }
+  // Devices and pipes have no size and may never end (image: /dev/zero), so they are refused.
+  if (!S_ISREG(st.st_mode)) {
+    ::close(fd);
+    throw IoError(path + ": is " + fileKind(st) + ", expected a regular file");
+  }
+  const std::size_t budget = memoryBudget();
+  if (static_cast<std::size_t>(st.st_size) > budget) {
+    ::close(fd);
+    throw IoError(path + ": file of " + formatBytes(static_cast<std::size_t>(st.st_size)) +
+                  " exceeds the memory budget of " + formatBytes(budget) +
+                  " (set KRR_MEMORY_BUDGET_MIB to raise it)");
+  }
+  std::string out;
+  out.reserve(static_cast<std::size_t>(st.st_size));
+  char buf[65536];
+  for (;;) {
+    const ssize_t n = ::read(fd, buf, sizeof buf);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      const int e = errno;
+      ::close(fd);
+      throw IoError(path + ": read error: " + std::strerror(e));
+    }
+    if (n == 0) break;
+    out.append(buf, static_cast<std::size_t>(n));
+    // A file that grows while it is read is still held to the budget.
+    if (out.size() > budget) {
+      ::close(fd);
+      throw IoError(path + ": file exceeds the memory budget of " + formatBytes(budget));
+    }
+  }
+  ::close(fd);
+  return out;
 }
 
 std::string dirName(const std::string& path) {

@@ -9,6 +9,7 @@
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
+#include "krr_core/common/limits.h"
 
 namespace krr {
 namespace nav {
@@ -83,6 +84,19 @@ std::string fmt(double v) {
   return o.str();
 }
 
+/// @brief Refuse keys of a mapping outside `allowed`: a typo ("blocking_areas_typo") must be an
+/// error, not a silently missing section. `where` is "file: field" or "file".
+void checkKeys(const YAML::Node& map, const std::set<std::string>& allowed,
+               const std::string& where) {
+  for (auto it = map.begin(); it != map.end(); ++it) {
+    const std::string key = it->first.IsScalar() ? it->first.Scalar() : dump(it->first);
+    if (allowed.count(key)) continue;
+    std::string expected;
+    for (const std::string& a : allowed) expected += (expected.empty() ? "" : ", ") + a;
+    throw MapError(where + ": unknown key '" + key + "' (expected " + expected + ")");
+  }
+}
+
 }  // namespace
 
 namespace {
@@ -90,6 +104,7 @@ namespace {
 PlacesFile loadPlacesImpl(const std::string& path) {
   YAML::Node root = loadYamlFile(path, "places file");
   if (!root.IsMap()) throw MapError(path + ": broken YAML: top level is not a mapping");
+  checkKeys(root, {"places", "blocking_areas"}, path);
   PlacesFile pf;
   std::set<std::string> names;
   const YAML::Node places = root["places"];
@@ -102,6 +117,7 @@ PlacesFile loadPlacesImpl(const std::string& path) {
     if (!validName(p.name)) throw MapError(where + ": bad name (lower-case identifier expected)");
     if (!names.insert(p.name).second) throw MapError(where + ": duplicate name");
     if (!it->second.IsMap()) throw MapError(where + ": must be a mapping with 'point'");
+    checkKeys(it->second, {"point", "room"}, where);
     std::vector<double> pt = numbers(it->second["point"], 2, where + ".point");
     p.point = Point2{pt[0], pt[1]};
     if (it->second["room"]) {
@@ -123,6 +139,7 @@ PlacesFile loadPlacesImpl(const std::string& path) {
       const std::string where = path + ": blocking_areas." + a.name;
       if (!validName(a.name)) throw MapError(where + ": bad name (lower-case identifier expected)");
       if (!names.insert(a.name).second) throw MapError(where + ": duplicate name");
+      if (it->second.IsMap()) checkKeys(it->second, {"rect"}, where);
       a.rect = rectFrom(it->second.IsMap() ? it->second["rect"] : it->second, where + ".rect");
       pf.areas.push_back(a);
     }
@@ -174,6 +191,16 @@ NavGrid NavGrid::fromMap(const OccupancyGrid& map, const PlacesFile& pf,
   if (!(opt.max_blocked_fraction > 0.0 && opt.max_blocked_fraction <= 1.0)) {
     throw MapError("navigation grid: max_blocked_fraction " + fmt(opt.max_blocked_fraction) +
                    " must be in (0, 1]");
+  }
+  // About 64 bytes per cell (flags, blocked fraction, neighbours, area and room indices and the
+  // counts used while cutting): refuse a grid above the memory budget before building it.
+  const size_t cells = saturatingMul(static_cast<size_t>(opt.cols), static_cast<size_t>(opt.rows));
+  const size_t budget = memoryBudget();
+  if (saturatingMul(cells, 64) > budget) {
+    throw MapError("navigation grid: " + std::to_string(opt.cols) + "x" + std::to_string(opt.rows) +
+                   " cells need about " + formatBytes(saturatingMul(cells, 64)) +
+                   ", above the memory budget of " + formatBytes(budget) +
+                   " (KRR_MEMORY_BUDGET_MIB)");
   }
   NavGrid g;
   g.cols_ = opt.cols;

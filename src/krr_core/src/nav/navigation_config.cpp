@@ -10,6 +10,7 @@
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
+#include "krr_core/common/limits.h"
 
 namespace krr {
 namespace nav {
@@ -224,6 +225,12 @@ NavigationConfig loadNavigationConfig(const std::string& path) {
   for (auto it = dn.begin(); it != dn.end(); ++it) {
     DomainConfig d;
     d.name = it->first.Scalar();
+    // The name becomes maps/<name>.yaml: '../../x' or 'a/b' would write outside maps/.
+    if (!isPlainName(d.name)) {
+      throw ConfigError(path + ": field 'domains': name '" + d.name +
+                        "' must be a plain identifier [A-Za-z0-9_-]+ (it names files in the "
+                        "map directory)");
+    }
     Section s(it->second, path, "domains." + d.name, {"cols", "rows", "step_limit"});
     d.cols = s.integer("cols", 0, 1, 10000, true);
     d.rows = s.integer("rows", 0, 1, 10000, true);

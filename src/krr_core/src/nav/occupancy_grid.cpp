@@ -8,6 +8,7 @@
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
+#include "krr_core/common/limits.h"
 
 namespace krr {
 namespace nav {
@@ -109,8 +110,31 @@ PgmImage parsePgm(const std::string& bytes, const std::string& name) {
   img.height = static_cast<int>(h);
   img.maxval = static_cast<int>(maxval);
   const size_t n = static_cast<size_t>(w) * static_cast<size_t>(h);
-  img.pixels.resize(n);
+  // The header alone decides the allocation: check it against the budget first. Loading keeps
+  // the 16-bit pixels and the 8-bit grid made from them.
+  const size_t need = saturatingMul(n, sizeof(std::uint16_t) + sizeof(std::int8_t));
+  const size_t budget = memoryBudget();
+  if (need > budget) {
+    throw MapError(name + ": PGM image " + std::to_string(w) + "x" + std::to_string(h) +
+                   " needs about " + formatBytes(need) + ", above the memory budget of " +
+                   formatBytes(budget) + " (KRR_MEMORY_BUDGET_MIB)");
+  }
   size_t pos = rd.pos_;
+  // A P2 value takes at least two bytes (digit and separator): a header promising more pixels
+  // than the file can hold is truncated, whatever the budget, so nothing is allocated for it.
+  if (!binary && (bytes.size() - pos + 1) / 2 < n) {
+    throw MapError(name + ": truncated PGM data: " + std::to_string(w) + "x" + std::to_string(h) +
+                   " values cannot fit in the " + std::to_string(bytes.size() - pos) +
+                   " bytes after the header");
+  }
+  if (binary) {
+    const size_t bpp = maxval > 255 ? 2 : 1;
+    if (pos < bytes.size() && bytes.size() - pos - 1 < n * bpp) {
+      throw MapError(name + ": truncated PGM data: expected " + std::to_string(n * bpp) +
+                     " bytes, found " + std::to_string(bytes.size() - pos - 1));
+    }
+  }
+  img.pixels.resize(n);
   if (binary) {
     // Exactly one whitespace byte separates the header from the raster.
     if (pos >= bytes.size() || !std::isspace(static_cast<unsigned char>(bytes[pos]))) {
@@ -155,7 +179,7 @@ PgmImage readPgm(const std::string& path) {
   try {
     bytes = readFile(path);
   } catch (const IoError& e) {
-    throw MapError(path + ": cannot read image: " + e.what());
+    throw MapError(std::string("cannot read image ") + e.what());  // e names the file
   }
   return parsePgm(bytes, path);
 }
@@ -310,7 +334,13 @@ OccupancyGrid loadMap(const std::string& yaml_path) {
   MapMetadata meta = loadMapMetadata(yaml_path);
   std::string image_path = meta.image;
   if (image_path[0] != '/') image_path = dirName(yaml_path) + "/" + image_path;
-  PgmImage img = readPgm(image_path);
+  PgmImage img;
+  try {
+    img = readPgm(image_path);
+  } catch (const MapError& e) {
+    // Name the YAML too: the image file may be something the YAML should not point at.
+    throw MapError(yaml_path + ": field 'image': " + e.what());
+  }
   return imageToGrid(img, meta);
 }
 

@@ -11,6 +11,8 @@
  */
 #include "krr_core/plog/asp_backend.h"
 
+#include "krr_core/plog/arith.h"
+
 #include <algorithm>
 #include <cctype>
 #include <chrono>
@@ -256,7 +258,7 @@ std::string translateBase(const Program& program) {
   for (const auto& s : program.sorts) {
     const std::string name = aspName(s.name, s.loc);
     if (s.is_range && s.range_lo <= s.range_hi &&
-        static_cast<long long>(s.values.size()) == s.range_hi - s.range_lo + 1) {
+        s.values.size() == rangeSize(s.range_lo, s.range_hi)) {
       out << "sort(" << name << "," << s.range_lo << ".." << s.range_hi << ").\n";
       continue;
     }

@@ -1,6 +1,7 @@
 #include "krr_core/plog/engine.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <sstream>
 
@@ -87,6 +88,30 @@ void ExactEngine::computeStates(int inst) {
     if (all_fixed) always = true;  // live, so its fixed literals hold
   }
   if (!always) st.push_back(D);  // undefined
+  if (st.empty()) {
+    // A selection rule applies in every world of this context and no value is ever possible:
+    // without this check the factor would have zero states (and zero rows: a division by zero).
+    for (const auto& it : items)
+      if (it.kind == 0)
+        throw IncoherentError(gi.selections[static_cast<size_t>(it.index)].loc.str() +
+                              ": random attribute " + gi.name +
+                              " has an empty dynamic range in every possible world where its "
+                              "selection rule applies");
+    throw IncoherentError("random attribute " + gi.name + " has no possible value");
+  }
+}
+
+void ExactEngine::setTimeBudget(double seconds) {
+  budget_seconds_ = seconds;
+  budget_start_ = std::chrono::steady_clock::now();
+}
+
+void ExactEngine::checkTime(unsigned mask) {
+  if (budget_seconds_ <= 0 || (++budget_ticks_ & mask) != 0) return;
+  if (std::chrono::duration<double>(std::chrono::steady_clock::now() - budget_start_).count() >
+      budget_seconds_)
+    throw BudgetExceededError("inference time budget of " + std::to_string(budget_seconds_) +
+                              " s exhausted (GroundingLimits::max_inference_seconds)");
 }
 
 void ExactEngine::newStamp() {
@@ -537,6 +562,7 @@ void ExactEngine::buildCpt(int inst, Factor& f) {
   for (size_t k = 0; k < NV; ++k) pos_of[static_cast<size_t>(xs[k])] = static_cast<int>(k);
   const size_t nrows = total / S;
   for (size_t row = 0; row < nrows; ++row) {
+    checkTime(63);
     for (size_t k = 0; k < parents.size(); ++k)
       assign_[static_cast<size_t>(parents[k])] =
           states_[static_cast<size_t>(parents[k])][static_cast<size_t>(cur[k])];
@@ -665,6 +691,7 @@ void ExactEngine::buildIndicator(const std::vector<GCondition>& conds, bool cons
   f.t.assign(total, 0.0);
   std::vector<int> cur(scope.size(), 0);
   for (size_t row = 0; row < total; ++row) {
+    checkTime(63);
     for (size_t k = 0; k < scope.size(); ++k)
       assign_[static_cast<size_t>(scope[k])] =
           states_[static_cast<size_t>(scope[k])][static_cast<size_t>(cur[k])];
@@ -774,6 +801,7 @@ std::vector<double> ExactEngine::eliminate(std::vector<Factor> factors, int keep
       for (int v : f.vars)
         if (v != keep) vars.push_back(v);
     if (vars.empty()) break;
+    checkTime();
     std::sort(vars.begin(), vars.end());
     vars.erase(std::unique(vars.begin(), vars.end()), vars.end());
     int best = -1;

@@ -1,10 +1,13 @@
 #include "krr_core/plog/grounder.h"
 
 #include <algorithm>
+#include <chrono>
 #include <functional>
 #include <limits>
 #include <map>
 #include <unordered_set>
+
+#include "krr_core/plog/arith.h"
 
 namespace krr {
 namespace plog {
@@ -95,6 +98,7 @@ struct CTerm {
   int slot = -1;
   std::string op;
   std::vector<CTerm> args;
+  const Term* src = nullptr;  // Bin / Neg: the source term, for overflow errors
 };
 
 struct CLit {
@@ -200,6 +204,7 @@ class Grounder {
   const Program& program() const { return prog_; }
 
   bool applyDelta(const IncrementalGrounder::Delta& d, std::vector<std::pair<int, int>>* changed) {
+    start_ = std::chrono::steady_clock::now();
     changed_ = changed;
     frozen_ = true;
     struct Reset {
@@ -237,6 +242,7 @@ class Grounder {
   }
 
   void run(const std::set<std::string>& cone_names) {
+    start_ = std::chrono::steady_clock::now();
     const size_t na = prog_.attributes.size();
     g_.attr_random.assign(na, false);
     g_.attr_dynamic.assign(na, false);
@@ -349,10 +355,12 @@ class Grounder {
       case Term::Kind::Binary:
         c.k = CTerm::Bin;
         c.op = t.name;
+        c.src = &t;
         for (const auto& a : t.args) c.args.push_back(compile(s, a));
         break;
       case Term::Kind::Negate:
         c.k = CTerm::Neg;
+        c.src = &t;
         for (const auto& a : t.args) c.args.push_back(compile(s, a));
         break;
     }
@@ -411,20 +419,22 @@ class Grounder {
       case CTerm::Var: return b[static_cast<size_t>(t.slot)];
       case CTerm::Neg: {
         int a = evalTerm(t.args[0], b);
-        long long v;
+        long long v, r;
         if (a < 0 || !syms_->isInt(a, &v)) return -1;
-        return syms_->internInt(-v);
+        if (checkedNegate(v, &r) != ArithStatus::Ok) overflow(t);
+        return syms_->internInt(r);
       }
       case CTerm::Bin: {
         int a = evalTerm(t.args[0], b), c = evalTerm(t.args[1], b);
         long long x, y;
         if (a < 0 || c < 0 || !syms_->isInt(a, &x) || !syms_->isInt(c, &y)) return -1;
-        if (t.op == "+") return syms_->internInt(x + y);
-        if (t.op == "-") return syms_->internInt(x - y);
-        if (t.op == "*") return syms_->internInt(x * y);
-        if (y == 0) return -1;
-        if (t.op == "/") return syms_->internInt(x / y);
-        return syms_->internInt(x % y);
+        long long r = 0;
+        switch (checkedBinary(t.op, x, y, &r)) {
+          case ArithStatus::Ok: return syms_->internInt(r);
+          case ArithStatus::Overflow: overflow(t);
+          // undefined, as in clingo: the term has no value and the binding is not ground
+          default: return -1;
+        }
       }
       case CTerm::Comp: {
         std::string s = t.op + "(";
@@ -439,6 +449,43 @@ class Grounder {
     return -1;
   }
 
+  /// @brief Integer overflow is an error, never a wrapped value (which would silently give a
+  /// wrong answer).
+  [[noreturn]] void overflow(const CTerm& t) const {
+    const SourceLocation loc = t.src ? t.src->loc : cur_loc_;
+    throw ParseError(loc, "integer overflow in '" + (t.src ? toString(*t.src) : t.op) +
+                              "' while grounding the statement at " + cur_loc_.str());
+  }
+
+  // ---- budgets ----
+  /// @brief Count more ground atoms / statements and check the budgets (the time budget
+  /// every 4096 calls, as reading the clock costs more than the rest).
+  void spend(std::size_t atoms, std::size_t statements) {
+    atoms_spent_ += atoms;
+    statements_spent_ += statements;
+    if (limits_.max_ground_atoms && atoms_spent_ > limits_.max_ground_atoms)
+      throw BudgetExceededError(cur_loc_.str() + ": grounding budget exhausted: more than " +
+                                std::to_string(limits_.max_ground_atoms) +
+                                " ground atoms (GroundingLimits::max_ground_atoms) while "
+                                "grounding this statement");
+    if (limits_.max_ground_statements && statements_spent_ > limits_.max_ground_statements)
+      throw BudgetExceededError(cur_loc_.str() + ": grounding budget exhausted: more than " +
+                                std::to_string(limits_.max_ground_statements) +
+                                " ground statements (GroundingLimits::max_ground_statements) "
+                                "while grounding this statement");
+    if ((++ticks_ & 4095u) == 0 && limits_.max_ground_seconds > 0 &&
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count() >
+            limits_.max_ground_seconds)
+      throw BudgetExceededError(cur_loc_.str() + ": grounding time budget of " +
+                                std::to_string(limits_.max_ground_seconds) +
+                                " s exhausted (GroundingLimits::max_ground_seconds) while "
+                                "grounding this statement");
+  }
+
+ public:
+  void setLimits(const GroundingLimits& l) { limits_ = l; }
+
+ private:
   bool bound(const CTerm& t, const std::vector<int>& b) const {
     if (t.k == CTerm::Var) return b[static_cast<size_t>(t.slot)] >= 0;
     for (const auto& a : t.args)
@@ -507,6 +554,7 @@ class Grounder {
     inst.name = name;
     inst.random = g_.attr_random[static_cast<size_t>(attr)];
     inst.domain = sortValues(d.range_sort, d.loc);
+    spend(1, 0);
     int id = static_cast<int>(g_.instances.size());
     g_.instances.push_back(std::move(inst));
     g_.instance_ids.emplace(name, id);
@@ -532,6 +580,7 @@ class Grounder {
 
   void join(Stmt& s, std::vector<char>& done, std::vector<int>& b, std::vector<GLit>& acc,
             std::vector<int>& acc_origin, const std::vector<int>& required, const Emit& emit) {
+    spend(0, 0);
     // choose the next literal
     int best = -1;
     size_t best_cost = std::numeric_limits<size_t>::max();
@@ -867,6 +916,7 @@ class Grounder {
         for (size_t k = 0; k < stmts.size(); ++k) {
           Stmt& s = stmts[k];
           const Rule& rule = *srcs[k];
+          cur_loc_ = rule.loc;
           int h = attrId(rule.head->attr.name, rule.loc);
           std::vector<CTerm> hargs;
           for (const auto& a : rule.head->attr.args) hargs.push_back(compile(s, a));
@@ -886,12 +936,19 @@ class Grounder {
             }
             int v = evalTerm(hval, b);
             if (v < 0) return;
+            // ground only within the declared sorts: `p(X + 1) :- p(X).` stops at the end of
+            // p's argument sort instead of counting forever
+            if (!argsInSorts(h, args)) return;
+            const int rs = attr_range_sort_[static_cast<size_t>(h)];
+            if (rs >= 0 && posInSort(rs, v) < 0) return;
             news.push_back({args, v});
+            spend(0, 0);
           });
           for (auto& nv : news) {
             FactSet& f = facts_[static_cast<size_t>(h)];
             if (f.add(nv.first, nv.second)) {
               added = true;
+              spend(1, 0);
               auto it = f.by_args.find(nv.first);
               if (it->second.size() > 1)
                 throw IncoherentError(rule.loc.str() + ": attribute " + instanceName(h, nv.first) +
@@ -911,6 +968,7 @@ class Grounder {
     for (const auto& r : prog_.random_rules) {
       int a = attrId(r.attr.name, r.loc);
       if (!g_.attr_in_cone[a]) continue;
+      cur_loc_ = r.loc;
       Stmt s;
       s.loc = r.loc;
       for (const auto& l : r.body) s.lits.push_back(compileLit(s, l, 0));
@@ -954,6 +1012,7 @@ class Grounder {
           gi.selections.push_back(sel);
           it = groups.emplace(key, std::make_pair(inst, int(gi.selections.size()) - 1)).first;
           ++g_.ground_statements;
+          spend(0, 1);
         }
         if (range_slot < 0) return;
         // ground the dynamic range for this body binding
@@ -992,6 +1051,7 @@ class Grounder {
             touches = true;
         if (!touches && !r.body.empty()) continue;
       }
+      cur_loc_ = r.loc;
       Stmt s;
       s.loc = r.loc;
       for (const auto& l : r.body) s.lits.push_back(compileLit(s, l, 0));
@@ -1013,6 +1073,7 @@ class Grounder {
                                   "program (no possible world)");
           g_.constraints.push_back({acc, r.loc});
           ++g_.ground_statements;
+          spend(0, 1);
           return;
         }
         std::vector<int> args;
@@ -1031,6 +1092,7 @@ class Grounder {
                                    "' is not in the range of " + gi.name);
         gi.rules.push_back({vi, acc});
         ++g_.ground_statements;
+        spend(0, 1);
       });
     }
   }
@@ -1053,6 +1115,7 @@ class Grounder {
       throw UnknownSymbolError(p.loc.str() + ": pr-atom for attribute '" + p.atom.attr.name +
                                "' which has no random selection rule");
     }
+    cur_loc_ = p.loc;
     Stmt s;
     s.loc = p.loc;
     compiling_pr_ = true;
@@ -1098,6 +1161,7 @@ class Grounder {
       src_refs_[id].push_back(ref);
       if (changed_) changed_->push_back(ref);
       ++g_.ground_statements;
+      spend(0, 1);
     });
   }
 
@@ -1236,6 +1300,12 @@ class Grounder {
   std::unordered_map<std::vector<int>, std::vector<std::pair<int, int>>, VecHash> guard_refs_;
   std::unordered_map<std::uint64_t, std::vector<std::pair<int, int>>> src_refs_;
   std::unordered_map<std::vector<int>, int, VecHash> fact_count_;
+  // budgets
+  GroundingLimits limits_;
+  SourceLocation cur_loc_;  // statement being ground, named by budget and overflow errors
+  std::size_t atoms_spent_ = 0, statements_spent_ = 0;
+  unsigned ticks_ = 0;
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now();
 
  public:
   std::size_t atoms_ = 0, removed_atoms_ = 0;  // ground pr-atoms / tombstones among them
@@ -1298,9 +1368,11 @@ std::set<std::string> relevanceCone(const Program& program, const std::set<std::
   return cone;
 }
 
-GroundProgram groundProgram(const Program& program, const std::set<std::string>& cone_attributes) {
+GroundProgram groundProgram(const Program& program, const std::set<std::string>& cone_attributes,
+                            const GroundingLimits& limits) {
   GroundProgram g;
   Grounder gr(program, g);
+  gr.setLimits(limits);
   gr.run(relevanceCone(program, cone_attributes));
   return g;
 }
@@ -1313,9 +1385,11 @@ class IncrementalGrounder::Impl {
 
 IncrementalGrounder::IncrementalGrounder(const Program& program,
                                          const std::set<std::string>& cone_attributes,
-                                         const std::vector<std::uint64_t>* pr_ids)
+                                         const std::vector<std::uint64_t>* pr_ids,
+                                         const GroundingLimits& limits)
     : ground_(std::make_shared<GroundProgram>()) {
   impl_ = std::make_unique<Impl>(program, *ground_);
+  impl_->grounder.setLimits(limits);
   impl_->grounder.setPrIds(pr_ids);
   impl_->grounder.run(relevanceCone(program, cone_attributes));
   impl_->grounder.setPrIds(nullptr);

@@ -1,5 +1,7 @@
 #include "krr_core/plog/parser.h"
 
+#include "krr_core/plog/arith.h"
+
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
@@ -383,9 +385,34 @@ class Parser {
     endStatement();
   }
 
+  /// @brief Largest number of values of one sort: keeps a hostile declaration from taking
+  /// gigabytes before anything is grounded.
+  static constexpr unsigned long long kMaxSortValues = 1000000;
+
   void addValue(SortDecl& s, const Term& v, std::set<std::string>& seen) {
     std::string key = toString(v);
-    if (seen.insert(key).second) s.values.push_back(v);
+    if (!seen.insert(key).second) return;
+    if (s.values.size() >= kMaxSortValues)
+      throw ParseError(v.loc, "sort " + s.name + " has more than " +
+                                  std::to_string(kMaxSortValues) + " values");
+    s.values.push_back(v);
+  }
+
+  /// @brief Add lo..hi; the size is computed in unsigned arithmetic so that ranges such as
+  /// -5e18..5e18 cannot slip past the check through overflow, and the loop counts values
+  /// instead of comparing x <= hi (which never fails for hi = INT64_MAX).
+  void addRange(SortDecl& s, long long lo, long long hi, const SourceLocation& loc,
+                std::set<std::string>& seen) {
+    const unsigned long long n = rangeSize(lo, hi);
+    if (n > kMaxSortValues)
+      throw ParseError(loc, "range " + std::to_string(lo) + ".." + std::to_string(hi) +
+                                " too large in sort " + s.name + " (more than " +
+                                std::to_string(kMaxSortValues) + " values)");
+    for (unsigned long long k = 0; k < n; ++k)
+      addValue(s, Term::integer(static_cast<long long>(static_cast<unsigned long long>(lo) + k), loc),
+               seen);
+    s.range_lo = lo;
+    s.range_hi = hi;
   }
 
   void parseSortElements(SortDecl& s, std::set<std::string>& seen, int& ranges, int& others) {
@@ -397,11 +424,8 @@ class Parser {
           if (accept(Tok::DotDot)) {
             Term b = parseExpr();
             long long lo = evalConst(a), hi = evalConst(b);
-            if (hi - lo > 1000000) throw ParseError(a.loc, "range too large in sort " + s.name);
-            for (long long x = lo; x <= hi; ++x) addValue(s, Term::integer(x, a.loc), seen);
+            addRange(s, lo, hi, a.loc, seen);
             ++ranges;
-            s.range_lo = lo;
-            s.range_hi = hi;
           } else {
             if (!a.isGround() || a.kind == Term::Kind::Binary || a.kind == Term::Kind::Negate) {
               if (a.kind == Term::Kind::Binary || a.kind == Term::Kind::Negate)
@@ -422,11 +446,8 @@ class Parser {
       expect(Tok::DotDot, "'..' in range");
       Term b = parseExpr();
       long long lo = evalConst(a), hi = evalConst(b);
-      if (hi - lo > 1000000) throw ParseError(a.loc, "range too large in sort " + s.name);
-      for (long long x = lo; x <= hi; ++x) addValue(s, Term::integer(x, a.loc), seen);
+      addRange(s, lo, hi, a.loc, seen);
       ++ranges;
-      s.range_lo = lo;
-      s.range_hi = hi;
       return;
     }
     accept(Tok::Hash);
@@ -440,15 +461,23 @@ class Parser {
   long long evalConst(const Term& t) {
     switch (t.kind) {
       case Term::Kind::Integer: return t.value;
-      case Term::Kind::Negate: return -evalConst(t.args[0]);
+      case Term::Kind::Negate: {
+        long long r;
+        if (checkedNegate(evalConst(t.args[0]), &r) != ArithStatus::Ok)
+          throw ParseError(t.loc, "integer overflow in '" + toString(t) + "'");
+        return r;
+      }
       case Term::Kind::Binary: {
-        long long a = evalConst(t.args[0]), b = evalConst(t.args[1]);
-        if (t.name == "+") return a + b;
-        if (t.name == "-") return a - b;
-        if (t.name == "*") return a * b;
-        if (b == 0) throw ParseError(t.loc, "division by zero");
-        if (t.name == "/") return a / b;
-        return a % b;
+        long long a = evalConst(t.args[0]), b = evalConst(t.args[1]), r = 0;
+        switch (checkedBinary(t.name, a, b, &r)) {
+          case ArithStatus::Ok: return r;
+          case ArithStatus::Overflow:
+            throw ParseError(t.loc, "integer overflow in '" + toString(t) + "'");
+          case ArithStatus::DivisionByZero:
+            throw ParseError(t.loc, "division by zero in '" + toString(t) + "'");
+          default:
+            throw ParseError(t.loc, "unknown operator '" + t.name + "'");
+        }
       }
       default:
         throw ParseError(t.loc, "expected an integer constant, got '" + toString(t) + "'");
@@ -467,7 +496,7 @@ class Parser {
     parseSortElements(s, seen, ranges, others);
     while (accept(Tok::Plus)) parseSortElements(s, seen, ranges, others);
     s.is_range = ranges == 1 && others == 0 && s.range_hi >= s.range_lo &&
-                 static_cast<long long>(s.values.size()) == s.range_hi - s.range_lo + 1;
+                 s.values.size() == rangeSize(s.range_lo, s.range_hi);
     endStatement();
     if (s.name == "boolean") return;  // builtin; a redeclaration {true,false} is accepted
     prog_.sorts.push_back(s);
@@ -730,7 +759,8 @@ class Parser {
       Term inner = parseUnary();
       --depth_;
       if (inner.kind == Term::Kind::Integer) {
-        inner.value = -inner.value;
+        if (checkedNegate(inner.value, &inner.value) != ArithStatus::Ok)
+          throw ParseError(loc, "integer overflow in '-" + toString(inner) + "'");
         inner.loc = loc;
         return inner;
       }

@@ -528,7 +528,8 @@ std::shared_ptr<Reasoner::GroundEntry> Reasoner::groundEntryFor(const std::set<s
   }
   Stopwatch sw;
   auto fresh = std::make_shared<GroundEntry>();
-  fresh->grounder = std::make_unique<IncrementalGrounder>(program_, ct->second.second, &pr_ids_);
+  fresh->grounder =
+      std::make_unique<IncrementalGrounder>(program_, ct->second.second, &pr_ids_, limits_);
   fresh->g = fresh->grounder->ground();
   fresh->structure = structure_version_;
   fresh->seq = fresh->changes_from = change_seq_;
@@ -560,15 +561,97 @@ const Program& Reasoner::declarations() {
   return decls_;
 }
 
+namespace {
+
+void symbolsOf(const Term& t, std::unordered_set<std::string>& out) {
+  if (t.kind == Term::Kind::Symbol) out.insert(t.name);
+  for (const auto& a : t.args) symbolsOf(a, out);
+}
+
+void symbolsOf(const std::vector<Literal>& body, std::unordered_set<std::string>& out) {
+  for (const auto& l : body) {
+    if (l.kind == Literal::Kind::Atom) {
+      for (const auto& a : l.atom.attr.args) symbolsOf(a, out);
+      symbolsOf(l.atom.value, out);
+    } else {
+      symbolsOf(l.lhs, out);
+      symbolsOf(l.rhs, out);
+    }
+  }
+}
+
+}  // namespace
+
+const std::unordered_set<std::string>& Reasoner::knownSymbols() {
+  const std::pair<std::uint64_t, std::uint64_t> version{structure_version_, change_seq_};
+  if (known_symbols_valid_ && known_version_ == version) return known_symbols_;
+  known_symbols_.clear();
+  for (const auto& s : program_.sorts)
+    for (const auto& v : s.values) symbolsOf(v, known_symbols_);
+  for (const auto& r : program_.rules) {
+    if (r.head) {
+      for (const auto& a : r.head->attr.args) symbolsOf(a, known_symbols_);
+      symbolsOf(r.head->value, known_symbols_);
+    }
+    symbolsOf(r.body, known_symbols_);
+  }
+  for (const auto& r : program_.random_rules) {
+    symbolsOf(r.body, known_symbols_);
+    symbolsOf(r.range_body, known_symbols_);
+  }
+  for (const auto& p : program_.pr_atoms) symbolsOf(p.body, known_symbols_);
+  known_version_ = version;
+  known_symbols_valid_ = true;
+  return known_symbols_;
+}
+
+void Reasoner::checkQuery(const Query& q) {
+  // Contradictory interventions: do(a=x) and do(a=y) cannot both be made, so the query has no
+  // meaning (the engine would silently keep the last one).
+  std::map<std::string, const Intervention*> done;
+  const std::vector<Intervention>& prog_do = program_.interventions;
+  for (const std::vector<Intervention>* ds : {&prog_do, &q.interventions})
+    for (const auto& d : *ds) {
+      const std::string inst = toString(d.atom.attr);
+      auto it = done.emplace(inst, &d).first;
+      if (it->second->atom.value != d.atom.value)
+        throw IncoherentError(d.loc.str() + ": contradictory interventions do(" +
+                              toString(it->second->atom) + ") (at " + it->second->loc.str() +
+                              ") and do(" + toString(d.atom) + ") on " + inst);
+    }
+  // Constants in untyped argument positions (implicitly declared predicates such as
+  // request(I, R, P)) are not checked by the parser: a typo or an unknown person would answer
+  // probability 0. A symbol that no sort and no statement mentions can never be derived.
+  auto check = [&](const Atom& a, const SourceLocation& loc) {
+    const AttributeDecl* d = program_.findAttribute(a.attr.name);
+    if (!d) return;
+    for (size_t i = 0; i < a.attr.args.size() && i < d->arg_sorts.size(); ++i) {
+      if (!d->arg_sorts[i].empty()) continue;  // typed: checked against its sort when parsed
+      std::unordered_set<std::string> syms;
+      symbolsOf(a.attr.args[i], syms);
+      for (const auto& x : syms)
+        if (!knownSymbols().count(x))
+          throw UnknownSymbolError(loc.str() + ": unknown value '" + x + "' for argument " +
+                                   std::to_string(i + 1) + " of '" + a.attr.name +
+                                   "' (no sort or statement of the program mentions it)");
+    }
+  };
+  for (const auto& l : q.formula) check(l.atom, l.loc);
+  for (const auto& o : q.observations) check(o.literal.atom, o.loc);
+  for (const auto& d : q.interventions) check(d.atom, d.loc);
+}
+
 double Reasoner::probability(const std::string& query) {
   return probability(parseQuery(declarations(), query));
 }
 
 double Reasoner::probability(const Query& q) {
+  checkQuery(q);
   std::set<std::string> attrs;
   collectAttrs(q, attrs);
   auto g = groundFor(attrs);
   ExactEngine e(*g);
+  e.setTimeBudget(limits_.max_inference_seconds);
   for (const auto& d : program_.interventions) applyDo(*g, program_, d, e);
   for (const auto& d : q.interventions) applyDo(*g, program_, d, e);
   std::vector<GCondition> evidence, formula(1);
@@ -593,6 +676,7 @@ std::vector<ValueProb> Reasoner::distribution(const std::string& attribute_term,
   AttributeTerm at = parseAttributeTerm(declarations(), attribute_term);
   Query ev;
   if (!evidence.empty()) ev = parseQuery(declarations(), "| " + evidence, "<evidence>");
+  checkQuery(ev);
   std::set<std::string> attrs{at.name};
   collectAttrs(ev, attrs);
   auto g = groundFor(attrs);
@@ -608,6 +692,7 @@ std::vector<ValueProb> Reasoner::distribution(const std::string& attribute_term,
   int inst = g->findInstance(toString(at));
   if (inst < 0) return out;
   ExactEngine e(*g);
+  e.setTimeBudget(limits_.max_inference_seconds);
   for (const auto& d : program_.interventions) applyDo(*g, program_, d, e);
   for (const auto& d : ev.interventions) applyDo(*g, program_, d, e);
   std::vector<GCondition> evs;
@@ -646,6 +731,7 @@ Table Reasoner::tableQuery(const std::string& target, const std::vector<std::str
   }
   Query ev;
   if (!evidence.empty()) ev = parseQuery(decls, "| " + evidence, "<evidence>");
+  checkQuery(ev);
   collectAttrs(ev, attrs);
   auto entry = groundEntryFor(attrs);
   const GroundProgram* g = entry->g.get();
@@ -662,6 +748,7 @@ Table Reasoner::tableQuery(const std::string& target, const std::vector<std::str
     ci.push_back(i);
   }
   ExactEngine e(*g);
+  e.setTimeBudget(limits_.max_inference_seconds);
   for (const auto& d : program_.interventions) applyDo(*g, program_, d, e);
   for (const auto& d : ev.interventions) applyDo(*g, program_, d, e);
   std::vector<GCondition> evs;

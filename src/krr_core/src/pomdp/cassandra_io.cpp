@@ -1,13 +1,18 @@
 #include "krr_core/pomdp/cassandra_io.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <sstream>
+#include <unordered_map>
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
+#include "krr_core/common/format.h"
+#include "krr_core/common/limits.h"
+#include "krr_core/common/resources.h"
 
 namespace krr {
 namespace pomdp {
@@ -20,8 +25,35 @@ struct Token {
   int col;
 };
 
+/// @brief Number of tokens tokenize() will produce, so that the token list is checked against
+/// the memory budget before it is built (one token per two bytes is possible).
+std::size_t countTokens(const std::string& text) {
+  std::size_t n = 0;
+  bool inToken = false, inComment = false;
+  for (char c : text) {
+    if (inComment) {
+      inComment = c != '\n';
+      continue;
+    }
+    if (c == '#') {
+      inComment = true;
+      inToken = false;
+    } else if (std::isspace(static_cast<unsigned char>(c))) {
+      inToken = false;
+    } else if (c == ':') {
+      ++n;
+      inToken = false;
+    } else if (!inToken) {
+      ++n;
+      inToken = true;
+    }
+  }
+  return n;
+}
+
 std::vector<Token> tokenize(const std::string& text) {
   std::vector<Token> out;
+  out.reserve(countTokens(text));
   int line = 1, col = 1;
   std::size_t i = 0;
   auto advance = [&](char c) {
@@ -90,6 +122,8 @@ struct Symbols {
   bool defined = false;
   std::size_t n = 0;
   std::vector<std::string> names;  // empty: numbered only
+  /// name -> index: lookups and duplicate checks stay O(1) for long name lists.
+  std::unordered_map<std::string, std::size_t> index;
 };
 
 /// -1 stands for the '*' wildcard.
@@ -97,8 +131,20 @@ using Idx = long;
 
 class Parser {
  public:
-  Parser(const std::string& text, const std::string& file)
-      : file_(file), toks_(tokenize(text)) {
+  Parser(const std::string& text, const std::string& file, const CassandraLimits& limits)
+      : file_(file),
+        budget_(limits.memory_budget ? limits.memory_budget : memoryBudget()),
+        timeout_(limits.timeout),
+        extraPerPair_(limits.extra_bytes_per_state_pair) {
+    // Each token costs sizeof(Token) plus its text beyond the small-string buffer.
+    const std::size_t tokens = countTokens(text);
+    const std::size_t need = saturatingAdd(saturatingMul(tokens, sizeof(Token)), text.size());
+    if (need > budget_)
+      throw ParseError(SourceLocation{file_, 1, 1},
+                       "file has " + std::to_string(tokens) + " tokens, parsing it needs about " +
+                           formatBytes(need) + ", above the memory budget of " +
+                           formatBytes(budget_) + " (KRR_MEMORY_BUDGET_MIB)");
+    toks_ = tokenize(text);
     int l = 1, c = 1;
     for (char ch : text) {
       if (ch == '\n') {
@@ -116,6 +162,25 @@ class Parser {
  private:
   [[noreturn]] void fail(const Token& t, const std::string& msg) const {
     throw ParseError(SourceLocation{file_, t.line, t.col}, msg);
+  }
+  /// @brief Stop with an error at t once the time budget is spent.
+  void checkTime(const Token& t) const {
+    if (timeout_ > 0.0 && clock_.seconds() > timeout_)
+      fail(t, "reading stopped here: time budget of " + formatNumber(timeout_, 6) +
+                  " s exceeded");
+  }
+  /// @brief Refuse a declaration (at t) whose model would not fit in the memory budget.
+  /// Undeclared counts are taken as 1, the least they can be.
+  void checkModelSize(const Token& t, const std::string& decl) const {
+    auto count = [](const Symbols& sym) { return std::max<std::size_t>(sym.n, 1); };
+    const std::size_t S = count(states_), A = count(actions_), O = count(obs_);
+    const std::size_t need = saturatingAdd(estimateModelBytes(S, A, O),
+                                           saturatingMul(saturatingMul(S, S), extraPerPair_));
+    if (need > budget_)
+      fail(t, decl + " needs about " + formatBytes(need) + " for the dense model (" +
+                  std::to_string(S) + " states, " + std::to_string(A) + " action(s), " +
+                  std::to_string(O) + " observation(s)), above the memory budget of " +
+                  formatBytes(budget_) + " (KRR_MEMORY_BUDGET_MIB)");
   }
   const Token& peek(std::size_t k = 0) const {
     return pos_ + k < toks_.size() ? toks_[pos_ + k] : eof_;
@@ -159,8 +224,9 @@ class Parser {
     long n = 0;
     if (!atEnd() && isInteger(peek().text, &n) && isKeywordStart(1)) {
       if (n <= 0) fail(peek(), std::string("number of ") + kind + " must be positive");
-      ++pos_;
       sym.n = static_cast<std::size_t>(n);
+      checkModelSize(peek(), std::string(kind) + ": " + peek().text);
+      ++pos_;
       return;
     }
     while (!isKeywordStart(0)) {
@@ -169,12 +235,18 @@ class Parser {
              "observations, start, T, O, R; got '" + peek().text + "'");
       const Token& t = next("a name");
       if (t.text == "*") fail(t, "'*' is not a valid name");
-      for (const auto& existing : sym.names)
-        if (existing == t.text) fail(t, std::string("duplicate ") + kind + " name '" + t.text + "'");
+      if (!sym.index.emplace(t.text, sym.names.size()).second)
+        fail(t, std::string("duplicate ") + kind + " name '" + t.text + "'");
       sym.names.push_back(t.text);
+      sym.n = sym.names.size();
+      if ((sym.n & 1023) == 0) {  // a long list is refused as soon as it is too large
+        checkModelSize(t, std::string(kind) + ": (" + std::to_string(sym.n) + " names so far)");
+        checkTime(t);
+      }
     }
     if (sym.names.empty()) fail(peek(), std::string("expected a count or names of ") + kind);
     sym.n = sym.names.size();
+    checkModelSize(kw, std::string(kind) + ": (" + std::to_string(sym.n) + " names)");
   }
   Idx symbol(const Symbols& sym, const char* kind, bool allowWildcard) {
     const Token& t = next(kind);
@@ -183,8 +255,8 @@ class Parser {
       if (!allowWildcard) fail(t, "wildcard '*' not allowed here");
       return -1;
     }
-    for (std::size_t i = 0; i < sym.names.size(); ++i)
-      if (sym.names[i] == t.text) return static_cast<Idx>(i);
+    const auto it = sym.index.find(t.text);
+    if (it != sym.index.end()) return static_cast<Idx>(it->second);
     long v = 0;
     if (isInteger(t.text, &v)) {
       if (static_cast<std::size_t>(v) >= sym.n)
@@ -222,6 +294,10 @@ class Parser {
   void setZ(Idx a, Idx s1, Idx o, double p, const Token& where);
 
   std::string file_;
+  std::size_t budget_;
+  double timeout_;
+  std::size_t extraPerPair_;
+  Stopwatch clock_;
   std::vector<Token> toks_;
   Token eof_;
   std::size_t pos_ = 0;
@@ -393,6 +469,7 @@ void Parser::parseR() {
 
 Model Parser::parse() {
   while (!atEnd()) {
+    checkTime(peek());
     const Token& kw = next("a keyword");
     if (kw.text == "start" && (peek().text == "include" || peek().text == "exclude")) {
       parseStart();
@@ -438,6 +515,7 @@ Model Parser::parse() {
   // Validate rows here so that errors point at the entry that last wrote the row.
   for (std::size_t a = 0; a < actions_.n; ++a)
     for (std::size_t s = 0; s < states_.n; ++s) {
+      if ((s & 255) == 0) checkTime(eof_);
       auto name = [&](const Symbols& sym, std::size_t i) {
         return sym.names.empty() ? std::to_string(i) : sym.names[i];
       };
@@ -462,7 +540,11 @@ Model Parser::parse() {
         for (std::size_t s : range(e.s, S)) r(s, a) = e.v;
   } else {
     const double cells = static_cast<double>(A) * S * S * O;
-    if (cells > 5e7) fail(eof_, "model too large for next-state/observation dependent rewards");
+    if (cells > 5e7 || cells * sizeof(double) + static_cast<double>(estimateModelBytes(S, A, O)) >
+                           static_cast<double>(budget_))
+      fail(eof_, "model too large for next-state/observation dependent rewards (" +
+                     formatBytes(static_cast<std::size_t>(cells * sizeof(double))) +
+                     " of reward table, memory budget " + formatBytes(budget_) + ")");
     std::vector<double> full(static_cast<std::size_t>(cells), 0.0);
     auto at = [&](std::size_t a, std::size_t s, std::size_t s1, std::size_t o) -> double& {
       return full[((a * S + s) * S + s1) * O + o];
@@ -474,6 +556,7 @@ Model Parser::parse() {
             for (std::size_t o : range(e.o, O)) at(a, s, s1, o) = e.v;
     for (std::size_t a = 0; a < A; ++a)
       for (std::size_t s = 0; s < S; ++s) {
+        if ((s & 63) == 0) checkTime(eof_);
         double v = 0.0;
         for (std::size_t s1 = 0; s1 < S; ++s1) {
           if (t_[a](s, s1) == 0.0) continue;
@@ -492,7 +575,8 @@ Model Parser::parse() {
     return out;
   };
   try {
-    Model m(t_, z_, r, discount_);
+    // Moved, not copied: the budget counts one copy of the dense matrices.
+    Model m(std::move(t_), std::move(z_), std::move(r), discount_);
     m.setNames(names(states_, "s"), names(actions_, "a"), names(obs_, "o"));
     if (haveStart_) m.setInitialBelief(start_);
     return m;
@@ -519,11 +603,23 @@ std::string fmt(double v) {
 
 }  // namespace
 
-Model readCassandra(const std::string& text, const std::string& file) {
-  return Parser(text, file).parse();
+std::size_t estimateModelBytes(std::size_t states, std::size_t actions, std::size_t observations) {
+  const std::size_t as = saturatingMul(actions, states);
+  std::size_t b = saturatingMul(saturatingMul(as, states), 32);
+  b = saturatingAdd(b, saturatingMul(saturatingMul(as, observations), 24));
+  b = saturatingAdd(b, saturatingMul(as, 2 * sizeof(Token) + 2 * sizeof(double) + 64));
+  const std::size_t symbols = saturatingAdd(saturatingAdd(states, actions), observations);
+  return saturatingAdd(b, saturatingMul(symbols, 64));
 }
 
-Model loadCassandra(const std::string& path) { return readCassandra(readFile(path), path); }
+Model readCassandra(const std::string& text, const std::string& file,
+                    const CassandraLimits& limits) {
+  return Parser(text, file, limits).parse();
+}
+
+Model loadCassandra(const std::string& path, const CassandraLimits& limits) {
+  return readCassandra(readFile(path), path, limits);
+}
 
 std::string writeCassandra(const Model& m) {
   auto check = [](const std::vector<std::string>& v, const char* kind) {

@@ -1,14 +1,21 @@
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <chrono>
+#include <cstdint>
 #include <cstdlib>
+#include <new>
+#include <stdexcept>
+#include <utility>
 #include <thread>
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/json.h"
+#include "krr_core/common/limits.h"
+#include "krr_core/common/main_guard.h"
 #include "krr_core/common/random.h"
 
 namespace {
@@ -131,6 +138,81 @@ TEST(Errors, ParseErrorCarriesLocation) {
   krr::ParseError e({"kb.plog", 3, 14}, "expected '.'");
   EXPECT_STREQ(e.what(), "kb.plog:3:14: expected '.'");
   EXPECT_EQ(e.location().line, 3);
+}
+
+}  // namespace
+
+namespace {
+
+// Special files have no end (/dev/zero) or block (a FIFO without writer): loaders refuse them.
+TEST(Files, ReadFileRefusesSpecialFiles) {
+  const std::string dir = tempDir();
+  const std::string fifo = dir + "/fifo";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const std::pair<std::string, std::string> cases[] = {
+      {"/dev/zero", "character device"}, {dir, "directory"}, {fifo, "pipe"}};
+  for (const auto& c : cases) {
+    try {
+      krr::readFile(c.first);
+      ADD_FAILURE() << "no error for " << c.first;
+    } catch (const krr::IoError& e) {
+      const std::string msg = e.what();
+      EXPECT_EQ(msg.find(c.first + ": is "), 0u) << msg;
+      EXPECT_NE(msg.find(c.second), std::string::npos) << msg;
+      EXPECT_NE(msg.find("expected a regular file"), std::string::npos) << msg;
+    }
+  }
+  ::unlink(fifo.c_str());
+}
+
+TEST(Files, ReadFileHonoursTheMemoryBudget) {
+  const std::string dir = tempDir();
+  const std::string path = dir + "/big";
+  krr::writeFileAtomic(path, std::string(3 << 20, 'x'));
+  ::setenv("KRR_MEMORY_BUDGET_MIB", "2", 1);
+  try {
+    krr::readFile(path);
+    ADD_FAILURE() << "no error";
+  } catch (const krr::IoError& e) {
+    EXPECT_NE(std::string(e.what()).find("3 MiB exceeds the memory budget of 2 MiB"),
+              std::string::npos) << e.what();
+  }
+  ::setenv("KRR_MEMORY_BUDGET_MIB", "two", 1);
+  EXPECT_THROW(krr::memoryBudget(), krr::ConfigError);  // a typo never disables the limit
+  ::unsetenv("KRR_MEMORY_BUDGET_MIB");
+  EXPECT_EQ(krr::memoryBudget(), krr::kDefaultMemoryBudget);
+  EXPECT_EQ(krr::readFile(path).size(), std::size_t(3) << 20);
+}
+
+TEST(Limits, SaturatingArithmeticAndFormatting) {
+  EXPECT_EQ(krr::saturatingMul(SIZE_MAX / 2, 3), SIZE_MAX);
+  EXPECT_EQ(krr::saturatingMul(6, 7), 42u);
+  EXPECT_EQ(krr::saturatingAdd(SIZE_MAX, 1), SIZE_MAX);
+  EXPECT_EQ(krr::formatBytes(512), "512 B");
+  EXPECT_EQ(krr::formatBytes(std::size_t(3) << 30), "3 GiB");
+  EXPECT_EQ(krr::formatBytes(SIZE_MAX), "more than 16 EiB");
+}
+
+TEST(Limits, PlainNames) {
+  EXPECT_TRUE(krr::isPlainName("office_30x30"));
+  EXPECT_TRUE(krr::isPlainName("A-b_9"));
+  for (const char* bad : {"", "../../x", "a/b", "..", ".", "a b", "x\n"})
+    EXPECT_FALSE(krr::isPlainName(bad)) << bad;
+}
+
+int throwsBadAlloc(int, char**) { throw std::bad_alloc(); }
+int throwsLogicError(int, char**) { throw std::logic_error("boom"); }
+int returnsSeven(int, char**) { return 7; }
+
+// Every CLI runs under guardedMain: an escaping bad_alloc is a message and status 1, no abort.
+TEST(MainGuard, TurnsEscapingExceptionsIntoStatusOne) {
+  ::testing::internal::CaptureStderr();
+  EXPECT_EQ(krr::guardedMain("prog", throwsBadAlloc, 0, nullptr), 1);
+  EXPECT_EQ(krr::guardedMain("prog", throwsLogicError, 0, nullptr), 1);
+  EXPECT_EQ(krr::guardedMain("prog", returnsSeven, 0, nullptr), 7);
+  const std::string err = ::testing::internal::GetCapturedStderr();
+  EXPECT_NE(err.find("prog: out of memory"), std::string::npos) << err;
+  EXPECT_NE(err.find("prog: internal error: boom"), std::string::npos) << err;
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <string>
 
 #include "krr_core/common/errors.h"
@@ -145,6 +146,13 @@ TEST(NavGrid, PlacesFileErrors) {
        "duplicate name"},
       {"places:\n  shop: {point: [0, 0]}\nblocking_areas:\n  ba1: {rect: [0, 0, 1]}\n",
        "blocking_areas.ba1.rect"},
+      // Typo'd keys are errors naming the key, not silently missing sections (issue 12).
+      {"places:\n  shop: {point: [0, 0]}\nblocking_areas_typo:\n  ba1: {rect: [0, 0, 1, 1]}\n",
+       "unknown key 'blocking_areas_typo' (expected blocking_areas, places)"},
+      {"places:\n  shop: {point: [0, 0], rooom: [0, 0, 1, 1]}\n",
+       "places.shop: unknown key 'rooom'"},
+      {"places:\n  shop: {point: [0, 0]}\nblocking_areas:\n  ba1: {rect: [0, 0, 1, 1], rat: 1}\n",
+       "blocking_areas.ba1: unknown key 'rat'"},
   };
   int k = 0;
   for (const Case& c : cases) {
@@ -159,4 +167,21 @@ TEST(NavGrid, PlacesFileErrors) {
     }
     std::remove(p.c_str());
   }
+}
+
+// cols x rows come from the navigation config: a grid above the memory budget is refused.
+TEST(NavGrid, GridAboveMemoryBudgetIsRefused) {
+  ::setenv("KRR_MEMORY_BUDGET_MIB", "0.001", 1);  // about 1 kB: 2x1 cells fit, 8x4 do not
+  NavGridOptions opt;
+  opt.cols = 8;
+  opt.rows = 4;
+  try {
+    NavGrid::fromMap(loadMap(kDir + "navgrid_wall.yaml"), loadPlaces(kDir + "navgrid_places.yaml"),
+                     opt);
+    ADD_FAILURE() << "no error";
+  } catch (const MapError& e) {
+    EXPECT_NE(std::string(e.what()).find("8x4 cells need about"), std::string::npos) << e.what();
+  }
+  ::unsetenv("KRR_MEMORY_BUDGET_MIB");
+  EXPECT_EQ(wallGrid("navgrid_wall.yaml").numCells(), 2);
 }

@@ -53,6 +53,13 @@ TEST(NavigationConfig, LoadsShippedConfig) {
   EXPECT_NE(c.map.find("maps/office.yaml"), std::string::npos);
 }
 
+// A domain name becomes maps/<name>.yaml: a path in it would write outside maps/ (issue 12).
+TEST(NavigationConfig, DomainNamesMustBePlainIdentifiers) {
+  expectError("office_30x30:", "../../x:", "name '../../x' must be a plain identifier");
+  expectError("office_30x30:", "\"a/b\":", "name 'a/b' must be a plain identifier");
+  expectError("office_30x30:", "\"..\":", "name '..' must be a plain identifier");
+}
+
 TEST(NavigationConfig, Errors) {
   expectError("blocking_rate: 0.3", "blocking_rate: 1.5", "'simulator.blocking_rate': value 1.5");
   expectError("blocking_rate: 0.3", "blocking_rate: lots", "'simulator.blocking_rate': value 'lots'");

@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <fstream>
 #include <string>
 
 #include "krr_core/common/errors.h"
@@ -180,4 +182,39 @@ TEST(OccupancyGridErrors, PgmValueAboveMaxval) {
   EXPECT_THROW(parsePgm("", "mem.pgm"), MapError);
   PgmImage ok = parsePgm("P2 # c\n2 1 # comment\n10\n3 10\n", "mem.pgm");
   EXPECT_EQ(ok.pixels[1], 10);
+}
+
+// `image: /dev/zero` made make_nav_domain read until it held 2 GB (issue 12).
+TEST(OccupancyGridErrors, SpecialFileImageIsRefused) {
+  const std::string yaml = ::testing::TempDir() + "/devzero_map.yaml";
+  {
+    std::ofstream out(yaml);
+    out << "image: /dev/zero\nresolution: 0.05\norigin: [0, 0, 0]\nnegate: 0\n"
+           "occupied_thresh: 0.65\nfree_thresh: 0.196\n";
+  }
+  try {
+    loadMap(yaml);
+    ADD_FAILURE() << "no error";
+  } catch (const MapError& e) {
+    EXPECT_NE(std::string(e.what()).find("/dev/zero"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("expected a regular file"), std::string::npos)
+        << e.what();
+  }
+  std::remove(yaml.c_str());
+}
+
+// The header decides the allocation, so it is checked against the budget first.
+TEST(OccupancyGridErrors, ImageAboveMemoryBudgetIsRefused) {
+  ::setenv("KRR_MEMORY_BUDGET_MIB", "1", 1);
+  try {
+    parsePgm("P5\n2000 2000\n255\n", "huge.pgm");
+    ADD_FAILURE() << "no error";
+  } catch (const MapError& e) {
+    EXPECT_NE(std::string(e.what()).find("huge.pgm: PGM image 2000x2000 needs about 11.4 MiB"),
+              std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("memory budget of 1 MiB"), std::string::npos) << e.what();
+  }
+  ::unsetenv("KRR_MEMORY_BUDGET_MIB");
+  // Under the default budget the same header gets as far as the (missing) raster.
+  EXPECT_THROW(parsePgm("P5\n2000 2000\n255\n", "huge.pgm"), MapError);
 }

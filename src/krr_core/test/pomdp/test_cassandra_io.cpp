@@ -1,6 +1,8 @@
 // Tests of the Cassandra .pomdp reader and writer.
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <cstdint>
 #include <string>
 
 #include "krr_core/common/errors.h"
@@ -147,6 +149,92 @@ TEST(CassandraIo, WriterRejectsNamesOtherToolsCannotRead) {
 
 TEST(CassandraIo, MissingFileIsAnIoError) {
   EXPECT_THROW(loadCassandra(kData + "does-not-exist.pomdp"), IoError);
+}
+
+std::string budgetError(const std::string& text, std::size_t budget = 0) {
+  CassandraLimits limits;
+  limits.memory_budget = budget;
+  try {
+    readCassandra(text, "m.pomdp", limits);
+  } catch (const ParseError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+// The 97-byte file of issue 12 asked for ~75 GiB and died in bad_alloc; the 12000-state one
+// took 2.26 GB. Both are now refused at the declaration, before anything is allocated.
+TEST(CassandraIo, DeclaredSizesAboveTheMemoryBudgetAreRefused) {
+  const std::string big =
+      "discount: 0.95\nvalues: reward\nstates: 50000\nactions: 1\nobservations: 1\n"
+      "T: * identity\nO: * uniform\n";
+  const std::string e = budgetError(big);
+  EXPECT_EQ(e.substr(0, 13), "m.pomdp:3:9: ") << e;
+  EXPECT_NE(e.find("states: 50000 needs about"), std::string::npos) << e;
+  EXPECT_NE(e.find("GiB"), std::string::npos) << e;
+  EXPECT_NE(e.find("memory budget of 1 GiB"), std::string::npos) << e;
+  EXPECT_NE(budgetError("discount: 0.9\nstates: 12000\n").find("states: 12000"), std::string::npos);
+  // The product is what counts: a later declaration can push it over the budget.
+  const std::string e2 = budgetError("discount: 0.9\nstates: 2000\nactions: 500\n");
+  EXPECT_EQ(e2.substr(0, 12), "m.pomdp:3:10") << e2;
+  EXPECT_NE(e2.find("actions: 500"), std::string::npos) << e2;
+  // Counts whose products overflow 64 bits saturate instead of wrapping to a small size.
+  EXPECT_NE(budgetError("discount: 0.9\nstates: 4294967296\nactions: 4294967296\n")
+                .find("states: 4294967296"), std::string::npos);
+  // A configurable budget: 100 states fit in 1 GiB but not in 100 kB.
+  const std::string small = "discount: 0.9\nstates: 100\nactions: a\nobservations: o\n"
+                            "T: a identity\nO: a uniform\n";
+  EXPECT_EQ(budgetError(small), "no error");
+  EXPECT_NE(budgetError(small, 100000).find("states: 100 needs about"), std::string::npos);
+  // A long name list is refused as well (here at the end of the list, at its keyword).
+  std::string names = "discount: 0.9\nstates:";
+  for (int i = 0; i < 300; ++i) names += " s" + std::to_string(i);
+  EXPECT_NE(budgetError(names + "\n", 1000000).find("m.pomdp:2:1: states: (300 names)"),
+            std::string::npos) << budgetError(names + "\n", 1000000);
+  // The token list itself is held to the budget.
+  EXPECT_NE(budgetError(small, 500).find("tokens"), std::string::npos);
+  // A caller's own per-state-pair needs (pomdp_solve's LU work matrices) count too.
+  CassandraLimits solver;
+  solver.memory_budget = 400000;
+  solver.extra_bytes_per_state_pair = 16;
+  EXPECT_NO_THROW(readCassandra(small, "m.pomdp", CassandraLimits{400000, 0.0, 0}));
+  EXPECT_THROW(readCassandra(small, "m.pomdp", solver), ParseError);
+}
+
+TEST(CassandraIo, EstimateSaturatesInsteadOfWrapping) {
+  EXPECT_EQ(estimateModelBytes(std::size_t(1) << 32, std::size_t(1) << 32, 1), SIZE_MAX);
+  EXPECT_GE(estimateModelBytes(1000, 1, 1), 32u * 1000 * 1000);
+}
+
+TEST(CassandraIo, TimeBudgetStopsReading) {
+  // Each wildcard statement rewrites every row: many of them take long, and the reader stops.
+  std::string text = "discount: 0.9\nstates: 300\nactions: a\nobservations: o\n";
+  for (int i = 0; i < 20000; ++i) text += "T: * : * uniform\n";
+  text += "O: a uniform\n";
+  CassandraLimits limits;
+  limits.timeout = 0.05;
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    readCassandra(text, "slow.pomdp", limits);
+    ADD_FAILURE() << "no timeout";
+  } catch (const ParseError& e) {
+    EXPECT_NE(std::string(e.what()).find("time budget"), std::string::npos) << e.what();
+    EXPECT_EQ(std::string(e.what()).substr(0, 10), "slow.pomdp");
+  }
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 2.0);
+}
+
+TEST(CassandraIo, SpecialFilesAreRefused) {
+  for (const char* path : {"/dev/zero", "/dev/null", "/tmp"}) {
+    try {
+      loadCassandra(path);
+      ADD_FAILURE() << "no error for " << path;
+    } catch (const IoError& e) {
+      EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("expected a regular file"), std::string::npos)
+          << e.what();
+    }
+  }
 }
 
 }  // namespace

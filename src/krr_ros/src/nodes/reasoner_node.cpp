@@ -18,6 +18,7 @@
 #include <ctime>
 #include <filesystem>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,7 @@
 #include "krr_core/common/journal.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/kb/navigation_knowledge.h"
+#include "krr_core/plog/grounder.h"
 #include "krr_core/plog/reasoner.h"
 #include "krr_ros/conversions.h"
 #include "krr_ros/nav_kb.h"
@@ -42,6 +44,7 @@ struct ReasonerParams {
   krr_ros::NavKbParams nav;               ///< navigation KB files (see nav_kb.h)
   std::string learned_file;               ///< ~learned_file: learned navigation knowledge
   double discount = 0.95;                 ///< ~discount: default discount of built models
+  double query_seconds = 10.0;            ///< ~query_seconds: grounding / inference budget
   std::uint64_t seed = 1;                 ///< ~seed (the reasoner is deterministic; logged)
 
   static ReasonerParams read(krr_ros::ParamReader& r) {
@@ -59,6 +62,7 @@ struct ReasonerParams {
       r.refuse("domain_learned_file", "'" + p.domain_learned_file + "'",
                "must be a non-empty path different from learned_file");
     p.discount = r.number("discount", 0.95, 1e-6, 1.0);
+    p.query_seconds = r.number("query_seconds", 10.0, 0.01, 3600.0);
     r.rejectUnknown();
     return p;
   }
@@ -115,8 +119,17 @@ class ReasonerNode {
 
   /// @brief The domain KB from its files plus the added statements (`added`, read from
   /// ~domain_learned_file when `count` is given: a file that does not load is moved aside).
+  /// @brief The budgets of every grounding and inference: a query, an update's check or a
+  /// model build that exceeds them is refused (BudgetExceededError), the node stays responsive.
+  krr::plog::GroundingLimits limits() const {
+    krr::plog::GroundingLimits l;
+    l.max_ground_seconds = l.max_inference_seconds = params_.query_seconds;
+    return l;
+  }
+
   std::unique_ptr<krr::plog::Reasoner> loadDomainKb(std::string& added, std::size_t* count) {
     auto kb = std::make_unique<krr::plog::Reasoner>();
+    kb->setLimits(limits());
     kb->loadFile(params_.domain_files.front());
     for (std::size_t i = 1; i < params_.domain_files.size(); ++i)
       kb->addStatements(krr::readFile(params_.domain_files[i]), "", params_.domain_files[i]);
@@ -140,6 +153,7 @@ class ReasonerNode {
   std::unique_ptr<krr::kb::NavigationKnowledge> loadNavigationKb() {
     auto nav = std::make_unique<krr::kb::NavigationKnowledge>(*domain_.grid,
                                                                domain_.knowledge_files);
+    nav->reasoner().setLimits(limits());
     if (!std::filesystem::exists(params_.learned_file)) return nav;
     try {
       nav->loadLearned(params_.learned_file);
@@ -148,7 +162,9 @@ class ReasonerNode {
     } catch (const krr::Error& e) {
       moveAside(params_.learned_file, e.what());
     }
-    return std::make_unique<krr::kb::NavigationKnowledge>(*domain_.grid, domain_.knowledge_files);
+    nav = std::make_unique<krr::kb::NavigationKnowledge>(*domain_.grid, domain_.knowledge_files);
+    nav->reasoner().setLimits(limits());
+    return nav;
   }
 
   krr::plog::Reasoner& kbFor(const std::string& name) {
@@ -212,6 +228,18 @@ class ReasonerNode {
         } catch (const krr::Error& e) {
           throw krr::IncoherentError(std::string("the statements make the domain knowledge "
                                                  "base incoherent: ") + e.what());
+        }
+        // The KB's own queries may not reach the new statements (relevance cone), so the
+        // whole program is ground once under the budget: a runaway rule is refused here
+        // instead of failing every later query that touches it.
+        std::set<std::string> all;
+        for (const auto& a : domain_next->program().attributes) all.insert(a.name);
+        try {
+          krr::plog::groundProgram(domain_next->program(), all, limits());
+        } catch (const krr::plog::BudgetExceededError&) {
+          throw;
+        } catch (const krr::Error&) {
+          // outside the native grounder's fragment: the query check above decides
         }
       }
       const std::string added_next =

@@ -13,7 +13,9 @@
 
 namespace krr {
 
-/// @brief The whole content of a file; throws IoError naming the file if it cannot be read.
+/// @brief The whole content of a regular file. @throws IoError naming the file if it cannot be
+/// read, is not a regular file (device, pipe, directory: /dev/zero never ends) or is larger
+/// than memoryBudget() (limits.h).
 std::string readFile(const std::string& path);
 
 /// @brief Replace path's content with data atomically (temp file + fsync + rename).

@@ -14,6 +14,7 @@
  */
 #pragma once
 
+#include <chrono>
 #include <string>
 #include <utility>
 #include <vector>
@@ -35,6 +36,10 @@ struct GCondition {
 class ExactEngine {
  public:
   explicit ExactEngine(const GroundProgram& g);
+
+  /// @brief Wall-clock budget of the inference calls from now on (0: none); exhausting it
+  /// throws BudgetExceededError from the next check point (factor rows, elimination steps).
+  void setTimeBudget(double seconds);
 
   /// @brief Intervention do(inst = value index); -1 removes it.
   void setFixed(int inst, int value);
@@ -102,6 +107,9 @@ class ExactEngine {
   static Factor multiply(const Factor& a, const Factor& b);
   static Factor sumOut(const Factor& f, int var);
   void newStamp();
+  /// @brief Throw BudgetExceededError past the time budget; reads the clock once every
+  /// mask + 1 calls (rows can be expensive: one derived atom may have many ground rules).
+  void checkTime(unsigned mask = 1023u);
 
   const GroundProgram& g_;
   std::vector<int> fixed_;
@@ -147,6 +155,9 @@ class ExactEngine {
   size_t last_factors_ = 0, last_max_factor_ = 0;
   std::vector<PendingError> pending_errors_;
   size_t pending_factor_ = 0;
+  double budget_seconds_ = 0;
+  unsigned budget_ticks_ = 0;
+  std::chrono::steady_clock::time_point budget_start_;
 };
 
 }  // namespace plog

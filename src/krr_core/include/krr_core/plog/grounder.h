@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "krr_core/plog/ast.h"
+#include "krr_core/plog/budget.h"
 
 namespace krr {
 namespace plog {
@@ -116,8 +117,11 @@ struct GroundProgram {
 /// a world, which act as evidence, with their ancestors).
 /// @throws krr::Error for programs outside the native fast path (rules defining random
 /// attributes, negative cycles among static attributes), UnknownSymbolError for variables
-/// whose sort cannot be determined, IncoherentError for static attributes with two values.
-GroundProgram groundProgram(const Program& program, const std::set<std::string>& cone_attributes);
+/// whose sort cannot be determined, IncoherentError for static attributes with two values,
+/// ParseError for integer overflow in a term, BudgetExceededError when `limits` are exhausted.
+/// Atoms are ground only within the declared sorts of their attributes.
+GroundProgram groundProgram(const Program& program, const std::set<std::string>& cone_attributes,
+                            const GroundingLimits& limits = GroundingLimits());
 
 /// @brief All attributes the named ones depend on (the relevance cone), names included.
 std::set<std::string> relevanceCone(const Program& program, const std::set<std::string>& names);
@@ -155,7 +159,8 @@ class IncrementalGrounder {
    * The program must outlive this object (apply() receives it again after changes).
    */
   IncrementalGrounder(const Program& program, const std::set<std::string>& cone_attributes,
-                      const std::vector<std::uint64_t>* pr_ids = nullptr);
+                      const std::vector<std::uint64_t>* pr_ids = nullptr,
+                      const GroundingLimits& limits = GroundingLimits());
   ~IncrementalGrounder();
   IncrementalGrounder(const IncrementalGrounder&) = delete;
   IncrementalGrounder& operator=(const IncrementalGrounder&) = delete;

@@ -19,9 +19,11 @@
 #include <set>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include "krr_core/plog/ast.h"
+#include "krr_core/plog/budget.h"
 
 namespace krr {
 namespace plog {
@@ -133,6 +135,11 @@ class Reasoner {
   /// @brief The program in the classic dialect; parses back to an equivalent program.
   std::string exportProgram() const;
 
+  /// @brief Budgets of every later grounding and inference (see GroundingLimits); exhausting
+  /// one throws BudgetExceededError naming the statement, and the reasoner stays usable.
+  void setLimits(const GroundingLimits& limits) { limits_ = limits; }
+  const GroundingLimits& limits() const { return limits_; }
+
   const Program& program() const { return program_; }
   const ReasonerStats& stats() const { return stats_; }
 
@@ -161,6 +168,11 @@ class Reasoner {
   void trimLog();
   /// @brief The declarations (sorts, attributes, #domain) only: what parsing a query needs.
   const Program& declarations();
+  /// @brief Refuse queries without meaning: contradictory do()s, and constants that nothing in
+  /// the program mentions in untyped argument positions (UnknownSymbolError "unknown value").
+  void checkQuery(const Query& q);
+  /// @brief Every symbol of the sorts and statements (cached per program version).
+  const std::unordered_set<std::string>& knownSymbols();
 
   Program program_;
   // Statement bookkeeping, parallel to program_.rules / program_.pr_atoms.
@@ -188,6 +200,10 @@ class Reasoner {
   Program decls_;
   std::uint64_t decls_version_ = 0;
   ReasonerStats stats_;
+  GroundingLimits limits_;
+  std::unordered_set<std::string> known_symbols_;
+  std::pair<std::uint64_t, std::uint64_t> known_version_{0, 0};
+  bool known_symbols_valid_ = false;
 };
 
 }  // namespace plog

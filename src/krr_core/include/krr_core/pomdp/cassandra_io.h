@@ -11,9 +11,14 @@
  * to expected rewards R(s, a) = sum_s' T(s,a,s') sum_o O(s',a,o) R(a,s,s',o). Later entries
  * override earlier ones, as in the reference parser. Every error is a krr::ParseError with
  * file:line:col of the offending token.
+ *
+ * The model is dense, so a few bytes ("states: 50000") can ask for tens of GiB. The reader
+ * checks every declared size against a memory budget before it allocates anything, and can
+ * stop after a time budget, so a hostile file is a ParseError, never bad_alloc or a hang.
  */
 #pragma once
 
+#include <cstddef>
 #include <string>
 
 #include "krr_core/pomdp/model.h"
@@ -21,10 +26,33 @@
 namespace krr {
 namespace pomdp {
 
-/// @brief Parse .pomdp text; file is used in error positions. @throws ParseError.
-Model readCassandra(const std::string& text, const std::string& file = "<string>");
-/// @brief Read a .pomdp file. @throws IoError, ParseError.
-Model loadCassandra(const std::string& path);
+/// @brief Resource budgets of the reader.
+struct CassandraLimits {
+  /// Bytes the parse and the resulting Model may use; 0: krr::memoryBudget() (1 GiB unless
+  /// $KRR_MEMORY_BUDGET_MIB says otherwise).
+  std::size_t memory_budget = 0;
+  /// Seconds the parse may take (checked between statements and in long loops); 0: no limit.
+  /// Model construction after the parse (O(A S^2)) is not interruptible; the size check bounds it.
+  double timeout = 0.0;
+  /// Bytes per state pair (S^2) the caller will need on top of the model, e.g. a solver's
+  /// S x S work matrices, so that a model the caller cannot use is refused at its declaration.
+  std::size_t extra_bytes_per_state_pair = 0;
+};
+
+/// @brief Upper estimate of the bytes a Model with S states, A actions and O observations
+/// needs while it is read and built: per action the dense S x S transition matrix, its
+/// transpose and its sparse successor lists (32 bytes per cell), the S x O observation
+/// matrix and its sparse rows (24 bytes per cell), plus per-(state, action) bookkeeping.
+/// Saturates at SIZE_MAX instead of wrapping.
+std::size_t estimateModelBytes(std::size_t states, std::size_t actions, std::size_t observations);
+
+/// @brief Parse .pomdp text; file is used in error positions.
+/// @throws ParseError, also when a declaration needs more than the memory budget (naming the
+/// declaration and the size) or the parse exceeds limits.timeout.
+Model readCassandra(const std::string& text, const std::string& file = "<string>",
+                    const CassandraLimits& limits = CassandraLimits());
+/// @brief Read a .pomdp file (regular files only, see readFile). @throws IoError, ParseError.
+Model loadCassandra(const std::string& path, const CassandraLimits& limits = CassandraLimits());
 /// @brief The model as .pomdp text (17 significant digits: exact round trip). Zero entries
 /// are omitted; identity transition matrices use the 'identity' keyword.
 /// @throws ConfigError if a name is not a valid .pomdp identifier ([A-Za-z][A-Za-z0-9_-]*).
