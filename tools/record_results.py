@@ -88,7 +88,9 @@ def render():
     lines.append("Recorded run (`docs/eval/`, seed %s, %s): %d of %d claims supported; the full "
                  "report with every table, figure and the reason for each unsupported claim is "
                  "[`docs/eval/report.md`](docs/eval/report.md) (your own run writes the same "
-                 "`report.md` in its `--out` folder). Evaluation time %.0f s wall (%s)."
+                 "`report.md` in its `--out` folder). Evaluation time %.0f s wall (%s; the trials "
+                 "of every experiment are queued at the start, so one experiment's time is the "
+                 "wait for its last chunks plus its analysis)."
                  % (params.get("seed"),
                     "default trial counts" if params.get("trials_scale", 1) == 1
                     and not params.get("quick") else "reduced trial counts",

@@ -51,7 +51,7 @@ class RecordResultsTest(unittest.TestCase):
     def test_block_carries_the_recorded_numbers(self):
         text = record_results.render()
         self.assertIn("seed 3, default trial counts): 2 of 3 claims supported", text)
-        self.assertIn("Evaluation time 44 s wall (exp2 35 s, exp5 9 s)", text)
+        self.assertIn("Evaluation time 44 s wall (exp2 35 s, exp5 9 s; ", text)
         self.assertIn("| exp2 | 1 / 2 |", text)
         self.assertIn("fulfilment flat \\| across br: no", text)  # a table cell stays one cell
         self.assertIn("| 0.7 | 0.015 | [12.50, 40.25] (27.75) | 0.67 % |", text)

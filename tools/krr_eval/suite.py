@@ -224,7 +224,8 @@ def main(argv=None, stdout=sys.stdout, stderr=sys.stderr):
         # Every experiment's trials go to the workers now, in order, so no worker idles while
         # one experiment's last chunks run and its tables are computed.
         try:
-            runner.prefetch(experiments.trial_sets(ctx, only))
+            for key in only:  # one call per experiment: each is split as run() would split it
+                runner.prefetch(experiments.trial_sets(ctx, [key]))
         except (OSError, ValueError) as e:  # e.g. a CLI is missing: each experiment reports it
             say("prefetch skipped: %s" % e)
         for key in only:
