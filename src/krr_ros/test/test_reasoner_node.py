@@ -148,6 +148,17 @@ class TestReasonerNode(unittest.TestCase):
         after = open(path).read() if os.path.exists(path) else None
         self.assertEqual(before, after)
 
+    def own_reasoner_params(self, name, **overrides):
+        """The launched reasoner's parameters with its own, fresh learned files under `name`."""
+        params = rospy.get_param('/reasoner')
+        d = os.path.join(self.learned_dir, name)
+        shutil.rmtree(d, ignore_errors=True)
+        os.makedirs(d)
+        params['learned_file'] = os.path.join(d, 'nav.plog')
+        params['domain_learned_file'] = os.path.join(d, 'domain.plog')
+        params.update(overrides)
+        return params
+
     def answers(self, r=None):
         """What the node answers on both knowledge bases (to compare states)."""
         r = r or self.r
@@ -217,12 +228,7 @@ class TestReasonerNode(unittest.TestCase):
     def test_a_runaway_rule_is_refused_within_the_budget(self):
         # q has no sort to stop its recursion: only the grounding budget ends it.
         import time
-        params = rospy.get_param('/reasoner')
-        d = os.path.join(self.learned_dir, 'budget')
-        shutil.rmtree(d, ignore_errors=True)
-        params['learned_file'] = os.path.join(d, 'nav.plog')
-        params['domain_learned_file'] = os.path.join(d, 'domain.plog')
-        params['query_seconds'] = 1.0
+        params = self.own_reasoner_params('budget', query_seconds=1.0)
         node = SpawnedNode('reasoner_node', 'reasoner_budget', params).start()
         try:
             r = Reasoner('/reasoner_budget')
@@ -244,12 +250,9 @@ class TestReasonerNode(unittest.TestCase):
             node.clear_params()
 
     def test_start_up_recovers_and_never_refuses_what_it_wrote(self):
-        params = rospy.get_param('/reasoner')
-        d = os.path.join(self.learned_dir, 'startup')
-        shutil.rmtree(d, ignore_errors=True)
-        os.makedirs(d)
-        nav, dom = os.path.join(d, 'nav.plog'), os.path.join(d, 'domain.plog')
-        params['learned_file'], params['domain_learned_file'] = nav, dom
+        params = self.own_reasoner_params('startup')
+        nav, dom = params['learned_file'], params['domain_learned_file']
+        d = os.path.dirname(nav)
         # An update a kill interrupted after its commit point: the journal holds both files.
         nav_text = ('pr(next_cell=212 | curr_cell=182, act_move=up, curr_time=morning) = 7/10.\n'
                     'pr(next_cell=182 | curr_cell=182, act_move=up, curr_time=morning) = 3/10.\n'
@@ -302,11 +305,7 @@ class TestReasonerNode(unittest.TestCase):
         # or the one in flight.
         import random
         import threading
-        params = rospy.get_param('/reasoner')
-        d = os.path.join(self.learned_dir, 'kills')
-        shutil.rmtree(d, ignore_errors=True)
-        params['learned_file'] = os.path.join(d, 'nav.plog')
-        params['domain_learned_file'] = os.path.join(d, 'domain.plog')
+        params = self.own_reasoner_params('kills')
         dom = params['domain_learned_file']
         node = SpawnedNode('reasoner_node', 'reasoner_kills', params).start()
         rng = random.Random(7)
@@ -342,11 +341,7 @@ class TestReasonerNode(unittest.TestCase):
 
     def test_knowledge_survives_a_crash_and_restart(self):
         # A second reasoner with its own files, killed with SIGKILL (no clean shutdown).
-        params = rospy.get_param('/reasoner')
-        d = os.path.join(self.learned_dir, 'restart')
-        shutil.rmtree(d, ignore_errors=True)
-        params['learned_file'] = os.path.join(d, 'nav.plog')
-        params['domain_learned_file'] = os.path.join(d, 'domain.plog')
+        params = self.own_reasoner_params('restart')
         node = SpawnedNode('reasoner_node', 'reasoner_restart', params).start()
         try:
             r = Reasoner('/reasoner_restart')
