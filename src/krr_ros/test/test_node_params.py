@@ -92,6 +92,25 @@ class TestNodeParams(unittest.TestCase):
                 self.assertIn(os.path.join(ROOT, 'config', node + '.yaml'), out.stdout)
                 self.assertIn(param, out.stdout)
 
+    def test_sim_launch_passes_kb_config_to_every_node(self):
+        import subprocess
+        tmp = rospy.get_param('~tmp_dir')
+        os.makedirs(tmp, exist_ok=True)
+        alt = os.path.join(tmp, 'kb_alt.yaml')
+        with open(os.path.join(ROOT, 'config', 'navigation_kb.yaml')) as f:
+            kb = yaml.safe_load(f)
+        kb['domain'] = 'office_50x50'
+        with open(alt, 'w') as f:
+            yaml.safe_dump(kb, f)
+        out = subprocess.run(['roslaunch', '--dump-params', os.path.join(ROOT, 'launch', 'sim.launch'),
+                              'kb_config:=' + alt, 'user:=true'],
+                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                             universal_newlines=True, timeout=60)
+        self.assertEqual(out.returncode, 0, out.stdout)
+        params = yaml.safe_load(out.stdout)
+        for node in ('reasoner', 'navigation', 'learner', 'dialog'):
+            self.assertEqual(params.get('/%s/domain' % node), 'office_50x50', node)
+
 
 if __name__ == '__main__':
     rostest.rosrun('krr_ros', 'node_params', TestNodeParams)
