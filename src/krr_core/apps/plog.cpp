@@ -1,11 +1,13 @@
 /**
  * @file plog.cpp
- * @brief `plog FILE... [--query "..."]... [--json] [--backend native|asp] [--dialect d]
+ * @brief `plog FILE... [--query "..."]... [--json] [--backend auto|native|asp] [--dialect d]
  * [--clingo PATH]`: answer the queries contained in P-log files and given on the command
- * line, one line per query, with the native exact engine (default) or through clingo.
+ * line, one line per query. The default back end `auto` uses the native exact engine where
+ * the program is inside its fragment and clingo otherwise; `native` refuses programs outside
+ * the fragment, `asp` answers everything through clingo.
  *
  * Output: `QUERY : PROBABILITY` per query, or with --json one object per line
- * {"query": ..., "probability": ..., "backend": ...}. The files form one program (later files
+ * {"query": ..., "probability": ..., "backend": ...} (the back end that answered). The files form one program (later files
  * add statements to the first); their queries are answered first, in order, then the
  * --query ones.
  *
@@ -32,10 +34,13 @@ namespace {
 
 void usage(std::ostream& os) {
   os << "usage: plog FILE... [--query \"?{a=y} | obs(..), do(..)\"]... [--json]\n"
-        "            [--backend native|asp] [--dialect classic|plog2] [--clingo PATH]\n"
+        "            [--backend auto|native|asp] [--dialect classic|plog2] [--clingo PATH]\n"
         "  Answers the queries in the files and on the command line, one line per query.\n"
-        "  --backend asp translates the program to ASP and enumerates its possible worlds\n"
-        "  with clingo (also programs outside the native engine, e.g. even loops).\n";
+        "  --backend auto (default): the native exact engine where the program is inside its\n"
+        "    fragment (stratified negation, no loops through `not`, no rule defining a random\n"
+        "    attribute, factors within limits), clingo otherwise.\n"
+        "  --backend native: the native engine only; programs outside it are refused.\n"
+        "  --backend asp: translate to ASP and enumerate the possible worlds with clingo.\n";
 }
 
 std::string fmt(double p) {
@@ -60,7 +65,8 @@ struct Job {
 /// @brief The program; main() runs it under guardedMain so that no exception aborts it.
 static int mainBody(int argc, char** argv) {
   std::vector<std::string> files, cli_queries;
-  bool json = false, asp = false;
+  bool json = false;
+  krr::plog::Backend backend = krr::plog::Backend::Auto;
   std::string clingo = "clingo";
   krr::plog::Dialect dialect = krr::plog::Dialect::Auto;
   for (int i = 1; i < argc; ++i) {
@@ -78,11 +84,11 @@ static int mainBody(int argc, char** argv) {
     } else if (a == "--query" || a == "-q") {
       cli_queries.push_back(value("a query"));
     } else if (a == "--backend") {
-      const std::string b = value("native or asp");
-      if (b == "native") asp = false;
-      else if (b == "asp") asp = true;
-      else {
-        std::cerr << "plog: unknown backend '" << b << "' (expected native or asp)\n";
+      const std::string b = value("auto, native or asp");
+      try {
+        backend = krr::plog::parseBackend(b);
+      } catch (const krr::ConfigError& e) {
+        std::cerr << "plog: " << e.what() << "\n";
         return 2;
       }
     } else if (a == "--clingo") {
@@ -128,35 +134,39 @@ static int mainBody(int argc, char** argv) {
         rc = 1;
       }
     }
-    auto print = [&](const std::string& q, double p) {
+    const bool asp = backend == krr::plog::Backend::Asp;
+    krr::plog::AspOptions opt;
+    opt.clingo_path = clingo;
+    r.setAspOptions(opt);
+    r.setBackend(backend);
+    auto print = [&](const std::string& q, double p, krr::plog::Backend answered) {
       if (json)
         std::cout << "{\"query\": " << krr::jsonString(q)
-                  << ", \"probability\": " << krr::jsonNumber(p)
-                  << ", \"backend\": " << (asp ? "\"asp\"" : "\"native\"") << "}\n";
+                  << ", \"probability\": " << krr::jsonNumber(p) << ", \"backend\": \""
+                  << krr::plog::backendName(answered) << "\"}\n";
       else
         std::cout << q << " : " << fmt(p) << "\n";
     };
     if (asp) {
       // One clingo process answers every query (a multi-shot run per intervention set).
-      krr::plog::AspOptions opt;
-      opt.clingo_path = clingo;
-      krr::plog::AspBackend backend(opt);
+      krr::plog::AspBackend asp_backend(opt);
       std::vector<krr::plog::Query> queries;
       for (const auto& j : jobs) queries.push_back(j.query);
       std::vector<std::string> errors;
-      const std::vector<double> p = backend.probabilities(r.program(), queries, &errors);
+      const std::vector<double> p = asp_backend.probabilities(r.program(), queries, &errors);
       for (size_t i = 0; i < jobs.size(); ++i) {
         if (!errors[i].empty() || std::isnan(p[i])) {
           std::cerr << located(jobs[i].query.loc, errors[i]) << "\n";
           rc = 1;
         } else {
-          print(jobs[i].text, p[i]);
+          print(jobs[i].text, p[i], krr::plog::Backend::Asp);
         }
       }
     } else {
       for (const auto& j : jobs) {
         try {
-          print(j.text, r.probability(j.query));
+          const double p = r.probability(j.query);
+          print(j.text, p, r.stats().last_backend);
         } catch (const krr::Error& e) {
           std::cerr << located(j.query.loc, e.what()) << "\n";
           rc = 1;

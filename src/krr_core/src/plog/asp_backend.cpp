@@ -269,6 +269,7 @@ std::string translateBase(const Program& program) {
 
   out << "% rules\n";
   for (const auto& r : program.rules) {
+    out << kAspSourceMarker << where(r.loc) << "\n";
     BodyBuilder b(program, r.variable_sorts, fresh);
     std::string head;
     if (r.head) {
@@ -298,6 +299,7 @@ std::string translateBase(const Program& program) {
   out << "% random selections: sel(rule, attribute term), poss(rule, attribute term, value)\n";
   for (std::size_t i = 0; i < program.random_rules.size(); ++i) {
     const RandomRule& r = program.random_rules[i];
+    out << kAspSourceMarker << where(r.loc) << "\n";
     const AttributeDecl& decl = attributeOf(program, r.attr);
     const std::string a = aspAttr(r.attr), idx = std::to_string(i);
     {
@@ -334,6 +336,7 @@ std::string translateBase(const Program& program) {
   out << "% pr-atoms: pra(pr-atom, attribute term, value) when it applies\n";
   for (std::size_t j = 0; j < program.pr_atoms.size(); ++j) {
     const PrAtom& p = program.pr_atoms[j];
+    out << kAspSourceMarker << where(p.loc) << "\n";
     attributeOf(program, p.atom.attr);
     const std::string a = aspAttr(p.atom.attr), y = aspTerm(p.atom.value);
     std::vector<std::string> rules;
@@ -357,14 +360,17 @@ std::string translateBase(const Program& program) {
 
   out << "% interventions and observations of the program\n";
   for (const auto& d : program.interventions) {
+    out << kAspSourceMarker << where(d.loc) << "\n";
     out << aspVal(d.atom) << ". intervene(" << aspAttr(d.atom.attr) << ").\n";
   }
   for (std::size_t k = 0; k < program.observations.size(); ++k) {
     const Observation& o = program.observations[k];
+    out << kAspSourceMarker << where(o.loc) << "\n";
     out << ruleText("pobs(" + std::to_string(k) + ")",
                     groundLiteralBody(program, o.literal, fresh));
     out << ":- " << (o.truth ? "not " : "") << "pobs(" << k << ").\n";
   }
+  out << kAspSourceMarker << "<translation>\n";
   out << "#defined intervene/1. #defined pobs/1. #defined pra/3. #defined val/2.\n";
   out << "#defined sel/2. #defined poss/3.\n";
   return out.str();

@@ -22,6 +22,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -139,6 +140,51 @@ AspAtom parseAspAtom(const std::string& text) {
   return atom;
 }
 
+std::string pLogLocations(const std::string& message, const std::string& lp_path,
+                          const std::string& asp_program) {
+  // The P-log statement of every line of the translation: the last marker above it.
+  std::vector<std::string> source{""};
+  {
+    std::istringstream lines(asp_program);
+    std::string line, current = "<translation>";
+    const std::string marker = kAspSourceMarker;
+    while (std::getline(lines, line)) {
+      if (line.compare(0, marker.size(), marker) == 0) current = line.substr(marker.size());
+      source.push_back(current);
+    }
+  }
+  std::string out;
+  const std::string prefix = lp_path + ":";
+  std::size_t pos = 0;
+  for (;;) {
+    const std::size_t at = message.find(prefix, pos);
+    if (at == std::string::npos) {
+      out += message.substr(pos);
+      return out;
+    }
+    out += message.substr(pos, at - pos);
+    // lp:LINE:COL[-COL|-LINE:COL]: -> the P-log location and the ASP line
+    std::size_t k = at + prefix.size();
+    std::size_t line = 0;
+    const std::size_t digits = k;
+    while (k < message.size() && std::isdigit(static_cast<unsigned char>(message[k])) &&
+           line < 100000000)
+      line = line * 10 + static_cast<std::size_t>(message[k++] - '0');
+    if (k == digits) {
+      out += "the ASP translation:";
+      pos = at + prefix.size();
+      continue;
+    }
+    while (k < message.size() && (std::isdigit(static_cast<unsigned char>(message[k])) ||
+                                  message[k] == ':' || message[k] == '-') &&
+           !(message[k] == ':' && k + 1 < message.size() && message[k + 1] == ' '))
+      ++k;
+    const std::string statement = line < source.size() ? source[line] : "<translation>";
+    out += statement + ": (line " + std::to_string(line) + " of its ASP translation)";
+    pos = k;
+  }
+}
+
 ClingoResult runClingo(const std::string& program, const AspOptions& options,
                        const std::vector<std::string>& extra_args) {
   if (!(options.timeout_s > 0.0) || !std::isfinite(options.timeout_s)) {
@@ -150,6 +196,10 @@ ClingoResult runClingo(const std::string& program, const AspOptions& options,
   const std::string lp = dir.path() + "/program.lp";
   const std::string out_path = dir.path() + "/stdout.txt";
   const std::string err_path = dir.path() + "/stderr.txt";
+  // Messages name the P-log program, not a temporary file that is gone after the call.
+  const std::string subject = options.keep_files
+                                  ? "the ASP translation (kept in " + lp + ")"
+                                  : "the ASP translation of the program";
   {
     std::ofstream f(lp, std::ios::binary);
     f << program;
@@ -176,7 +226,7 @@ ClingoResult runClingo(const std::string& program, const AspOptions& options,
                         environ);
   posix_spawn_file_actions_destroy(&actions);
   if (rc != 0) {
-    throw Error("AspBackend: cannot start clingo '" + options.clingo_path + "' on " + lp +
+    throw Error("AspBackend: cannot start clingo '" + options.clingo_path + "' on " + subject +
                 ": " + std::strerror(rc) +
                 " (install clingo >= 5.4 or set AspOptions.clingo_path)");
   }
@@ -188,7 +238,7 @@ ClingoResult runClingo(const std::string& program, const AspOptions& options,
     int st = 0;
     while (waitpid(pid, &st, 0) < 0 && errno == EINTR) {
     }
-    throw Error("AspBackend: clingo on " + lp + " exceeded the time limit of " +
+    throw Error("AspBackend: clingo on " + subject + " exceeded the time limit of " +
                 std::to_string(options.timeout_s) + " s and was killed");
   };
   int status = 0;
@@ -214,14 +264,14 @@ ClingoResult runClingo(const std::string& program, const AspOptions& options,
       if (r > 0) break;
       if (r < 0 && errno != EINTR) {
         close(pidfd);
-        throw Error("AspBackend: waiting for clingo on " + lp + " failed: " +
+        throw Error("AspBackend: waiting for clingo on " + subject + " failed: " +
                     std::strerror(errno));
       }
     }
     close(pidfd);
     while (waitpid(pid, &status, 0) < 0) {
       if (errno != EINTR) {
-        throw Error("AspBackend: waiting for clingo on " + lp + " failed: " +
+        throw Error("AspBackend: waiting for clingo on " + subject + " failed: " +
                     std::strerror(errno));
       }
     }
@@ -231,7 +281,7 @@ ClingoResult runClingo(const std::string& program, const AspOptions& options,
       pid_t w = waitpid(pid, &status, WNOHANG);
       if (w == pid) break;
       if (w < 0 && errno != EINTR) {
-        throw Error("AspBackend: waiting for clingo on " + lp + " failed: " +
+        throw Error("AspBackend: waiting for clingo on " + subject + " failed: " +
                     std::strerror(errno));
       }
       if (std::chrono::steady_clock::now() - start > limit) timedOut();
@@ -243,7 +293,7 @@ ClingoResult runClingo(const std::string& program, const AspOptions& options,
   std::error_code size_error;
   const auto out_size = std::filesystem::file_size(out_path, size_error);
   if (!size_error && out_size > options.max_output_bytes) {
-    throw Error("AspBackend: clingo's output on " + lp + " has " + std::to_string(out_size) +
+    throw Error("AspBackend: clingo's output on " + subject + " has " + std::to_string(out_size) +
                 " bytes, more than AspOptions.max_output_bytes = " +
                 std::to_string(options.max_output_bytes) +
                 " (too many possible worlds to enumerate; use the native engine)");
@@ -251,7 +301,7 @@ ClingoResult runClingo(const std::string& program, const AspOptions& options,
   const std::string out = readWhole(out_path);
   const std::string err = readWhole(err_path);
   if (WIFSIGNALED(status)) {
-    throw Error("AspBackend: clingo on " + lp + " was killed by signal " +
+    throw Error("AspBackend: clingo on " + subject + " was killed by signal " +
                 std::to_string(WTERMSIG(status)) + ": " + trimmed(err));
   }
   const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -259,10 +309,14 @@ ClingoResult runClingo(const std::string& program, const AspOptions& options,
   // 33 out of memory, 65 error, 128 no run. posix_spawnp reports exec failures of a found but
   // unrunnable file through exit code 127.
   if (code == 127 || code >= 33 || (code & 1) != 0 || (code & 20) != 20) {
-    std::string why = trimmed(err);
+    std::string why = pLogLocations(trimmed(err), lp, program);
     if (why.empty()) why = trimmed(out);
-    throw Error("AspBackend: clingo '" + options.clingo_path + "' failed on " + lp +
-                " (exit code " + std::to_string(code) + "; AspOptions.keep_files keeps the file): " +
+    if (why.find("unsafe variables") != std::string::npos)
+      why = "a variable of the statement is bound by no sorted argument or positive literal, "
+            "so clingo cannot ground it (declare the sorts of the attribute's arguments); "
+            "clingo says: " + why;
+    throw Error("AspBackend: clingo '" + options.clingo_path + "' rejected " + subject +
+                " (exit code " + std::to_string(code) + "): " +
                 (why.empty() ? std::string("no message") : why));
   }
 
@@ -278,12 +332,12 @@ ClingoResult runClingo(const std::string& program, const AspOptions& options,
       break;
     }
     if (line == "UNKNOWN") {
-      throw Error("AspBackend: clingo did not finish the search on " + lp);
+      throw Error("AspBackend: clingo did not finish the search on " + subject);
     }
     result.models.push_back(splitAspTerms(line, ' '));
   }
   if (!status_seen) {
-    throw Error("AspBackend: unexpected clingo output on " + lp + " (no result line): " +
+    throw Error("AspBackend: unexpected clingo output on " + subject + " (no result line): " +
                 trimmed(out));
   }
   // No model lines precede an UNSATISFIABLE; with a multi-shot script the result line is that

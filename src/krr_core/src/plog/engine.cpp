@@ -37,7 +37,19 @@ ExactEngine::ExactEngine(const GroundProgram& g) : g_(g) {
   buildAtomSccs();
   for (size_t i = 0; i < n; ++i) {
     const GInstance& gi = g.instances[i];
-    if (gi.random) continue;
+    if (gi.random) {
+      // Only ranges that may be empty matter: one with an unconditional value (a static
+      // fact such as nbr(C, C)) is never empty.
+      bool may_be_empty = false;
+      for (const auto& sel : gi.selections) {
+        if (!sel.dynamic_range) continue;
+        bool always = false;
+        for (const auto& r : sel.range) always = always || r.second.empty();
+        may_be_empty = may_be_empty || !always;
+      }
+      if (may_be_empty) dynamic_range_.push_back(static_cast<int>(i));
+      continue;
+    }
     for (const auto& r : gi.rules)
       if (r.first != gi.rules[0].first) {
         conflict_derived_.push_back(static_cast<int>(i));
@@ -142,7 +154,7 @@ bool ExactEngine::atomHolds(int inst, int value) {
   size_t k = static_cast<size_t>(atom_offset_[static_cast<size_t>(inst)] + value);
   if (atom_stamp_[k] == stamp_) {
     if (atom_state_[k] == 2)
-      throw Error("atom " + gi.name + "=" + g_.symbols->text(gi.domain[static_cast<size_t>(value)]) +
+      throw OutsideFragmentError("atom " + gi.name + "=" + g_.symbols->text(gi.domain[static_cast<size_t>(value)]) +
                   " depends on itself (cyclic rules); this is outside the native reasoner's "
                   "fast path (use the ASP back end)");
     return atom_state_[k] == 1;
@@ -180,7 +192,7 @@ void ExactEngine::evaluateScc(int c) {
   if (scc_negative_[static_cast<size_t>(c)]) {
     int a = atoms[0];
     const GInstance& gi = g_.instances[static_cast<size_t>(atom_inst_[static_cast<size_t>(a)])];
-    throw Error("atom " + gi.name + "=" +
+    throw OutsideFragmentError("atom " + gi.name + "=" +
                 g_.symbols->text(gi.domain[static_cast<size_t>(a - atom_offset_[static_cast<size_t>(
                                                                      atom_inst_[static_cast<size_t>(a)])])]) +
                 " depends on itself through negation (non-stratified, cyclic rules); this is "
@@ -298,6 +310,11 @@ void ExactEngine::buildAtomSccs() {
       }
     }
   }
+  // A loop through `not` anywhere in the grounding (every attribute on such a loop is in the
+  // cone, see relevanceCone) removes or splits possible worlds whether or not the query reads
+  // it: refuse the program as outside the fragment before answering anything.
+  for (size_t c = 0; c < scc_negative_.size(); ++c)
+    if (scc_negative_[c]) evaluateScc(static_cast<int>(c));
 }
 
 bool ExactEngine::holds(const GLit& l) {
@@ -535,7 +552,7 @@ void ExactEngine::buildCpt(int inst, Factor& f) {
   std::sort(parents.begin(), parents.end());
   parents.erase(std::unique(parents.begin(), parents.end()), parents.end());
   if (std::binary_search(parents.begin(), parents.end(), inst))
-    throw Error("random attribute " + gi.name + " depends on itself (cyclic pr-atom or selection "
+    throw OutsideFragmentError("random attribute " + gi.name + " depends on itself (cyclic pr-atom or selection "
                 "rule); this is outside the native reasoner's fast path (use the ASP back end)");
   const int D = static_cast<int>(gi.domain.size());
   const std::vector<int>& xs = states_[static_cast<size_t>(inst)];
@@ -548,7 +565,7 @@ void ExactEngine::buildCpt(int inst, Factor& f) {
     f.card.push_back(card(p));
     total *= static_cast<size_t>(card(p));
     if (total > kMaxFactor)
-      throw Error("factor for " + gi.name + " is too large (" + std::to_string(parents.size()) +
+      throw OutsideFragmentError("factor for " + gi.name + " is too large (" + std::to_string(parents.size()) +
                   " parents); this is outside the native reasoner's fast path");
   }
   f.t.assign(total, 0.0);
@@ -686,7 +703,7 @@ void ExactEngine::buildIndicator(const std::vector<GCondition>& conds, bool cons
     f.card.push_back(card(v));
     total *= static_cast<size_t>(card(v));
     if (total > kMaxFactor)
-      throw Error("condition spans too many random attributes for the native reasoner");
+      throw OutsideFragmentError("condition spans too many random attributes for the native reasoner");
   }
   f.t.assign(total, 0.0);
   std::vector<int> cur(scope.size(), 0);
@@ -732,7 +749,7 @@ ExactEngine::Factor ExactEngine::multiply(const Factor& a, const Factor& b) {
   for (int c : r.card) {
     total *= static_cast<size_t>(c);
     if (total > kMaxFactor)
-      throw Error("intermediate factor too large for the native reasoner (treewidth too high)");
+      throw OutsideFragmentError("intermediate factor too large for the native reasoner (treewidth too high)");
   }
   // strides of r's vars in a and b
   std::vector<size_t> sa(r.vars.size(), 0), sb(r.vars.size(), 0);
@@ -897,6 +914,12 @@ void ExactEngine::buildFactors(const std::vector<const std::vector<GCondition>*>
     }
   };
   drain();
+  // A selection over a dynamic range has no possible world where the range is empty, so it
+  // conditions every query like a constraint (checkPendingErrors reports it when such a world
+  // has positive measure).
+  for (int x : dynamic_range_)
+    if (fixed_[static_cast<size_t>(x)] < 0) addScope({x});
+  drain();
   // Constraints (and derived instances that may get two values, which make a world
   // inconsistent) act as evidence. They are all included: one independent of the query scales
   // both measures by the same constant (its ratio is unchanged), but when it can never be
@@ -956,7 +979,7 @@ void ExactEngine::buildFactors(const std::vector<const std::vector<GCondition>*>
     for (int v : scope) {
       f.card.push_back(card(v));
       total *= static_cast<size_t>(card(v));
-      if (total > kMaxFactor) throw Error("derived attribute " + gi.name + " has too many causes");
+      if (total > kMaxFactor) throw OutsideFragmentError("derived attribute " + gi.name + " has too many causes");
     }
     f.t.assign(total, 0.0);
     std::vector<int> cur(scope.size(), 0);

@@ -71,6 +71,89 @@ void attrsOfBody(const std::vector<Literal>& b, std::set<std::string>& out) {
     if (l.kind == Literal::Kind::Atom) out.insert(l.atom.attr.name);
 }
 
+/// @brief Attributes on a cycle through default negation (attribute-level strongly connected
+/// components of the rule dependency graph that contain a `not` edge) and attributes chosen
+/// by a random selection with a dynamic range.
+std::set<std::string> worldChangingAttributes(const Program& p) {
+  std::map<std::string, int> id;
+  auto idOf = [&](const std::string& a) { return id.emplace(a, static_cast<int>(id.size())).first->second; };
+  std::vector<std::vector<std::pair<int, bool>>> edges;  // child -> (parent, through not)
+  auto addEdges = [&](const std::string& head, const std::vector<Literal>& body) {
+    const int h = idOf(head);
+    for (const auto& l : body) {
+      if (l.kind != Literal::Kind::Atom) continue;
+      const int b = idOf(l.atom.attr.name);
+      if (edges.size() < id.size()) edges.resize(id.size());
+      edges[static_cast<size_t>(h)].push_back({b, l.naf});
+    }
+    if (edges.size() < id.size()) edges.resize(id.size());
+  };
+  std::set<std::string> out;
+  for (const auto& r : p.rules)
+    if (r.head) addEdges(r.head->attr.name, r.body);
+  for (const auto& r : p.random_rules) {
+    addEdges(r.attr.name, r.body);
+    addEdges(r.attr.name, r.range_body);
+    if (r.has_range) out.insert(r.attr.name);
+  }
+  const int n = static_cast<int>(id.size());
+  edges.resize(static_cast<size_t>(n));
+  std::vector<std::string> name(static_cast<size_t>(n));
+  for (const auto& kv : id) name[static_cast<size_t>(kv.second)] = kv.first;
+  // Tarjan's algorithm, iterative (programs may have long dependency chains).
+  std::vector<int> index(static_cast<size_t>(n), -1), low(static_cast<size_t>(n), 0),
+      comp(static_cast<size_t>(n), -1), stack;
+  std::vector<char> on_stack(static_cast<size_t>(n), 0);
+  int counter = 0, ncomp = 0;
+  for (int root = 0; root < n; ++root) {
+    if (index[static_cast<size_t>(root)] >= 0) continue;
+    std::vector<std::pair<int, size_t>> call{{root, 0}};
+    index[static_cast<size_t>(root)] = low[static_cast<size_t>(root)] = counter++;
+    stack.push_back(root);
+    on_stack[static_cast<size_t>(root)] = 1;
+    while (!call.empty()) {
+      const int v = call.back().first;
+      size_t& next = call.back().second;
+      const auto& ev = edges[static_cast<size_t>(v)];
+      if (next < ev.size()) {
+        const int w = ev[next++].first;
+        if (index[static_cast<size_t>(w)] < 0) {
+          index[static_cast<size_t>(w)] = low[static_cast<size_t>(w)] = counter++;
+          stack.push_back(w);
+          on_stack[static_cast<size_t>(w)] = 1;
+          call.push_back({w, 0});
+        } else if (on_stack[static_cast<size_t>(w)]) {
+          low[static_cast<size_t>(v)] = std::min(low[static_cast<size_t>(v)], index[static_cast<size_t>(w)]);
+        }
+        continue;
+      }
+      if (low[static_cast<size_t>(v)] == index[static_cast<size_t>(v)]) {
+        int w;
+        do {
+          w = stack.back();
+          stack.pop_back();
+          on_stack[static_cast<size_t>(w)] = 0;
+          comp[static_cast<size_t>(w)] = ncomp;
+        } while (w != v);
+        ++ncomp;
+      }
+      call.pop_back();
+      if (!call.empty()) {
+        const int u = call.back().first;
+        low[static_cast<size_t>(u)] = std::min(low[static_cast<size_t>(u)], low[static_cast<size_t>(v)]);
+      }
+    }
+  }
+  std::vector<char> negative(static_cast<size_t>(ncomp), 0);
+  for (int v = 0; v < n; ++v)
+    for (const auto& e : edges[static_cast<size_t>(v)])
+      if (e.second && comp[static_cast<size_t>(e.first)] == comp[static_cast<size_t>(v)])
+        negative[static_cast<size_t>(comp[static_cast<size_t>(v)])] = 1;
+  for (int v = 0; v < n; ++v)
+    if (negative[static_cast<size_t>(comp[static_cast<size_t>(v)])]) out.insert(name[static_cast<size_t>(v)]);
+  return out;
+}
+
 struct Deps {
   std::map<std::string, std::set<std::string>> parents;  // attr -> attrs it depends on
 };
@@ -266,7 +349,7 @@ class Grounder {
     }
     for (const auto& r : prog_.rules)
       if (r.head && g_.attr_random[attrId(r.head->attr.name, r.loc)])
-        throw Error(r.loc.str() + ": rule defining random attribute '" + r.head->attr.name +
+        throw OutsideFragmentError(r.loc.str() + ": rule defining random attribute '" + r.head->attr.name +
                     "' is outside the native reasoner's fast path (use the ASP back end)");
     for (const auto& n : cone_names) {
       auto it = attr_index_.find(n);
@@ -892,7 +975,7 @@ class Grounder {
       for (int a : c)
         for (auto& e : edges[a])
           if (e.second && !g_.attr_dynamic[e.first] && comp[e.first] == comp[a])
-            throw Error(prog_.attributes[a].loc.str() + ": attribute '" +
+            throw OutsideFragmentError(prog_.attributes[a].loc.str() + ": attribute '" +
                         prog_.attributes[a].name +
                         "' depends on itself through negation (non-stratified); this is "
                         "outside the native reasoner's fast path (use the ASP back end)");
@@ -1328,6 +1411,15 @@ std::set<std::string> relevanceCone(const Program& program, const std::set<std::
         if (!cone.count(p)) work.push_back(p);
     }
   };
+  close();
+  // Rules outside the query's dependencies can still change the set of possible worlds: a
+  // loop through default negation (odd: `e :- not e.` removes worlds; even: `b :- not c.
+  // c :- not b.` splits one into several) and a random selection over a dynamic range (a
+  // world where the range is empty has no answer set). Their attributes join every cone, so
+  // the native engine either handles them exactly (locally stratified ground rules, ranges
+  // that are never empty) or refuses the program as outside its fragment.
+  for (const auto& a : worldChangingAttributes(program))
+    if (!cone.count(a)) work.push_back(a);
   close();
   // Constraints, and derived attributes that may get two values in a world (an inconsistency),
   // act as evidence: a world violating them is not a possible world. Even when independent of

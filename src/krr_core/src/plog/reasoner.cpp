@@ -9,6 +9,7 @@
 
 #include "krr_core/common/files.h"
 #include "krr_core/common/resources.h"
+#include "krr_core/plog/asp_backend.h"
 #include "krr_core/plog/engine.h"
 #include "krr_core/plog/grounder.h"
 #include "krr_core/plog/parser.h"
@@ -641,12 +642,85 @@ void Reasoner::checkQuery(const Query& q) {
   for (const auto& d : q.interventions) check(d.atom, d.loc);
 }
 
+const char* backendName(Backend backend) {
+  switch (backend) {
+    case Backend::Native: return "native";
+    case Backend::Asp: return "asp";
+    case Backend::Auto: return "auto";
+  }
+  return "?";
+}
+
+Backend parseBackend(const std::string& name) {
+  if (name == "native") return Backend::Native;
+  if (name == "asp") return Backend::Asp;
+  if (name == "auto") return Backend::Auto;
+  throw ConfigError("unknown P-log back end '" + name + "' (expected auto, native or asp)");
+}
+
+void Reasoner::setAspOptions(const AspOptions& options) {
+  asp_options_ = std::make_unique<AspOptions>(options);
+  asp_.reset();
+}
+
+AspBackend& Reasoner::asp() {
+  AspOptions o = asp_options_ ? *asp_options_ : AspOptions();
+  if (limits_.max_inference_seconds > 0)
+    o.timeout_s = std::min(o.timeout_s, limits_.max_inference_seconds);
+  if (!asp_ || asp_->options().timeout_s != o.timeout_s) asp_ = std::make_unique<AspBackend>(o);
+  return *asp_;
+}
+
+template <typename T, typename Native, typename Asp>
+T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_answer) {
+  auto viaAsp = [&]() {
+    T r = asp_answer();
+    stats_.last_backend = Backend::Asp;
+    ++stats_.asp_answers;
+    return r;
+  };
+  if (backend_ == Backend::Asp) return viaAsp();
+  const std::string key = setKey(attrs);
+  if (backend_ == Backend::Auto) {
+    auto it = outside_fragment_.find(key);
+    if (it != outside_fragment_.end() && it->second == structure_version_) return viaAsp();
+  }
+  std::string why;
+  try {
+    T r = native();
+    stats_.last_backend = Backend::Native;
+    return r;
+  } catch (const OutsideFragmentError& e) {
+    if (backend_ != Backend::Auto) throw;
+    outside_fragment_[key] = structure_version_;
+    why = e.what();
+  }
+  try {
+    return viaAsp();
+  } catch (const IncoherentError&) {
+    throw;  // an answer about the program, not a failure of the back end
+  } catch (const UnknownSymbolError&) {
+    throw;
+  } catch (const Error& e) {
+    // Neither engine could answer: say why for both (e.g. a factor too large natively, too
+    // many possible worlds for clingo within the time budget).
+    throw Error(why + "; the ASP back end could not answer either: " + e.what());
+  }
+}
+
 double Reasoner::probability(const std::string& query) {
   return probability(parseQuery(declarations(), query));
 }
 
 double Reasoner::probability(const Query& q) {
   checkQuery(q);
+  std::set<std::string> attrs;
+  collectAttrs(q, attrs);
+  return dispatch<double>(attrs, [&]() { return nativeProbability(q); },
+                          [&]() { return asp().probability(program_, q); });
+}
+
+double Reasoner::nativeProbability(const Query& q) {
   std::set<std::string> attrs;
   collectAttrs(q, attrs);
   auto g = groundFor(attrs);
@@ -677,6 +751,21 @@ std::vector<ValueProb> Reasoner::distribution(const std::string& attribute_term,
   Query ev;
   if (!evidence.empty()) ev = parseQuery(declarations(), "| " + evidence, "<evidence>");
   checkQuery(ev);
+  std::set<std::string> attrs{at.name};
+  collectAttrs(ev, attrs);
+  return dispatch<std::vector<ValueProb>>(
+      attrs, [&]() { return nativeDistribution(at, ev, evidence); },
+      [&]() {
+        std::vector<ValueProb> out;
+        for (const auto& vp : asp().distribution(program_, at, ev.observations, ev.interventions))
+          if (vp.second > 0) out.push_back({vp.first, vp.second});
+        return out;
+      });
+}
+
+std::vector<ValueProb> Reasoner::nativeDistribution(const AttributeTerm& at, const Query& ev,
+                                                    const std::string& evidence) {
+  const std::string attribute_term = toString(at);
   std::set<std::string> attrs{at.name};
   collectAttrs(ev, attrs);
   auto g = groundFor(attrs);
@@ -732,6 +821,63 @@ Table Reasoner::tableQuery(const std::string& target, const std::vector<std::str
   Query ev;
   if (!evidence.empty()) ev = parseQuery(decls, "| " + evidence, "<evidence>");
   checkQuery(ev);
+  collectAttrs(ev, attrs);
+  return dispatch<Table>(
+      attrs, [&]() { return nativeTable(tat, cats, ev, evidence, conditioning_as_do); },
+      [&]() {
+        // One clingo run per row: every combination of the conditioning ranges (first
+        // fastest), as the native table.
+        std::vector<std::vector<std::string>> ranges;
+        size_t total = 1;
+        for (const auto& c : cats) {
+          ranges.push_back(attributeRange(c.name));
+          total *= ranges.back().size();
+        }
+        std::vector<size_t> cur(cats.size(), 0);
+        for (size_t row = 0; row < total; ++row) {
+          TableRow r;
+          std::string row_evidence = evidence;
+          for (size_t k = 0; k < cats.size(); ++k) {
+            const std::string& v = ranges[k][cur[k]];
+            r.conditioning_values.push_back(v);
+            row_evidence += std::string(row_evidence.empty() ? "" : ", ") +
+                            (conditioning_as_do ? "do(" : "obs(") + toString(cats[k]) + "=" + v + ")";
+          }
+          const Query rq = row_evidence.empty()
+                               ? Query()
+                               : parseQuery(declarations(), "| " + row_evidence, "<table row>");
+          const std::vector<Observation>& obs = rq.observations;
+          const std::vector<Intervention>& dos = rq.interventions;
+          try {
+            double sum = 0;
+            for (const auto& vp : asp().distribution(program_, tat, obs, dos)) {
+              sum += vp.second;
+              if (vp.second > 0) r.distribution.push_back({vp.first, vp.second});
+            }
+            r.undefined_probability = std::max(0.0, 1.0 - sum);
+          } catch (const IncoherentError&) {
+            r.consistent = false;
+          }
+          t.rows.push_back(std::move(r));
+          for (size_t k = 0; k < cur.size(); ++k) {
+            if (++cur[k] < ranges[k].size()) break;
+            cur[k] = 0;
+          }
+        }
+        return t;
+      });
+}
+
+Table Reasoner::nativeTable(const AttributeTerm& tat, const std::vector<AttributeTerm>& cats,
+                            const Query& ev, const std::string& evidence,
+                            bool conditioning_as_do) {
+  Table t;
+  t.target = toString(tat);
+  std::set<std::string> attrs{tat.name};
+  for (const auto& c : cats) {
+    t.conditioning.push_back(toString(c));
+    attrs.insert(c.name);
+  }
   collectAttrs(ev, attrs);
   auto entry = groundEntryFor(attrs);
   const GroundProgram* g = entry->g.get();

@@ -11,8 +11,11 @@
  * obs/do plus some distribution queries. Each query is answered by both back ends and compared
  * to 1e-9 (or both must report it as incoherent). Programs the native engine rejects as
  * outside its fast path (the loops) are counted, still answered by clingo, and must stay a
- * minority. Constraints and derived attributes with conflicting values are in a separate,
- * currently disabled campaign (see its comment).
+ * minority. Constraints and derived attributes with conflicting values are in a separate
+ * campaign, and a third one places loops through `not` (odd and even) and rules that define
+ * random attributes anywhere in the program, also away from the queried attributes: there
+ * the native engine must either agree or refuse the program (OutsideFragmentError), never
+ * answer wrongly, and the default back end `auto` must answer every query as clingo does.
  */
 #include <gtest/gtest.h>
 
@@ -44,6 +47,14 @@ class ProgramGenerator {
     /// Probability of an even loop `lp :- not lq, l. lq :- not lp.` queried by `?{lp}`
     /// (non-stratified: outside the native fast path).
     double loop_chance = 0.0;
+    /// Probability of an odd loop `lo :- l. lo :- not lo.` (it removes the worlds where l
+    /// fails), whose atom no query mentions.
+    double odd_loop_chance = 0.0;
+    /// Probability of a rule `at0 = v :- l.` defining a random attribute (worlds where the
+    /// selection picked another value are removed).
+    double random_rule_chance = 0.0;
+    /// Ask `?{lp}` when an even loop is written (else the loop is away from every query).
+    bool query_loop = true;
   };
 
   ProgramGenerator(Rng& rng, Options options) : rng_(rng), options_(options) {}
@@ -103,11 +114,20 @@ class ProgramGenerator {
       out << "lp : boolean.\nlq : boolean.\n";
       out << "lp :- not lq, " << literal(na, false, false) << ".\nlq :- not lp.\n";
     }
+    if (chance(options_.odd_loop_chance)) {
+      out << "lo : boolean.\n";
+      out << "lo :- " << literal(na, false, false) << ".\nlo :- not lo.\n";
+    }
+    if (chance(options_.random_rule_chance)) {
+      const Attr& a0 = attrs_[0];
+      out << term(a0, false) << " = " << pick(rangeValues(a0)) << " :- "
+          << literal(na, false, false) << ".\n";
+    }
     Output o;
     o.program = out.str();
     const int nq = uniform(3, 5);
     for (int k = 0; k < nq; ++k) o.queries.push_back(query());
-    if (loop) o.queries.push_back("?{lp}");
+    if (loop && options_.query_loop) o.queries.push_back("?{lp}");
     // A random attribute: the native engine's distribution() of a static (derived-only)
     // attribute currently ignores the evidence (reported), so those are not compared.
     std::vector<Attr> random_attrs;
@@ -295,6 +315,8 @@ struct Campaign {
   int compared_queries = 0;
   int incoherent_queries = 0;  ///< both back ends: evidence of probability 0
   int compared_distributions = 0;
+  int auto_queries = 0;  ///< answered by the default back end and compared with clingo
+  int auto_via_asp = 0;  ///< of those, answered through clingo
 };
 
 /// Generate `programs` programs and compare every query of each on both back ends.
@@ -310,6 +332,7 @@ Campaign crosscheck(const ProgramGenerator::Options& options, int programs,
     const ProgramGenerator::Output g = gen.make();
     SCOPED_TRACE("program " + std::to_string(n) + ":\n" + g.program);
     Reasoner fast;
+    fast.setBackend(Backend::Native);
     try {
       fast.loadString(g.program, "<generated " + std::to_string(n) + ">");
     } catch (const std::exception& e) {
@@ -319,8 +342,8 @@ Campaign crosscheck(const ProgramGenerator::Options& options, int programs,
     std::vector<Query> queries;
     for (const auto& q : g.queries) queries.push_back(parseQuery(fast.program(), q));
 
-    // Native engine: a krr::Error that is not an IncoherentError means "outside the fast
-    // path" and skips the comparison for the program.
+    // Native engine: OutsideFragmentError skips the comparison for the program; any other
+    // error is a failure.
     std::vector<Outcome> native(queries.size());
     bool skipped = false;
     for (std::size_t k = 0; k < queries.size() && !skipped; ++k) {
@@ -329,9 +352,12 @@ Campaign crosscheck(const ProgramGenerator::Options& options, int programs,
       } catch (const IncoherentError& e) {
         native[k].incoherent = true;
         native[k].message = e.what();
-      } catch (const Error& e) {
+      } catch (const OutsideFragmentError& e) {
         skipped = true;
         if (first_skip.empty()) first_skip = e.what();
+      } catch (const Error& e) {
+        ADD_FAILURE() << "native engine: " << e.what();
+        skipped = true;
       }
     }
 
@@ -343,6 +369,27 @@ Campaign crosscheck(const ProgramGenerator::Options& options, int programs,
       ADD_FAILURE() << "AspBackend failed: " << e.what() << "\n" << asp.translate(fast.program());
       continue;
     }
+    // The default back end answers every query as clingo does, inside the native fragment
+    // or not.
+    fast.setBackend(Backend::Auto);
+    for (std::size_t k = 0; k < queries.size(); ++k) {
+      SCOPED_TRACE("auto back end, query " + g.queries[k]);
+      bool incoherent = false;
+      double p = 0;
+      try {
+        p = fast.probability(queries[k]);
+      } catch (const IncoherentError&) {
+        incoherent = true;
+      } catch (const Error& e) {
+        ADD_FAILURE() << "auto back end refused a query clingo answers: " << e.what();
+        continue;
+      }
+      EXPECT_EQ(incoherent, !errors[k].empty()) << (incoherent ? "" : std::to_string(p));
+      if (!incoherent && errors[k].empty()) EXPECT_NEAR(p, answers[k], kTol);
+      ++c.auto_queries;
+      if (fast.stats().last_backend == Backend::Asp) ++c.auto_via_asp;
+    }
+    fast.setBackend(Backend::Native);
     if (skipped) {
       // The clingo back end must still answer every query (or report impossible evidence).
       for (std::size_t k = 0; k < queries.size(); ++k) {
@@ -397,7 +444,8 @@ Campaign crosscheck(const ProgramGenerator::Options& options, int programs,
             << " programs compared (" << c.compared_queries << " queries answered, "
             << c.incoherent_queries << " with impossible evidence, "
             << c.compared_distributions << " distributions), " << c.skipped_programs
-            << " outside the native fast path; " << asp.stats().clingo_runs << " clingo runs, "
+            << " outside the native fragment; auto: " << c.auto_queries << " queries, "
+            << c.auto_via_asp << " through clingo; " << asp.stats().clingo_runs << " clingo runs, "
             << asp.stats().worlds << " worlds, " << asp.stats().clingo_seconds
             << " s in clingo\n";
   if (!first_skip.empty()) std::cout << "[ crosscheck ] first skip: " << first_skip << "\n";
@@ -430,6 +478,23 @@ TEST(BackendCrosscheck, WithConstraintsAndValueConflicts) {
   constexpr int kPrograms = 300;
   Campaign c = crosscheck(o, kPrograms, "constraints");
   EXPECT_GE(c.compared_programs, kPrograms * 8 / 10);
+}
+
+// Loops through `not` and rules defining random attributes anywhere in the program, mostly
+// away from the queried attributes: they remove worlds (odd loops, the rules) or split them
+// (even loops), which changes every answer. The native engine must refuse these programs
+// rather than answer from the query's dependencies alone, and `auto` must answer them.
+TEST(BackendCrosscheck, LoopsAndRandomDefiningRulesAwayFromTheQuery) {
+  ProgramGenerator::Options o;
+  o.loop_chance = 0.3;
+  o.odd_loop_chance = 0.3;
+  o.random_rule_chance = 0.2;
+  o.query_loop = false;
+  constexpr int kPrograms = 200;
+  Campaign c = crosscheck(o, kPrograms, "loops");
+  EXPECT_GE(c.skipped_programs, kPrograms / 4);
+  EXPECT_GE(c.auto_via_asp, kPrograms / 4);
+  EXPECT_GE(c.compared_programs, kPrograms / 5);
 }
 
 }  // namespace

@@ -49,6 +49,14 @@ class IncoherentError : public Error {
   using Error::Error;
 };
 
+/// @brief A P-log program outside the native engine's exact fragment (negation that is not
+/// stratified, cyclic rules or selections, a rule defining a random attribute, factors beyond
+/// its size limits): its answer would not be exact, so another back end (ASP) must answer.
+class OutsideFragmentError : public Error {
+ public:
+  using Error::Error;
+};
+
 /// @brief A name the program or model does not define (sort, attribute, room, cell...).
 class UnknownSymbolError : public Error {
  public:

@@ -157,10 +157,20 @@ class AspBackend {
   bool multi_shot_failed_ = false;  ///< clingo could not run the Lua multi-shot script
 };
 
+/// @brief Comment line that the translation writes before the ASP rules of each P-log
+/// statement, followed by the statement's file:line:col, so that clingo's messages can be
+/// mapped back to the P-log program.
+constexpr const char* kAspSourceMarker = "%@ ";
+
+/// @brief clingo's message with every `LP_PATH:line:col` replaced by the P-log location of
+/// the statement whose translation holds that line (the last kAspSourceMarker above it).
+std::string pLogLocations(const std::string& message, const std::string& lp_path,
+                          const std::string& asp_program);
+
 /// @brief Run clingo on program and enumerate all its answer sets (--models=0 -V0).
-/// @throws krr::Error with clingo's stderr and the temporary file name if clingo is missing,
-///         fails (syntax, unsafe rule) or exceeds options.timeout_s; ConfigError for a
-///         non-positive timeout.
+/// @throws krr::Error if clingo is missing, fails (syntax, unsafe rule: clingo's message with
+///         its locations mapped to the P-log statements, see pLogLocations) or exceeds
+///         options.timeout_s; ConfigError for a non-positive timeout.
 ClingoResult runClingo(const std::string& program, const AspOptions& options,
                        const std::vector<std::string>& extra_args = {});
 

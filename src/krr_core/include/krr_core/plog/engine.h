@@ -128,6 +128,7 @@ class ExactEngine {
   unsigned rel_counter_ = 1;
   std::vector<int> touched_derived_;
   std::vector<int> conflict_derived_;
+  std::vector<int> dynamic_range_;  ///< random instances whose dynamic range may be empty
   std::vector<int> atom_inst_;              // atom index -> instance
   std::vector<int> atom_scc_;               // atom -> cyclic SCC id or -1
   std::vector<std::vector<int>> scc_atoms_;

@@ -8,8 +8,15 @@
  * engine.h). Groundings are cached and PATCHED when knowledge is added or removed (facts of
  * guard attributes, pr-atoms; see IncrementalGrounder) instead of being redone, and a table
  * query recomputes only the rows that a changed ground pr-atom can reach (its body fixes the
- * do()-conditioning values of the row); every other change grounds again. Programs outside that fast path (non-stratified negation,
- * cyclic dependencies) raise krr::Error naming the construct; the clingo back end handles them.
+ * do()-conditioning values of the row); every other change grounds again.
+ *
+ * The native engine is exact on its fragment only: negation stratified at the ground level,
+ * no cyclic selections, no rule defining a random attribute, factors within its size limits.
+ * Everything that can remove or split possible worlds anywhere in the program (constraints,
+ * derived attributes with two values, loops through `not`, dynamic ranges) is part of every
+ * query's cone, so a program outside the fragment is detected, never answered wrongly
+ * (OutsideFragmentError). With Backend::Auto, the default, such queries are answered by the
+ * clingo back end (AspBackend) instead.
  */
 #pragma once
 
@@ -29,6 +36,19 @@ namespace krr {
 namespace plog {
 
 struct GroundProgram;
+class AspBackend;
+struct AspOptions;
+
+/// @brief Which inference engine answers queries.
+enum class Backend {
+  Native,  ///< the exact engine only: OutsideFragmentError outside its fragment
+  Asp,     ///< clingo (AspBackend) for every query
+  Auto     ///< native where its fragment applies (exact and faster), clingo otherwise
+};
+/// @brief "native", "asp" or "auto".
+const char* backendName(Backend backend);
+/// @brief Inverse of backendName. @throws ConfigError naming the accepted values.
+Backend parseBackend(const std::string& name);
 
 /// @brief One value of an attribute with its probability.
 struct ValueProb {
@@ -67,6 +87,8 @@ struct ReasonerStats {
   size_t full_groundings = 0;       ///< groundings from scratch so far
   size_t incremental_groundings = 0;  ///< patches so far
   size_t table_rows_computed = 0;   ///< rows the last table query computed (others reused)
+  Backend last_backend = Backend::Native;  ///< engine that answered the last query
+  size_t asp_answers = 0;           ///< queries (or tables) answered by clingo so far
 };
 
 class Reasoner {
@@ -140,10 +162,30 @@ class Reasoner {
   void setLimits(const GroundingLimits& limits) { limits_ = limits; }
   const GroundingLimits& limits() const { return limits_; }
 
+  /// @brief Engine for later queries (default Backend::Auto).
+  void setBackend(Backend backend) { backend_ = backend; }
+  Backend backend() const { return backend_; }
+  /// @brief Options of the clingo back end (binary, timeout; the timeout is also capped by
+  /// the inference budget of setLimits).
+  void setAspOptions(const AspOptions& options);
+
   const Program& program() const { return program_; }
   const ReasonerStats& stats() const { return stats_; }
 
  private:
+  double nativeProbability(const Query& query);
+  std::vector<ValueProb> nativeDistribution(const AttributeTerm& at, const Query& evidence,
+                                            const std::string& evidence_text);
+  Table nativeTable(const AttributeTerm& target, const std::vector<AttributeTerm>& conditioning,
+                    const Query& evidence, const std::string& evidence_text,
+                    bool conditioning_as_do);
+  /// @brief The clingo back end, with the inference budget applied to its timeout.
+  AspBackend& asp();
+  /// @brief Run native(), falling back to asp_answer() under Backend::Auto when the native
+  /// engine reports the program outside its fragment (remembered per query attributes and
+  /// program structure, so the native grounding is not retried for every query).
+  template <typename T, typename Native, typename Asp>
+  T dispatch(const std::set<std::string>& attrs, Native native, Asp asp_answer);
   struct GroundEntry;
   struct TableCache;
   struct Change {
@@ -204,6 +246,11 @@ class Reasoner {
   std::unordered_set<std::string> known_symbols_;
   std::pair<std::uint64_t, std::uint64_t> known_version_{0, 0};
   bool known_symbols_valid_ = false;
+  Backend backend_ = Backend::Auto;
+  std::unique_ptr<AspOptions> asp_options_;
+  std::unique_ptr<AspBackend> asp_;
+  /// @brief Query-attribute keys the native engine refused, with the structure version.
+  std::map<std::string, std::uint64_t> outside_fragment_;
 };
 
 }  // namespace plog
