@@ -3,7 +3,7 @@
 #   1. the core gtests (no roscore),
 #   2. every rostest .test (each starts its own master; run after sourcing devel/setup.bash,
 #      because `catkin_make run_tests` leaves PYTHONPATH empty for Python test nodes),
-#   3. the Python unittest suites of tools/.
+#   3. the Python unittest suites of krr_eval (src/krr_eval/test).
 # Prints one summary line "tests: N passed, N failed" and exits non-zero on any failure.
 set -uo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -47,8 +47,10 @@ for f in $(find "$ROOT/src" -path '*/test/*.test' | sort); do
 done
 
 echo "== python unittests"
-if [ -d "$ROOT/tools" ] && find "$ROOT/tools" -name 'test_*.py' | grep -q .; then
-  (cd "$ROOT/tools" && /usr/bin/python3 -m unittest discover -s . -p 'test_*.py' -t . ) \
+EVAL_TESTS="$ROOT/src/krr_eval/test"   # krr_eval's src/ first: the checkout, sourced or not
+if [ -d "$EVAL_TESTS" ] && find "$EVAL_TESTS" -name 'test_*.py' | grep -q .; then
+  (cd "$EVAL_TESTS" && PYTHONPATH="$ROOT/src/krr_eval/src${PYTHONPATH:+:$PYTHONPATH}" \
+     /usr/bin/python3 -m unittest discover -s . -p 'test_*.py' -t . ) \
     > "$RESULTS/python.log" 2>&1; prc=$?
   tail -3 "$RESULTS/python.log"
   /usr/bin/python3 "$ROOT/test/summarize.py" --unittest-log "$RESULTS/python.log" --rc $prc \

@@ -2,9 +2,9 @@
 # Main job: install, build, then on the bundled office map
 #   1. the headless ROS sim (reasoner, navigation, dialog, simulated user) making a few
 #      deliveries end to end through topics, and
-#   2. the evaluation of every experiment of the paper (tools/evaluate.py) with tables, plots
+#   2. the evaluation of every experiment of the paper (rosrun krr_eval evaluate) with tables, plots
 #      and a report comparing with the paper's numbers.
-# Output goes to out/ (override with KRR_OUT). Options are passed on to tools/evaluate.py, e.g.
+# Output goes to out/ (override with KRR_OUT). Options are passed on to krr_eval's evaluate, e.g.
 #   bash tools/run_main.sh --trials-scale 0.1       # a faster, smaller evaluation
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -30,12 +30,12 @@ timeout 600 roslaunch --screen -p "$PORT" "$ROOT/launch/sim.launch" user:=true l
 grep -E "delivery [0-9]+ ended|hidden request|I am delivering" "$OUT/sim/roslaunch.log" \
   | sed -e 's/\x1b\[[0-9;]*m//g' -e 's/^/  /' || echo "  (no delivery finished: see the log)"
 
-echo "== evaluation (tools/evaluate.py, output in $OUT/eval)"
+echo "== evaluation (rosrun krr_eval evaluate, output in $OUT/eval)"
 # The dialog policies are not certified to config/dialog.yaml's precision (no solver we have,
 # ours or SARSOP, closes the bound gap of the three-factor dialog): report them anyway, with
 # their certified bounds (report.md, exp2_policies).
 echo "   (--allow-unconverged: Table I/II rest on dialog policies with certified bounds, not on"
 echo "    certified optimal ones; their gaps are in report.md)"
 EVAL_START=$(date +%s)
-/usr/bin/python3 "$ROOT/tools/evaluate.py" --out "$OUT/eval" --allow-unconverged "$@"
+rosrun krr_eval evaluate --out "$OUT/eval" --allow-unconverged "$@"
 echo "== evaluation: $(( $(date +%s) - EVAL_START )) s wall (report: $OUT/eval/report.md)"

@@ -2,7 +2,7 @@
  * @file make_nav_domain.cpp
  * @brief Generate the office map and the navigation domains derived from it.
  *
- *   make_nav_domain [--config config/navigation.yaml] [--generate-office]
+ *   make_nav_domain [--config config/navigation.yaml] [--generate-office] [-h | --help]
  *
  * --generate-office (re)writes the map files named by the config (office.yaml + office.pgm and
  * office_places.yaml) from the code in office_map.cpp. Then, for every domain of the config, the
@@ -48,14 +48,24 @@ std::string stem(const std::string& p) {
 static int mainBody(int argc, char** argv) {
   std::string config_path = "config/navigation.yaml";
   bool generate = false;
+  const char* usage =
+      "usage: make_nav_domain [--config navigation.yaml] [--generate-office]\n"
+      "  Cut the map named by the config (map_server YAML + PGM or PNG) into the navigation\n"
+      "  domains it lists; write <domain>.yaml and <domain>_geometry.plog next to the map.\n"
+      "  --config FILE       navigation config (default config/navigation.yaml)\n"
+      "  --generate-office   first (re)write the office map and places from office_map.cpp\n"
+      "  -h, --help          print this help and exit\n";
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
-    if (a == "--config" && i + 1 < argc) {
+    if (a == "-h" || a == "--help") {
+      std::cout << usage;
+      return 0;
+    } else if (a == "--config" && i + 1 < argc) {
       config_path = argv[++i];
     } else if (a == "--generate-office") {
       generate = true;
     } else {
-      std::cerr << "usage: make_nav_domain [--config navigation.yaml] [--generate-office]\n";
+      std::cerr << "make_nav_domain: unknown or incomplete option '" << a << "'\n" << usage;
       return 2;
     }
   }

@@ -1,9 +1,13 @@
 #include "krr_core/nav/occupancy_grid.h"
 
+#include <png.h>
 #include <yaml-cpp/yaml.h>
 
 #include <cctype>
 #include <cmath>
+#include <csetjmp>
+#include <cstdio>
+#include <cstring>
 #include <sstream>
 
 #include "krr_core/common/errors.h"
@@ -85,7 +89,7 @@ class PgmHeaderReader {
 
 }  // namespace
 
-PgmImage parsePgm(const std::string& bytes, const std::string& name) {
+MapImage parsePgm(const std::string& bytes, const std::string& name) {
   if (bytes.size() < 2 || bytes[0] != 'P' || (bytes[1] != '5' && bytes[1] != '2')) {
     std::string magic = bytes.substr(0, std::min<size_t>(2, bytes.size()));
     for (char& c : magic) {
@@ -95,7 +99,7 @@ PgmImage parsePgm(const std::string& bytes, const std::string& name) {
   }
   const bool binary = bytes[1] == '5';
   PgmHeaderReader rd(bytes, name);
-  PgmImage img;
+  MapImage img;
   long w = rd.readInt("width");
   long h = rd.readInt("height");
   long maxval = rd.readInt("maxval");
@@ -174,14 +178,170 @@ PgmImage parsePgm(const std::string& bytes, const std::string& name) {
   return img;
 }
 
-PgmImage readPgm(const std::string& path) {
+namespace {
+
+constexpr std::size_t kPngSignatureSize = 8;
+
+/**
+ * @brief What libpng reads from, and where its error message lands.
+ *
+ * Plain data only: libpng reports errors by longjmp, which must not skip a C++ destructor, so
+ * the functions that call into libpng (pngReadHeader, pngReadPixels) hold nothing but this.
+ */
+struct PngSource {
+  const unsigned char* data;
+  std::size_t size;
+  std::size_t pos;
+  char message[256];
+};
+
+void pngReadData(png_structp png, png_bytep out, png_size_t n) {
+  PngSource* src = static_cast<PngSource*>(png_get_io_ptr(png));
+  if (n > src->size - src->pos) png_error(png, "truncated PNG data (file ends early)");
+  std::memcpy(out, src->data + src->pos, n);
+  src->pos += n;
+}
+
+[[noreturn]] void pngOnError(png_structp png, png_const_charp message) {
+  PngSource* src = static_cast<PngSource*>(png_get_error_ptr(png));
+  std::snprintf(src->message, sizeof(src->message), "%s", message);
+  png_longjmp(png, 1);
+}
+
+/// @brief Warnings (a bad CRC in an ancillary chunk, say) do not change the pixels: stay quiet.
+void pngOnWarning(png_structp, png_const_charp) {}
+
+/// @brief Owns the libpng read structures, so that every exit path frees them.
+struct PngReader {
+  png_structp png = nullptr;
+  png_infop info = nullptr;
+  ~PngReader() {
+    if (png != nullptr) png_destroy_read_struct(&png, &info, nullptr);
+  }
+};
+
+/// @brief Read up to the image header (no pixel memory yet); false on a libpng error.
+bool pngReadHeader(png_structp png, png_infop info) {
+  if (setjmp(png_jmpbuf(png))) return false;
+  png_read_info(png, info);
+  return true;
+}
+
+/**
+ * @brief Set SDL_image's transformations and decode into caller-owned rows; false on error.
+ *
+ * 16 bit -> high byte (png_set_strip_16), grey 1/2/4 bit -> 0..255, grey + alpha -> RGBA,
+ * palette -> RGB (RGBA with a tRNS chunk). The decoded layout must be `channels` bytes a pixel.
+ */
+bool pngReadPixels(png_structp png, png_infop info, int channels, png_bytepp rows) {
+  if (setjmp(png_jmpbuf(png))) return false;
+  const int color_type = png_get_color_type(png, info);
+  if (png_get_bit_depth(png, info) == 16) png_set_strip_16(png);
+  if (color_type == PNG_COLOR_TYPE_PALETTE) {
+    png_set_palette_to_rgb(png);
+    if (png_get_valid(png, info, PNG_INFO_tRNS)) png_set_tRNS_to_alpha(png);
+  } else if (color_type == PNG_COLOR_TYPE_GRAY) {
+    png_set_expand_gray_1_2_4_to_8(png);
+  } else if (color_type == PNG_COLOR_TYPE_GRAY_ALPHA) {
+    png_set_gray_to_rgb(png);
+  }
+  png_set_interlace_handling(png);
+  png_read_update_info(png, info);
+  if (png_get_channels(png, info) != static_cast<png_byte>(channels) ||
+      png_get_bit_depth(png, info) != 8 ||
+      png_get_rowbytes(png, info) !=
+          static_cast<png_size_t>(png_get_image_width(png, info)) * channels) {
+    png_error(png, "unexpected pixel layout after decoding");
+  }
+  png_read_image(png, rows);
+  png_read_end(png, nullptr);  // the CRCs up to IEND: a truncated file is an error
+  return true;
+}
+
+}  // namespace
+
+MapImage parsePng(const std::string& bytes, const std::string& name) {
+  const unsigned char* data = reinterpret_cast<const unsigned char*>(bytes.data());
+  if (bytes.size() < kPngSignatureSize ||
+      png_sig_cmp(data, 0, kPngSignatureSize) != 0) {
+    throw MapError(name + ": bad PNG signature: not a PNG image");
+  }
+  PngSource src{data, bytes.size(), 0, {0}};
+  PngReader reader;
+  reader.png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &src, pngOnError, pngOnWarning);
+  if (reader.png == nullptr) throw MapError(name + ": cannot start the PNG decoder");
+  reader.info = png_create_info_struct(reader.png);
+  if (reader.info == nullptr) throw MapError(name + ": cannot start the PNG decoder");
+  png_set_read_fn(reader.png, &src, pngReadData);
+  if (!pngReadHeader(reader.png, reader.info)) {
+    throw MapError(name + ": bad PNG header: " + src.message);
+  }
+  const png_uint_32 w = png_get_image_width(reader.png, reader.info);
+  const png_uint_32 h = png_get_image_height(reader.png, reader.info);
+  const int color_type = png_get_color_type(reader.png, reader.info);
+  int channels = 3;
+  if (color_type == PNG_COLOR_TYPE_GRAY) {
+    channels = 1;
+  } else if (color_type == PNG_COLOR_TYPE_GRAY_ALPHA || color_type == PNG_COLOR_TYPE_RGB_ALPHA ||
+             (color_type == PNG_COLOR_TYPE_PALETTE &&
+              png_get_valid(reader.png, reader.info, PNG_INFO_tRNS))) {
+    channels = 4;
+  }
+  const std::string size = std::to_string(w) + "x" + std::to_string(h);
+  if (static_cast<std::uint64_t>(w) * h > 100000000ULL) {
+    throw MapError(name + ": PNG image " + size + " too large");
+  }
+  // The header alone decides the allocation: check it against the budget first. Loading keeps
+  // the decoded bytes, the 16-bit samples made from them and the 8-bit grid.
+  const std::size_t n = static_cast<std::size_t>(w) * h;
+  const std::size_t need = saturatingMul(
+      n, static_cast<std::size_t>(channels) * (1 + sizeof(std::uint16_t)) + sizeof(std::int8_t));
+  const std::size_t budget = memoryBudget();
+  if (need > budget) {
+    throw MapError(name + ": PNG image " + size + " needs about " + formatBytes(need) +
+                   ", above the memory budget of " + formatBytes(budget) +
+                   " (KRR_MEMORY_BUDGET_MIB)");
+  }
+  std::vector<png_byte> decoded(n * channels);
+  std::vector<png_bytep> rows(h);
+  for (png_uint_32 r = 0; r < h; ++r) rows[r] = decoded.data() + std::size_t(r) * w * channels;
+  if (!pngReadPixels(reader.png, reader.info, channels, rows.data())) {
+    throw MapError(name + ": corrupt PNG data: " + src.message);
+  }
+  MapImage img;
+  img.width = static_cast<int>(w);
+  img.height = static_cast<int>(h);
+  img.channels = channels;
+  img.has_alpha = channels == 4;
+  img.maxval = 255;
+  img.pixels.assign(decoded.begin(), decoded.end());
+  return img;
+}
+
+MapImage parseImage(const std::string& bytes, const std::string& name) {
+  if (bytes.size() >= kPngSignatureSize && static_cast<unsigned char>(bytes[0]) == 0x89 &&
+      bytes.compare(1, 3, "PNG") == 0) {
+    return parsePng(bytes, name);
+  }
+  if (bytes.size() >= 2 && bytes[0] == 'P' && (bytes[1] == '5' || bytes[1] == '2')) {
+    return parsePgm(bytes, name);
+  }
+  std::string magic = bytes.substr(0, std::min<size_t>(2, bytes.size()));
+  for (char& c : magic) {
+    if (!std::isprint(static_cast<unsigned char>(c))) c = '?';
+  }
+  throw MapError(name + ": bad magic '" + magic +
+                 "': expected a PGM (P5 or P2) or PNG image, as map_server reads");
+}
+
+MapImage readImage(const std::string& path) {
   std::string bytes;
   try {
     bytes = readFile(path);
   } catch (const IoError& e) {
     throw MapError(std::string("cannot read image ") + e.what());  // e names the file
   }
-  return parsePgm(bytes, path);
+  return parseImage(bytes, path);
 }
 
 namespace {
@@ -292,7 +452,15 @@ MapMetadata loadMapMetadata(const std::string& yaml_path) {
   return m;
 }
 
-OccupancyGrid imageToGrid(const PgmImage& image, const MapMetadata& meta) {
+OccupancyGrid imageToGrid(const MapImage& image, const MapMetadata& meta) {
+  const int ch = image.channels;
+  if ((ch != 1 && ch != 3 && ch != 4) || (image.has_alpha && ch != 4) || image.maxval <= 0 ||
+      image.width < 0 || image.height < 0 ||
+      image.pixels.size() != static_cast<size_t>(image.width) * image.height * ch) {
+    throw MapError("map image: inconsistent size " + std::to_string(image.width) + "x" +
+                   std::to_string(image.height) + "x" + std::to_string(ch) + " for " +
+                   std::to_string(image.pixels.size()) + " samples");
+  }
   OccupancyGrid g;
   g.width = image.width;
   g.height = image.height;
@@ -301,23 +469,33 @@ OccupancyGrid imageToGrid(const PgmImage& image, const MapMetadata& meta) {
   g.origin_y = meta.origin[1];
   g.origin_yaw = meta.origin[2];
   g.data.assign(static_cast<size_t>(g.width) * static_cast<size_t>(g.height), kUnknown);
-  const double scale = 255.0 / image.maxval;
+  // map_server averages alpha in with the colours in trinary mode only (kept for compatibility).
+  const int avg_channels = (meta.mode == MapMode::kTrinary || !image.has_alpha) ? ch : ch - 1;
+  const double maxval = image.maxval;
+  auto sample = [&](const std::uint16_t* px, int c) {
+    return image.maxval == 255 ? double(px[c]) : px[c] * 255.0 / maxval;
+  };
   for (int j = 0; j < image.height; ++j) {
     const int row = image.height - 1 - j;  // image row 0 is the top of the map
     for (int i = 0; i < image.width; ++i) {
-      double v = image.pixels[static_cast<size_t>(j) * image.width + i] * scale;
+      const std::uint16_t* px = &image.pixels[(static_cast<size_t>(j) * image.width + i) * ch];
+      double sum = 0.0;
+      for (int c = 0; c < avg_channels; ++c) sum += sample(px, c);
+      double v = sum / avg_channels;
       if (meta.negate) v = 255.0 - v;
       std::int8_t value;
       if (meta.mode == MapMode::kRaw) {
-        // map_server stores the grey value itself (wrapping into the int8 message field).
-        value = static_cast<std::int8_t>(static_cast<std::uint8_t>(std::lround(v)));
+        // map_server stores the grey value itself, truncated to a byte and wrapped into the
+        // int8 message field.
+        value = static_cast<std::int8_t>(static_cast<std::uint8_t>(v));
       } else {
         const double occ = (255.0 - v) / 255.0;
+        const bool transparent = image.has_alpha && sample(px, ch - 1) < 1.0;
         if (occ > meta.occupied_thresh) {
           value = kOccupied;
         } else if (occ < meta.free_thresh) {
           value = kFree;
-        } else if (meta.mode == MapMode::kTrinary) {
+        } else if (meta.mode == MapMode::kTrinary || transparent) {
           value = kUnknown;
         } else {
           const double ratio = (occ - meta.free_thresh) / (meta.occupied_thresh - meta.free_thresh);
@@ -334,9 +512,9 @@ OccupancyGrid loadMap(const std::string& yaml_path) {
   MapMetadata meta = loadMapMetadata(yaml_path);
   std::string image_path = meta.image;
   if (image_path[0] != '/') image_path = dirName(yaml_path) + "/" + image_path;
-  PgmImage img;
+  MapImage img;
   try {
-    img = readPgm(image_path);
+    img = readImage(image_path);
   } catch (const MapError& e) {
     // Name the YAML too: the image file may be something the YAML should not point at.
     throw MapError(yaml_path + ": field 'image': " + e.what());

@@ -180,7 +180,7 @@ TEST(OccupancyGridErrors, PgmValueAboveMaxval) {
   EXPECT_THROW(parsePgm("P2\n2 1\n0\n0 0\n", "mem.pgm"), MapError);   // maxval 0
   EXPECT_THROW(parsePgm("P5\n0 1\n255\n", "mem.pgm"), MapError);      // empty image
   EXPECT_THROW(parsePgm("", "mem.pgm"), MapError);
-  PgmImage ok = parsePgm("P2 # c\n2 1 # comment\n10\n3 10\n", "mem.pgm");
+  MapImage ok = parsePgm("P2 # c\n2 1 # comment\n10\n3 10\n", "mem.pgm");
   EXPECT_EQ(ok.pixels[1], 10);
 }
 

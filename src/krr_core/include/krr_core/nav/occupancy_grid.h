@@ -1,6 +1,6 @@
 /**
  * @file occupancy_grid.h
- * @brief Occupancy-grid maps in ROS map_server format (YAML + PGM), loaded without ROS.
+ * @brief Occupancy-grid maps in ROS map_server format (YAML + PGM or PNG), loaded without ROS.
  *
  * The navigation layer must run on the maps a real robot produced with map_server / map_saver,
  * so the loader follows map_server's rules exactly (thresholds, negate, trinary / scale / raw
@@ -76,34 +76,60 @@ struct MapMetadata {
   MapMode mode = MapMode::kTrinary;
 };
 
-/// @brief A grey-level image as stored in a PGM file: pixels[row * width + col], row 0 at TOP.
-struct PgmImage {
+/**
+ * @brief A map image as map_server's image loader (SDL_image) hands it over, before thresholds.
+ *
+ * pixels[(row * width + col) * channels + c], row 0 at the TOP. channels is 1 (grey), 3 (RGB) or
+ * 4 (RGB + alpha). Grey + alpha PNGs become (g, g, g, a), as SDL_image expands them, because
+ * map_server averages all four bytes in trinary mode. PGM samples range over 0..maxval; PNG
+ * samples are 8 bit (16-bit PNGs keep their high byte, as SDL_image's png_set_strip_16 does).
+ */
+struct MapImage {
   int width = 0;
   int height = 0;
+  int channels = 1;
+  bool has_alpha = false;  ///< the last channel is alpha (channels == 4)
   int maxval = 255;
   std::vector<std::uint16_t> pixels;
 };
 
-/// @brief Read a PGM image (P5 binary 8/16-bit or P2 ASCII); MapError names the file and problem.
-PgmImage readPgm(const std::string& path);
+/// @brief Parse PGM bytes (P5 binary 8/16-bit or P2 ASCII); `name` is used in error messages.
+MapImage parsePgm(const std::string& bytes, const std::string& name);
 
-/// @brief Parse PGM bytes; `name` is used in error messages.
-PgmImage parsePgm(const std::string& bytes, const std::string& name);
+/**
+ * @brief Decode PNG bytes with libpng: grey, grey + alpha, RGB, RGBA and palette, 1 to 16 bit.
+ *
+ * Palette images are expanded to their colours (map_server's documented "colour values are
+ * averaged"; SDL_image 1.2 would hand map_server the palette index instead), a palette tRNS
+ * chunk becomes alpha, and a tRNS colour key of a grey or RGB image is ignored (SDL_image makes
+ * it a colour key, which map_server never reads). The declared size is checked against the
+ * memory budget before anything is allocated; corrupt or truncated data is a MapError.
+ */
+MapImage parsePng(const std::string& bytes, const std::string& name);
+
+/// @brief Parse a PGM or PNG image, told apart by its magic bytes (not by the file name).
+MapImage parseImage(const std::string& bytes, const std::string& name);
+
+/// @brief Read a PGM or PNG image file (regular files only); MapError names the file.
+MapImage readImage(const std::string& path);
 
 /// @brief Parse and validate a map_server YAML file's fields; MapError names file and field.
 MapMetadata loadMapMetadata(const std::string& yaml_path);
 
 /**
- * @brief Convert an image to occupancy values exactly as map_server does.
+ * @brief Convert an image to occupancy values exactly as map_server's loadMapFromFile does.
  *
- * Grey value v is rescaled to [0,255] by maxval; p = (255 - v) / 255, or v / 255 with negate.
- * trinary: p > occupied_thresh -> 100, p < free_thresh -> 0, else -1; scale: the same but values
- * in between become 1 + 98 * (p - free) / (occ - free); raw: the (negated) grey value itself.
+ * Each sample is rescaled to [0,255] by maxval and the channels are averaged to x (in trinary
+ * mode alpha is averaged in too; in scale and raw mode it is left out). With negate x becomes
+ * 255 - x. raw: x itself, truncated to a byte and wrapped into int8 like the message field.
+ * Otherwise p = (255 - x) / 255; p > occupied_thresh -> 100, p < free_thresh -> 0, else -1 in
+ * trinary; in scale mode a fully transparent pixel (alpha 0) -> -1 and the rest
+ * 1 + 98 * (p - free) / (occ - free), truncated (map_server's code; its wiki writes 99 * ...).
  * Image row 0 (the top) becomes grid row height - 1.
  */
-OccupancyGrid imageToGrid(const PgmImage& image, const MapMetadata& meta);
+OccupancyGrid imageToGrid(const MapImage& image, const MapMetadata& meta);
 
-/// @brief Load a map_server YAML + image pair. Throws MapError naming the file and field.
+/// @brief Load a map_server YAML + PGM/PNG image pair. Throws MapError naming the file and field.
 OccupancyGrid loadMap(const std::string& yaml_path);
 
 /// @brief Encode a grid as PGM P5 bytes the way map_saver does (0 occupied, 254 free, 205 unknown).
