@@ -2,7 +2,6 @@
 rosbag Python API (skipped without python3-rosbag or a built krr_msgs), and sim.launch's
 recorder records every topic the table needs."""
 import os
-import re
 import shutil
 import subprocess
 import sys
@@ -118,14 +117,17 @@ class TableTest(unittest.TestCase):
 
 class SimLaunchTest(unittest.TestCase):
     def test_recorder_records_the_table_topics(self):
-        with open(paths.repo("launch", "sim.launch")) as f:
-            text = f.read()
-        m = re.search(r'<node pkg="rosbag" type="record"[^>]*args="([^"]*)"', text)
-        self.assertIsNotNone(m, "sim.launch has no rosbag record node")
-        recorded = m.group(1).split()
+        import xml.etree.ElementTree as ET
+        root = ET.parse(paths.repo("launch", "sim.launch")).getroot()
+        recorders = [n for n in root.iter("node")
+                     if n.get("pkg") == "rosbag" and n.get("type") == "record"]
+        self.assertEqual(len(recorders), 1, "sim.launch has no rosbag record node")
+        self.assertEqual(recorders[0].get("if"), "$(arg record)")
+        recorded = recorders[0].get("args").split()
         for t in bag.TABLE_TOPICS:
             self.assertIn(t, recorded)
-        self.assertIn('<arg name="record" default="false"/>', text)
+        args = {a.get("name"): a.get("default") for a in root.findall("arg")}
+        self.assertEqual(args.get("record"), "false")  # recording is opt-in
 
 
 def _ros_messages():
