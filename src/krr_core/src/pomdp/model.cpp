@@ -1,11 +1,13 @@
 #include "krr_core/common/format.h"
 #include "krr_core/pomdp/model.h"
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <sstream>
 
 #include "krr_core/common/errors.h"
+#include "krr_core/common/resources.h"
 
 namespace krr {
 namespace pomdp {
@@ -30,9 +32,15 @@ std::size_t lookup(const std::vector<std::string>& names, const std::string& nam
 }  // namespace
 
 Model::Model(std::vector<Eigen::MatrixXd> transitions, std::vector<Eigen::MatrixXd> observations,
-             Eigen::MatrixXd rewards, double discount)
+             Eigen::MatrixXd rewards, double discount, double timeLimit)
     : discount_(discount), t_(std::move(transitions)), z_(std::move(observations)),
       r_(std::move(rewards)) {
+  const Stopwatch clock;
+  auto checkTime = [&]() {
+    if (timeLimit > 0.0 && clock.seconds() > timeLimit)
+      throw ConfigError("POMDP model: construction stopped at its time limit of " +
+                        num(timeLimit) + " s");
+  };
   a_ = t_.size();
   if (a_ == 0) throw ConfigError("POMDP model: no actions");
   s_ = static_cast<std::size_t>(t_[0].rows());
@@ -50,6 +58,7 @@ Model::Model(std::vector<Eigen::MatrixXd> transitions, std::vector<Eigen::Matrix
                       std::to_string(a_) + " (states x actions)");
   if (!r_.allFinite()) throw ConfigError("POMDP model: reward matrix has non-finite entries");
   for (std::size_t a = 0; a < a_; ++a) {
+    checkTime();
     const auto& t = t_[a];
     const auto& z = z_[a];
     if (static_cast<std::size_t>(t.rows()) != s_ || static_cast<std::size_t>(t.cols()) != s_)
@@ -60,23 +69,30 @@ Model::Model(std::vector<Eigen::MatrixXd> transitions, std::vector<Eigen::Matrix
       throw ConfigError("POMDP model: observation matrix of action " + std::to_string(a) +
                         " is " + std::to_string(z.rows()) + "x" + std::to_string(z.cols()) +
                         ", expected " + std::to_string(s_) + "x" + std::to_string(o_));
+    // Checked column by column (the storage order): row-order scans of a 3000-state model
+    // took most of pomdp_solve's set-up time. The slow path names the offending entry.
+    const bool tOk = (t.array() >= 0.0).all() && (t.array() <= 1.0 + kTolerance).all();
+    const bool zOk = (z.array() >= 0.0).all() && (z.array() <= 1.0 + kTolerance).all();
+    const Eigen::VectorXd tSum = t.rowwise().sum(), zSum = z.rowwise().sum();
     for (std::size_t s = 0; s < s_; ++s) {
-      for (std::size_t k = 0; k < s_; ++k)
-        if (!(t(s, k) >= 0.0 && t(s, k) <= 1.0 + kTolerance))
-          throw ConfigError("POMDP model: T(action " + std::to_string(a) + ", state " +
-                            std::to_string(s) + ", next " + std::to_string(k) + ") = " +
-                            num(t(s, k)) + " is not a probability");
-      double sum = t.row(s).sum();
+      if (!tOk)
+        for (std::size_t k = 0; k < s_; ++k)
+          if (!(t(s, k) >= 0.0 && t(s, k) <= 1.0 + kTolerance))
+            throw ConfigError("POMDP model: T(action " + std::to_string(a) + ", state " +
+                              std::to_string(s) + ", next " + std::to_string(k) + ") = " +
+                              num(t(s, k)) + " is not a probability");
+      double sum = tSum(static_cast<Eigen::Index>(s));
       if (std::abs(sum - 1.0) > kTolerance)
         throw ConfigError("POMDP model: transition row of action " + std::to_string(a) +
                           ", state " + std::to_string(s) + " sums to " + num(sum) +
                           " (expected 1)");
-      for (std::size_t o = 0; o < o_; ++o)
-        if (!(z(s, o) >= 0.0 && z(s, o) <= 1.0 + kTolerance))
-          throw ConfigError("POMDP model: O(action " + std::to_string(a) + ", next state " +
-                            std::to_string(s) + ", obs " + std::to_string(o) + ") = " +
-                            num(z(s, o)) + " is not a probability");
-      double zs = z.row(s).sum();
+      if (!zOk)
+        for (std::size_t o = 0; o < o_; ++o)
+          if (!(z(s, o) >= 0.0 && z(s, o) <= 1.0 + kTolerance))
+            throw ConfigError("POMDP model: O(action " + std::to_string(a) + ", next state " +
+                              std::to_string(s) + ", obs " + std::to_string(o) + ") = " +
+                              num(z(s, o)) + " is not a probability");
+      double zs = zSum(static_cast<Eigen::Index>(s));
       if (std::abs(zs - 1.0) > kTolerance)
         throw ConfigError("POMDP model: observation row of action " + std::to_string(a) +
                           ", next state " + std::to_string(s) + " sums to " + num(zs) +
@@ -91,11 +107,32 @@ Model::Model(std::vector<Eigen::MatrixXd> transitions, std::vector<Eigen::Matrix
   identity_.assign(a_, 1);
   terminal_.assign(s_, 1);
   for (std::size_t a = 0; a < a_; ++a) {
-    tt_[a] = t_[a].transpose();
+    checkTime();
+    // Transposed in 64 x 64 tiles: a plain strided transpose of a 3000-state matrix misses
+    // the cache on every store.
+    tt_[a].resize(static_cast<Eigen::Index>(s_), static_cast<Eigen::Index>(s_));
+    constexpr std::size_t kTile = 64;
+    for (std::size_t c0 = 0; c0 < s_; c0 += kTile)
+      for (std::size_t r0 = 0; r0 < s_; r0 += kTile) {
+        const std::size_t c1 = std::min(s_, c0 + kTile), r1 = std::min(s_, r0 + kTile);
+        for (std::size_t c = c0; c < c1; ++c)
+          for (std::size_t r = r0; r < r1; ++r)
+            tt_[a].data()[r * s_ + c] = t_[a].data()[c * s_ + r];
+      }
     std::vector<char> seen(o_, 0);
+    // Successor lists from the transpose's columns (contiguous): sizes first, then entries.
+    const Eigen::MatrixXd& tt = tt_[a];
     for (std::size_t s = 0; s < s_; ++s) {
+      if ((s & 255) == 255) checkTime();
+      const double* col = tt.data() + s * s_;
+      std::size_t nz = 0;
+      for (std::size_t k = 0; k < s_; ++k) nz += col[k] > 0.0;
+      auto& list = succ_[a * s_ + s];
+      list.reserve(nz);
       for (std::size_t k = 0; k < s_; ++k)
-        if (t_[a](s, k) > 0.0) succ_[a * s_ + s].emplace_back(k, t_[a](s, k));
+        if (col[k] > 0.0) list.emplace_back(k, col[k]);
+    }
+    for (std::size_t s = 0; s < s_; ++s) {
       for (std::size_t o = 0; o < o_; ++o)
         if (z_[a](s, o) > 0.0) {
           obsRow_[a * s_ + s].emplace_back(o, z_[a](s, o));

@@ -111,90 +111,183 @@ PointBasedSolver::PointBasedSolver(const Model& model, const Belief& b0, SolverO
   child_.resize(n);
   acc_.resize(n);
   bestAlpha_.resize(n);
+  // Set-up budget: a third to the lower bound, half the rest to the MDP values, the rest
+  // (at most initTimeLimit) to FIB. A phase that finishes early leaves its time to the next.
   Stopwatch sw;
-  initLower();
-  initUpper();
+  const double limit =
+      options_.setupTimeLimit > 0.0 ? options_.setupTimeLimit : 0.5 * options_.timeout;
+  const double share = std::max(0.0, limit - sw.seconds());
+  initLower(sw.seconds() + share / 3.0);
+  setup_.lowerSeconds = sw.seconds();
+  initUpper(sw.seconds() + std::max(0.0, limit - sw.seconds()) / 2.0, limit);
   rootLower_ = lowerRaw(b0_.data());
   rootUpper_ = upperRaw(b0_.data());
   elapsed_ = sw.seconds();
   candidate_.resize(n);
 }
 
-void PointBasedSolver::initLower() {
+void PointBasedSolver::initLower(double deadline) {
   // Blind policy "always a": alpha_a = (I - gamma T_a)^{-1} R_a, the exact value of a plan.
+  // Large models: Gauss-Seidel sweeps v(s) <- R(s, a) + gamma sum T(s, a, s') v(s') from
+  // v = min_s R(s, a) / (1 - gamma). The sweeps increase to alpha_a, and each entry is computed
+  // from entries that only grow afterwards, so every iterate v satisfies v <= R_a + gamma T_a v:
+  // a vector whose plan continues with itself is then at most its own backup, which is all the
+  // lower bound needs. The sweeps can therefore stop at any time.
+  const Stopwatch sw;
   const auto& r = m_.rewardMatrix();
   const auto S = static_cast<Eigen::Index>(s_);
+  bool exact = true;
   for (std::size_t a = 0; a < a_; ++a) {
-    Eigen::MatrixXd lhs = Eigen::MatrixXd::Identity(S, S) - gamma_ * m_.transitionMatrix(a);
-    Eigen::VectorXd alpha = lhs.partialPivLu().solve(r.col(static_cast<Eigen::Index>(a)));
+    const auto ac = static_cast<Eigen::Index>(a);
+    Eigen::VectorXd alpha;
+    if (s_ <= kDenseSetupStates) {
+      Eigen::MatrixXd lhs = Eigen::MatrixXd::Identity(S, S) - gamma_ * m_.transitionMatrix(a);
+      alpha = lhs.partialPivLu().solve(r.col(ac));
+    } else {
+      // This action's share of the time left.
+      const double end = sw.seconds() + std::max(0.0, deadline - sw.seconds()) /
+                                            static_cast<double>(a_ - a);
+      alpha = Eigen::VectorXd::Constant(S, r.col(ac).minCoeff() / (1.0 - gamma_));
+      bool converged = false;
+      while (!converged && sw.seconds() < end) {
+        double delta = 0.0, scale = 1.0;
+        bool cut = false;  // a partial sweep keeps the invariant too
+        for (std::size_t s = 0; s < s_ && !cut; ++s) {
+          cut = (s & 255) == 255 && sw.seconds() >= end;
+          double v = r(static_cast<Eigen::Index>(s), ac);
+          for (const auto& e : m_.successors(s, a))
+            v += gamma_ * e.second * alpha(static_cast<Eigen::Index>(e.first));
+          v = std::max(v, alpha(static_cast<Eigen::Index>(s)));  // monotone under rounding
+          delta = std::max(delta, v - alpha(static_cast<Eigen::Index>(s)));
+          scale = std::max(scale, std::abs(v));
+          alpha(static_cast<Eigen::Index>(s)) = v;
+        }
+        ++setup_.lowerSweeps;
+        converged = !cut && delta <= 1e-12 * scale;
+      }
+      exact = exact && converged;
+    }
     // Rounding safety: shift down by a relative epsilon so the vector stays a lower bound.
     alpha.array() -= 1e-9 * (1.0 + alpha.cwiseAbs().maxCoeff());
     // Its plan continues with itself after every observation.
     const auto self = static_cast<std::uint32_t>(alphaAction_.size());
     addAlpha(alpha, a, std::vector<std::uint32_t>(obsCol_[a].size(), self));
   }
+  setup_.lowerExact = exact;
+  setup_.timedOut = setup_.timedOut || !exact;
   pruneAlphas();
 }
 
-void PointBasedSolver::initUpper() {
-  // 1. Exact MDP values by policy iteration; Q_MDP is an upper bound (QMDP).
+void PointBasedSolver::initUpper(double mdpDeadline, double setupEnd) {
+  // 1. MDP values; Q_MDP is an upper bound (QMDP). Small models: exact, by policy iteration.
+  //    Large ones: Gauss-Seidel value iteration from V = max R / (1 - gamma); the sweeps
+  //    decrease to V_MDP and every iterate satisfies V >= H V (the mirror of initLower), so
+  //    Q = R + gamma T V >= H Q is an upper bound wherever the sweeps stop.
   // 2. Fast informed bound Q(s,a) = R(s,a) + gamma sum_o max_a' sum_s' T O Q(s',a'),
   //    iterated downwards from Q_MDP: each iterate is an upper bound, so stopping early is
   //    safe; the FIB operator is below the QMDP operator, hence the sequence is monotone.
+  // mdpDeadline and setupEnd are in seconds of the constructor's clock (since initLower
+  // started). FIB gets initTimeLimit, within setupEnd.
+  const Stopwatch sw;
+  const double offset = setup_.lowerSeconds;
+  auto late = [&](double deadline) { return offset + sw.seconds() >= deadline; };
   const auto& r = m_.rewardMatrix();
   const auto S = static_cast<Eigen::Index>(s_), A = static_cast<Eigen::Index>(a_);
-  std::vector<std::size_t> pol(s_, 0);
-  for (std::size_t s = 0; s < s_; ++s) {
-    Eigen::Index best = 0;
-    r.row(static_cast<Eigen::Index>(s)).maxCoeff(&best);
-    pol[s] = static_cast<std::size_t>(best);
-  }
   Eigen::VectorXd v = Eigen::VectorXd::Zero(S);
   Eigen::MatrixXd q(S, A);
-  for (int it = 0; it < 1000; ++it) {
-    Eigen::MatrixXd lhs = Eigen::MatrixXd::Identity(S, S);
-    Eigen::VectorXd rhs(S);
-    for (std::size_t s = 0; s < s_; ++s) {
-      lhs.row(static_cast<Eigen::Index>(s)) -=
-          gamma_ * m_.transitionMatrix(pol[s]).row(static_cast<Eigen::Index>(s));
-      rhs(s) = r(s, pol[s]);
-    }
-    v = lhs.partialPivLu().solve(rhs);
-    bool changed = false;
-    for (std::size_t a = 0; a < a_; ++a)
-      q.col(static_cast<Eigen::Index>(a)) =
-          r.col(static_cast<Eigen::Index>(a)) + gamma_ * (m_.transitionMatrix(a) * v);
+  if (s_ <= kDenseSetupStates) {
+    std::vector<std::size_t> pol(s_, 0);
     for (std::size_t s = 0; s < s_; ++s) {
       Eigen::Index best = 0;
-      const double bv = q.row(static_cast<Eigen::Index>(s)).maxCoeff(&best);
-      if (bv > q(s, pol[s]) + 1e-12) {
-        pol[s] = static_cast<std::size_t>(best);
-        changed = true;
-      }
+      r.row(static_cast<Eigen::Index>(s)).maxCoeff(&best);
+      pol[s] = static_cast<std::size_t>(best);
     }
-    if (!changed) break;
+    for (int it = 0; it < 1000; ++it) {
+      Eigen::MatrixXd lhs = Eigen::MatrixXd::Identity(S, S);
+      Eigen::VectorXd rhs(S);
+      for (std::size_t s = 0; s < s_; ++s) {
+        lhs.row(static_cast<Eigen::Index>(s)) -=
+            gamma_ * m_.transitionMatrix(pol[s]).row(static_cast<Eigen::Index>(s));
+        rhs(s) = r(s, pol[s]);
+      }
+      v = lhs.partialPivLu().solve(rhs);
+      bool changed = false;
+      for (std::size_t a = 0; a < a_; ++a)
+        q.col(static_cast<Eigen::Index>(a)) =
+            r.col(static_cast<Eigen::Index>(a)) + gamma_ * (m_.transitionMatrix(a) * v);
+      for (std::size_t s = 0; s < s_; ++s) {
+        Eigen::Index best = 0;
+        const double bv = q.row(static_cast<Eigen::Index>(s)).maxCoeff(&best);
+        if (bv > q(s, pol[s]) + 1e-12) {
+          pol[s] = static_cast<std::size_t>(best);
+          changed = true;
+        }
+      }
+      if (!changed) break;
+    }
+    setup_.mdpExact = true;
+  } else {
+    v.setConstant(r.maxCoeff() / (1.0 - gamma_));
+    bool converged = false;
+    while (!converged && !late(mdpDeadline)) {
+      double delta = 0.0, scale = 1.0;
+      bool cut = false;  // a partial sweep keeps V >= H V too
+      for (std::size_t s = 0; s < s_ && !cut; ++s) {
+        cut = (s & 255) == 255 && late(mdpDeadline);
+        double best = -kInf;
+        for (std::size_t a = 0; a < a_; ++a) {
+          double x = r(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(a));
+          for (const auto& e : m_.successors(s, a))
+            x += gamma_ * e.second * v(static_cast<Eigen::Index>(e.first));
+          best = std::max(best, x);
+        }
+        best = std::min(best, v(static_cast<Eigen::Index>(s)));  // monotone under rounding
+        delta = std::max(delta, v(static_cast<Eigen::Index>(s)) - best);
+        scale = std::max(scale, std::abs(best));
+        v(static_cast<Eigen::Index>(s)) = best;
+      }
+      ++setup_.mdpSweeps;
+      converged = !cut && delta <= 1e-12 * scale;
+    }
+    setup_.mdpExact = converged;
+    setup_.timedOut = setup_.timedOut || !converged;
+    for (std::size_t a = 0; a < a_; ++a)
+      for (std::size_t s = 0; s < s_; ++s) {
+        double x = r(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(a));
+        for (const auto& e : m_.successors(s, a))
+          x += gamma_ * e.second * v(static_cast<Eigen::Index>(e.first));
+        q(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(a)) = x;
+      }
   }
-  // Rounding safety margin, and a Bellman check: if the policy-iteration values are not a
-  // fixed point (e.g. ill-conditioned), fall back to the trivial bound Rmax / (1 - gamma).
+  // Rounding safety margin, and a Bellman check: if the MDP values are not an upper fixed
+  // point (e.g. ill-conditioned), fall back to the trivial bound Rmax / (1 - gamma).
   q.array() += 1e-9 * (1.0 + q.cwiseAbs().maxCoeff());
   {
+    const Eigen::VectorXd qmax = q.rowwise().maxCoeff();
     double worst = 0.0;
     for (std::size_t a = 0; a < a_; ++a)
       for (std::size_t s = 0; s < s_; ++s) {
         double back = r(s, a);
         for (const auto& e : m_.successors(s, a))
-          back += gamma_ * e.second * q.row(static_cast<Eigen::Index>(e.first)).maxCoeff();
+          back += gamma_ * e.second * qmax(static_cast<Eigen::Index>(e.first));
         worst = std::max(worst, back - q(s, a));
       }
     if (worst > 0.0) q.setConstant(r.maxCoeff() / (1.0 - gamma_) + 1e-9);
   }
+  setup_.mdpSeconds = sw.seconds();
   Eigen::MatrixXd next = q;
-  Stopwatch sw;
-  for (std::size_t it = 0; it < options_.initIterations; ++it) {
+  const double fibDeadline = std::min(setupEnd, offset + sw.seconds() + options_.initTimeLimit);
+  bool fibDone = false, cut = false;
+  for (std::size_t it = 0; it < options_.initIterations && !fibDone && !cut; ++it) {
     double delta = 0.0;
-    for (std::size_t a = 0; a < a_; ++a) {
+    for (std::size_t a = 0; a < a_ && !cut; ++a) {
       const auto& z = m_.observationMatrix(a);
       for (std::size_t s = 0; s < s_; ++s) {
+        // An unfinished iteration is dropped (q stays the last complete one).
+        if ((s & 63) == 0 && late(fibDeadline)) {
+          cut = true;
+          break;
+        }
         double val = r(s, a);
         const auto& succ = m_.successors(s, a);
         for (std::size_t o : m_.possibleObservations(a)) {
@@ -210,9 +303,14 @@ void PointBasedSolver::initUpper() {
         delta = std::max(delta, q(s, a) - next(s, a));
       }
     }
+    if (cut) break;
     q.swap(next);
-    if (delta < 1e-10 || sw.seconds() > options_.initTimeLimit) break;
+    ++setup_.fibIterations;
+    fibDone = delta < 1e-10;
   }
+  setup_.fibConverged = fibDone;
+  setup_.timedOut = setup_.timedOut || (!fibDone && late(setupEnd));
+  setup_.fibSeconds = sw.seconds() - setup_.mdpSeconds;
   for (std::size_t s = 0; s < s_; ++s)
     if (m_.isTerminal(s)) q.row(static_cast<Eigen::Index>(s)).setZero();  // exactly 0
   corner_ = q.rowwise().maxCoeff();
@@ -612,8 +710,11 @@ void PointBasedSolver::trial() {
     ++depth;
     thr = childThr;
   }
+  // Backups are optional for the bounds' validity: past the deadline, the rest are skipped,
+  // so that a deep trial cannot overrun the budget by its own length.
   lowerBackup(path_[depth]);
   for (std::size_t d = depth; d-- > 0;) {
+    if (now() >= deadline_) break;
     NodeCache& c = cache_[d];
     refreshUpper(path_[d], c, c.action, chosenObs[d], path_[d + 1]);
     lowerBackup(path_[d]);

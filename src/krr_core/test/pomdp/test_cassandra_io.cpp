@@ -128,8 +128,8 @@ TEST(CassandraIo, ParseErrorPositions) {
   EXPECT_EQ(errorAt(head + "Q: x\n").substr(0, 11), "m.pomdp:5:1");
   // rows that do not sum to one point at the entry that last wrote them
   EXPECT_EQ(errorAt(head + "T: x : a : a 0.5\nT: x : b : b 1\nO: x uniform\n"),
-            "m.pomdp:5:1 transition probabilities of action 'x' from state 'a' sum to 0.500000 "
-            "(expected 1)");
+            "m.pomdp:5:1 transition probabilities of action 'x' from state 'a' sum to 0.5 "
+            "(expected 1 within 0.0001)");
   // the discount must be in (0, 1]
   EXPECT_EQ(errorAt("discount: 1.5\n").substr(0, 12), "m.pomdp:1:11");
   // T before states
@@ -138,6 +138,69 @@ TEST(CassandraIo, ParseErrorPositions) {
   EXPECT_EQ(errorAt(head + "T: x : a :").substr(0, 12), "m.pomdp:5:11");
   // values must be reward or cost
   EXPECT_EQ(errorAt("discount: 0.9\nvalues: money\n").substr(0, 11), "m.pomdp:2:9");
+}
+
+// The standard benchmark files are written with six decimals: TagAvoid.pomdp was refused with
+// "transition probabilities of action 'North' from state 's837' sum to 1.000001" (issue 15).
+TEST(CassandraIo, SixDecimalRowsAreRenormalisedAndTheLargestDeviationReported) {
+  const std::string text =
+      "discount: 0.95\nvalues: reward\nstates: a b c\nactions: x y\nobservations: o p\n"
+      "start: 0.333333 0.333333 0.333333\n"
+      "T: x\n0.333334 0.333334 0.333333\n0.5 0.5 0\n0 0 1\n"  // row a: 1.000001
+      "T: y identity\n"
+      "O: * : * : o 0.66667\nO: * : * : p 0.33333\n"          // every row: 1.0
+      "O: y : c : o 0.166667\nO: y : c : p 0.833331\n"        // 0.999998
+      "R: * : * : * : * 1\n";
+  CassandraStats stats;
+  const Model m = readCassandra(text, "six.pomdp", CassandraLimits(), &stats);
+  EXPECT_NEAR(stats.max_sum_deviation, 2e-6, 1e-12);
+  EXPECT_EQ(stats.max_deviation_where, "O row of action 'y' in state 'c'");
+  EXPECT_EQ(stats.renormalised_rows, 3u);  // start, T(x, a), O(y, c)
+  for (std::size_t a = 0; a < m.getA(); ++a)
+    for (std::size_t s = 0; s < m.getS(); ++s) {
+      EXPECT_NEAR(m.transitionMatrix(a).row(static_cast<Eigen::Index>(s)).sum(), 1.0, 1e-15);
+      EXPECT_NEAR(m.observationMatrix(a).row(static_cast<Eigen::Index>(s)).sum(), 1.0, 1e-15);
+    }
+  EXPECT_NEAR(m.getTransitionProbability(0, 0, 2), 0.333333 / 1.000001, 1e-15);
+  EXPECT_NEAR(m.initialBelief().sum(), 1.0, 1e-15);
+  // Exact files report nothing.
+  CassandraStats exact;
+  loadCassandra(kData + "tiger.95.pomdp", CassandraLimits(), &exact);
+  EXPECT_LT(exact.max_sum_deviation, 1e-12);
+  EXPECT_EQ(exact.renormalised_rows, 0u);
+  // A tolerance of zero restores the strict reading.
+  CassandraLimits strict;
+  strict.sum_tolerance = 0.0;
+  try {
+    readCassandra(text, "six.pomdp", strict);
+    ADD_FAILURE() << "accepted with sum_tolerance 0";
+  } catch (const ParseError& e) {
+    EXPECT_EQ(std::string(e.what()).substr(0, 13), "six.pomdp:6:8") << e.what();
+  }
+}
+
+TEST(CassandraIo, RealProbabilityErrorsAreStillRefusedWithTheirPosition) {
+  const std::string head = "discount: 0.9\nstates: a b\nactions: x\nobservations: o\nO: x uniform\n";
+  // Off by 1e-3, beyond the 1e-4 tolerance: the entry that last wrote the row.
+  EXPECT_EQ(errorAt(head + "T: x identity\nT: x : a\n0.5 0.501\n"),
+            "m.pomdp:7:1 transition probabilities of action 'x' from state 'a' sum to 1.001 "
+            "(expected 1 within 0.0001)");
+  // Just inside and just outside the tolerance.
+  EXPECT_EQ(errorAt(head + "T: x identity\nT: x : a : b 0.00009\n"), "no error");
+  EXPECT_EQ(errorAt(head + "T: x identity\nT: x : a : b 0.00011\n").substr(0, 11),
+            "m.pomdp:7:1");
+  // Negative entries, even tiny ones, at their token (a renormalised row must stay >= 0).
+  EXPECT_EQ(errorAt(head + "T: x identity\nT: x : a : b -0.000001\n").substr(0, 13),
+            "m.pomdp:7:14 ");
+  EXPECT_EQ(errorAt(head + "T: x identity\nT: x : a : b -0.000001\n").substr(13),
+            "transition probability -0.000001 is not in [0, 1]");
+  // An observation row off by more than the tolerance.
+  EXPECT_EQ(errorAt("discount: 0.9\nstates: a b\nactions: x\nobservations: o p\n"
+                    "T: x identity\nO: x : b\n0.6 0.3\nO: x : a\n0.5 0.5\n")
+                .substr(0, 11),
+            "m.pomdp:6:1");
+  // The start vector too.
+  EXPECT_EQ(errorAt(head + "T: x identity\nstart: 0.5 0.4\n").substr(0, 12), "m.pomdp:7:8 ");
 }
 
 TEST(CassandraIo, WriterRejectsNamesOtherToolsCannotRead) {

@@ -37,6 +37,22 @@ struct CassandraLimits {
   /// Bytes per state pair (S^2) the caller will need on top of the model, e.g. a solver's
   /// S x S work matrices, so that a model the caller cannot use is refused at its declaration.
   std::size_t extra_bytes_per_state_pair = 0;
+  /// Largest |sum - 1| accepted for a T or O row (and the start vector); such rows are
+  /// renormalised. The standard benchmark files (TagAvoid, RockSample, Hallway) are written with
+  /// six decimals, so a row of n entries can be off by n * 5e-7 (TagAvoid: 1e-6); 1e-4 accepts
+  /// rows of up to 200 rounded entries and still refuses every real modelling error we met
+  /// (a missing entry is off by at least 1e-3 in these files).
+  double sum_tolerance = 1e-4;
+};
+
+/// @brief What the reader had to repair; filled when requested (readCassandra's stats).
+struct CassandraStats {
+  /// Largest |sum - 1| of a T row, O row or the start vector (0 when all sum to 1 exactly).
+  double max_sum_deviation = 0.0;
+  /// Which distribution that was, e.g. "T row of action 'North' from state 's837'".
+  std::string max_deviation_where;
+  /// Rows (and start vector) divided by their sum because it differed from 1.
+  std::size_t renormalised_rows = 0;
 };
 
 /// @brief Upper estimate of the bytes a Model with S states, A actions and O observations
@@ -46,13 +62,17 @@ struct CassandraLimits {
 /// Saturates at SIZE_MAX instead of wrapping.
 std::size_t estimateModelBytes(std::size_t states, std::size_t actions, std::size_t observations);
 
-/// @brief Parse .pomdp text; file is used in error positions.
+/// @brief Parse .pomdp text; file is used in error positions. Distributions whose sum is within
+/// limits.sum_tolerance of 1 are renormalised (reported in *stats if given).
 /// @throws ParseError, also when a declaration needs more than the memory budget (naming the
-/// declaration and the size) or the parse exceeds limits.timeout.
+/// declaration and the size), a distribution is off by more than the tolerance or has a
+/// negative entry, or the parse exceeds limits.timeout.
 Model readCassandra(const std::string& text, const std::string& file = "<string>",
-                    const CassandraLimits& limits = CassandraLimits());
+                    const CassandraLimits& limits = CassandraLimits(),
+                    CassandraStats* stats = nullptr);
 /// @brief Read a .pomdp file (regular files only, see readFile). @throws IoError, ParseError.
-Model loadCassandra(const std::string& path, const CassandraLimits& limits = CassandraLimits());
+Model loadCassandra(const std::string& path, const CassandraLimits& limits = CassandraLimits(),
+                    CassandraStats* stats = nullptr);
 /// @brief The model as .pomdp text (17 significant digits: exact round trip). Zero entries
 /// are omitted; identity transition matrices use the 'identity' keyword.
 /// @throws ConfigError if a name is not a valid .pomdp identifier ([A-Za-z][A-Za-z0-9_-]*).

@@ -39,10 +39,14 @@ class Model {
    * @param observations one S x O matrix per action, O[a](s1, o) = P(o | s1, a)
    * @param rewards S x A matrix of expected immediate rewards R(s, a)
    * @param discount in (0, 1]
-   * @throws ConfigError naming the action, state and offending sum or value.
+   * @param timeLimit seconds the construction may take (0: no limit). Building a model of
+   *        thousands of states takes about a second; a caller with a time budget (pomdp_solve
+   *        --timeout) passes what is left of it, so that construction cannot overrun it.
+   * @throws ConfigError naming the action, state and offending sum or value, or saying that
+   *        the time limit was reached.
    */
   Model(std::vector<Eigen::MatrixXd> transitions, std::vector<Eigen::MatrixXd> observations,
-        Eigen::MatrixXd rewards, double discount);
+        Eigen::MatrixXd rewards, double discount, double timeLimit = 0.0);
 
   std::size_t getS() const { return s_; }
   std::size_t getA() const { return a_; }

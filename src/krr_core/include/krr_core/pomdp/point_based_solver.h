@@ -35,7 +35,7 @@ namespace pomdp {
 /// @brief Solver parameters.
 struct SolverOptions {
   double precision = 1e-3;         ///< stop when upper - lower <= precision at the root
-  double timeout = 10.0;           ///< seconds of solver time for solve()
+  double timeout = 10.0;           ///< seconds of solver time for solve(), set-up included
   /// Stop after this many trials in total (0: no limit). Unlike the timeout, this budget makes
   /// the result reproducible (with initTimeLimit not reached, the run is deterministic).
   std::size_t maxTrials = 0;
@@ -54,6 +54,27 @@ struct SolverOptions {
   bool sawtooth = true;
   /// Also prune lower-bound vectors that are not the best at b0 or at any stored point.
   bool witnessPruning = true;
+  /// Seconds the set-up in the constructor may take (0: half the timeout, so that the search
+  /// gets the other half even on models whose exact set-up is slow). Every set-up phase checks it
+  /// and keeps what it has when it is spent: at worst the blind-policy bound started at
+  /// min_s R(s, a) / (1 - gamma) and the trivial upper bound max R / (1 - gamma), both valid.
+  double setupTimeLimit = 0.0;
+};
+
+/// @brief Where the constructor's set-up time went and how far each phase got, so that a run
+/// that ends with loose bounds says why (a phase cut short by the time budget).
+struct SetupReport {
+  double lowerSeconds = 0.0;      ///< blind-policy lower bound
+  double mdpSeconds = 0.0;        ///< MDP values (the QMDP upper bound)
+  double fibSeconds = 0.0;        ///< fast informed bound iterations
+  bool lowerExact = false;        ///< blind policies evaluated exactly (LU) or to convergence
+  std::size_t lowerSweeps = 0;    ///< Gauss-Seidel sweeps of the blind-policy evaluation
+  bool mdpExact = false;          ///< MDP solved (policy iteration or converged sweeps)
+  std::size_t mdpSweeps = 0;      ///< value-iteration sweeps (0 with policy iteration)
+  std::size_t fibIterations = 0;  ///< complete FIB iterations
+  bool fibConverged = false;
+  bool timedOut = false;          ///< some phase stopped at the set-up time limit
+  double seconds() const { return lowerSeconds + mdpSeconds + fibSeconds; }
 };
 
 /// @brief Bounds at the root at one moment of the run.
@@ -90,10 +111,17 @@ class PointBasedSolver {
   AlphaVectorPolicy policy() const;
   /// @brief FIB value of each state (the upper bound at the corners).
   const Eigen::VectorXd& cornerUpper() const { return corner_; }
+  /// @brief How the set-up went (phase times, whether each phase finished).
+  const SetupReport& setupReport() const { return setup_; }
+
+  /// @brief Models with at most this many states get exact dense (LU) evaluations in the
+  /// set-up; larger ones sparse sweeps that stop at the set-up deadline (an O(S^3) LU of a
+  /// 3000-state model took 7 s and could not be interrupted).
+  static constexpr std::size_t kDenseSetupStates = 500;
 
  private:
-  void initLower();
-  void initUpper();
+  void initLower(double deadline);
+  void initUpper(double mdpDeadline, double setupEnd);
   void trial();
   /// Per trial node: Q_U per action, and P(o | b, a) and U(b_ao) per (action, observation).
   struct NodeCache {
@@ -159,6 +187,7 @@ class PointBasedSolver {
   Eigen::VectorXd pred_, child_, acc_, bestAlpha_, candidate_;
   Eigen::MatrixXd children_, scores_;  // lowerBackup: S x slots children, N x slots scores
   double now() const;
+  SetupReport setup_;
   Stopwatch clock_;
   double clockOffset_ = 0.0;
   double deadline_ = 0.0;

@@ -1,0 +1,177 @@
+// Benchmark: the point-based solver on the standard POMDP problems of issue 15 at fixed budgets.
+//
+// Usage: bench_pomdp_suite [--dir DIR] [--budgets 1,10] [--problems tiger,rocksample_4_4,...]
+//                          [--dialog-turns 10]
+// Problems: tiger (built in), rocksample_4_4, rocksample_5_5, rocksample_5_7, tag (read from
+// DIR/<name>.pomdp; generate them with tools/pomdp_bench/gen_pomdp.py, see --help), dialog (a
+// 30-request dialog POMDP with the turn counter in the state, pomdp::withTurnCounter; not the
+// knowledge-base models of bench_dialog_pomdp, which need the experiment data).
+// Each run is a child process (fork), so that its peak memory is its own; the budget covers
+// reading, set-up and search, as pomdp_solve's --timeout does. Per problem and budget it prints
+// lower and upper bound at b0, gap, wall time, peak RSS and how the run ended.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/common/files.h"
+#include "krr_core/common/resources.h"
+#include "krr_core/pomdp/cassandra_io.h"
+#include "krr_core/pomdp/dialog_pomdp.h"
+#include "krr_core/pomdp/point_based_solver.h"
+#include "krr_core/pomdp/tiger.h"
+#include "krr_core/pomdp/turn_counter_model.h"
+
+using namespace krr;
+using namespace krr::pomdp;
+
+namespace {
+
+/// @brief What a child reports back through its pipe.
+struct RunResult {
+  int ok = 0;  ///< 1: solved; 0: error (message in `error`)
+  std::size_t states = 0, actions = 0, observations = 0, alphas = 0;
+  double lower = 0.0, upper = 0.0, seconds = 0.0, readSeconds = 0.0, setupSeconds = 0.0;
+  double peakMiB = 0.0;
+  int converged = 0, setupCut = 0;
+  char error[200] = {0};
+};
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string x;
+  while (std::getline(ss, x, ','))
+    if (!x.empty()) out.push_back(x);
+  return out;
+}
+
+/// @brief Load (or build) and solve one problem within `budget` seconds, in this process.
+RunResult runOne(const std::string& name, const std::string& dir, double budget, int turns) {
+  RunResult r;
+  const Stopwatch wall;
+  try {
+    Model model = makeTiger();
+    if (name == "dialog") {
+      // The default request space (3 items x 5 rooms x 2 persons) with uneven delivery success
+      // and an own-office prior, so that asking pays (with every serve succeeding, the value is
+      // trivially 80).
+      DialogSpec spec;
+      spec.prior = ownOfficePrior(3, 5, {0, 3}, 0.8);
+      Eigen::VectorXd reach(5);
+      reach << 0.95, 0.6, 0.8, 0.9, 0.7;
+      spec.delivery = deliveryMatrix(3, reach, 2);
+      DialogPomdp d(spec);
+      model = withTurnCounter(d.model(), d.model().initialBelief(), turns);
+    } else if (name != "tiger") {
+      CassandraLimits limits;
+      limits.timeout = budget;
+      model = loadCassandra(dir + "/" + name + ".pomdp", limits);
+    }
+    r.readSeconds = wall.seconds();
+    SolverOptions opt;
+    opt.timeout = budget;
+    const double reserve = std::min(0.05 * budget, 0.5);
+    opt.setupTimeLimit = std::max(1e-6, 0.5 * (budget - reserve - r.readSeconds));
+    PointBasedSolver solver(model, model.initialBelief(), opt);
+    r.setupSeconds = solver.setupReport().seconds();
+    solver.runUntil(solver.report().time + std::max(0.0, budget - reserve - wall.seconds()));
+    const BoundsReport rep = solver.report();
+    r.ok = 1;
+    r.states = model.getS();
+    r.actions = model.getA();
+    r.observations = model.getO();
+    r.alphas = rep.alphas;
+    r.lower = rep.lower;
+    r.upper = rep.upper;
+    r.converged = solver.converged() ? 1 : 0;
+    r.setupCut = solver.setupReport().timedOut ? 1 : 0;
+  } catch (const std::exception& e) {
+    std::snprintf(r.error, sizeof(r.error), "%s", e.what());
+  }
+  r.seconds = wall.seconds();
+  r.peakMiB = peakRssMiB();
+  return r;
+}
+
+/// @brief runOne in a child process; the parent's memory stays out of the child's peak.
+RunResult runIsolated(const std::string& name, const std::string& dir, double budget, int turns) {
+  int fd[2];
+  RunResult r;
+  if (pipe(fd) != 0) throw IoError("bench_pomdp_suite: pipe failed");
+  std::fflush(stdout);
+  const pid_t pid = fork();
+  if (pid < 0) throw IoError("bench_pomdp_suite: fork failed");
+  if (pid == 0) {
+    close(fd[0]);
+    const RunResult c = runOne(name, dir, budget, turns);
+    const ssize_t w = write(fd[1], &c, sizeof(c));
+    _exit(w == static_cast<ssize_t>(sizeof(c)) ? 0 : 1);
+  }
+  close(fd[1]);
+  const ssize_t n = read(fd[0], &r, sizeof(r));
+  close(fd[0]);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  if (n != static_cast<ssize_t>(sizeof(r))) {
+    r = RunResult();
+    std::snprintf(r.error, sizeof(r.error), "child died (status %d)", status);
+  }
+  return r;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string dir = "/tmp/pomdp_bench";
+  std::vector<std::string> budgets{"1", "10"};
+  std::vector<std::string> problems{"tiger", "rocksample_4_4", "rocksample_5_5", "rocksample_5_7",
+                                    "tag", "dialog"};
+  int turns = 10;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const bool more = i + 1 < argc;
+    if (a == "--dir" && more) {
+      dir = argv[++i];
+    } else if (a == "--budgets" && more) {
+      budgets = split(argv[++i]);
+    } else if (a == "--problems" && more) {
+      problems = split(argv[++i]);
+    } else if (a == "--dialog-turns" && more) {
+      turns = std::atoi(argv[++i]);
+    } else {
+      std::printf(
+          "usage: bench_pomdp_suite [--dir DIR] [--budgets 1,10] [--problems a,b,...] "
+          "[--dialog-turns 10]\n"
+          "  generate DIR's files first, e.g. for DIR=/tmp/pomdp_bench:\n"
+          "    tools/pomdp_bench/gen_pomdp.py rocksample 4 4 -o /tmp/pomdp_bench/rocksample_4_4.pomdp\n"
+          "    (likewise 5 5, 5 7) and tools/pomdp_bench/gen_pomdp.py tag -o /tmp/pomdp_bench/tag.pomdp\n");
+      return a == "--help" || a == "-h" ? 0 : 2;
+    }
+  }
+  std::printf("%-15s %6s %4s %4s %7s %11s %11s %9s %8s %8s %8s %7s  %s\n", "problem", "S", "A",
+              "O", "budget", "lower", "upper", "gap", "time_s", "setup_s", "peak_MiB", "alphas",
+              "end");
+  for (const std::string& b : budgets) {
+    const double budget = std::atof(b.c_str());
+    for (const std::string& p : problems) {
+      const RunResult r = runIsolated(p, dir, budget, turns);
+      if (!r.ok) {
+        std::printf("%-15s %6s %4s %4s %7.1f  error: %s\n", p.c_str(), "-", "-", "-", budget,
+                    r.error);
+        continue;
+      }
+      std::printf("%-15s %6zu %4zu %4zu %7.1f %11.4f %11.4f %9.4f %8.3f %8.3f %8.1f %7zu  %s%s%s\n",
+                  p.c_str(), r.states, r.actions, r.observations, budget, r.lower, r.upper,
+                  r.upper - r.lower, r.seconds, r.setupSeconds, r.peakMiB, r.alphas,
+                  r.converged ? "converged" : "timeout", r.setupCut ? ", set-up cut" : "",
+                  r.seconds > 1.1 * budget ? ", OVER BUDGET" : "");
+    }
+  }
+  return 0;
+}
