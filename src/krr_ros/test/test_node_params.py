@@ -55,6 +55,7 @@ class TestNodeParams(unittest.TestCase):
     def test_reasoner_node(self):
         self.refused('reasoner_node', {'discount': 2.0}, 'discount = 2: must be in [1e-06, 1]')
         self.refused('reasoner_node', {'discount': 'high'}, "discount = 'high': must be a number")
+        self.refused('reasoner_node', {'backend': 'clingo'}, "backend = 'clingo': must be one of")
         self.refused('reasoner_node', {'domain_files': ['config/nope.plog']},
                      "domain_files[0] = '%s/config/nope.plog': no such file" % ROOT)
         self.refused('reasoner_node', {'discuont': 0.9}, 'discuont is not a parameter of this node')

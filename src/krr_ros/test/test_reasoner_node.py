@@ -249,6 +249,42 @@ class TestReasonerNode(unittest.TestCase):
             node.kill()
             node.clear_params()
 
+    def test_programs_outside_the_native_fragment_are_answered_or_refused_by_backend(self):
+        # An even loop through `not` splits every possible world in two: P(lp) = 1/2. The
+        # native engine alone cannot answer it (~backend: native refuses the update, nothing
+        # changes); the default, auto, answers through clingo and the KB's other answers stay.
+        loop = 'lp : boolean.\nlq : boolean.\nlp :- not lq.\nlq :- not lp.\n'
+        for backend in ('native', 'auto'):
+            params = self.own_reasoner_params('backend_' + backend, backend=backend)
+            name = 'reasoner_backend_' + backend
+            node = SpawnedNode('reasoner_node', name, params).start()
+            try:
+                r = Reasoner('/' + name)
+                before = self.answers(r)
+                res = r.update(statements=loop)
+                if backend == 'native':
+                    self.assertFalse(res.success, res.message)
+                    self.assertIn('nothing changed', res.message)
+                    self.assertIn('ASP back end', res.message)
+                    self.assertEqual(self.answers(r), before)
+                else:
+                    self.assertTrue(res.success, res.message)
+                    q = r.query(query='?{lp}')
+                    self.assertTrue(q.success, q.message)
+                    self.assertAlmostEqual(q.probability, 0.5, places=9)
+                    # now answered through clingo: the same numbers up to rounding
+                    after = self.answers(r)
+                    self.assertEqual(len(after), len(before))
+                    for a, b in zip(after, before):
+                        a = a if isinstance(a, tuple) else (a,)
+                        b = b if isinstance(b, tuple) else (b,)
+                        self.assertEqual(len(a), len(b))
+                        for x, y in zip(a, b):
+                            self.assertAlmostEqual(x, y, places=9)
+            finally:
+                node.kill()
+                node.clear_params()
+
     def test_start_up_recovers_and_never_refuses_what_it_wrote(self):
         params = self.own_reasoner_params('startup')
         nav, dom = params['learned_file'], params['domain_learned_file']

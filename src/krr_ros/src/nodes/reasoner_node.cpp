@@ -45,6 +45,8 @@ struct ReasonerParams {
   std::string learned_file;               ///< ~learned_file: learned navigation knowledge
   double discount = 0.95;                 ///< ~discount: default discount of built models
   double query_seconds = 10.0;            ///< ~query_seconds: grounding / inference budget
+  /// ~backend: auto (native engine inside its fragment, clingo otherwise), native or asp
+  krr::plog::Backend backend = krr::plog::Backend::Auto;
   std::uint64_t seed = 1;                 ///< ~seed (the reasoner is deterministic; logged)
 
   static ReasonerParams read(krr_ros::ParamReader& r) {
@@ -63,6 +65,7 @@ struct ReasonerParams {
                "must be a non-empty path different from learned_file");
     p.discount = r.number("discount", 0.95, 1e-6, 1.0);
     p.query_seconds = r.number("query_seconds", 10.0, 0.01, 3600.0);
+    p.backend = krr::plog::parseBackend(r.str("backend", "auto", {"auto", "native", "asp"}));
     r.rejectUnknown();
     return p;
   }
@@ -130,6 +133,7 @@ class ReasonerNode {
   std::unique_ptr<krr::plog::Reasoner> loadDomainKb(std::string& added, std::size_t* count) {
     auto kb = std::make_unique<krr::plog::Reasoner>();
     kb->setLimits(limits());
+    kb->setBackend(params_.backend);
     kb->loadFile(params_.domain_files.front());
     for (std::size_t i = 1; i < params_.domain_files.size(); ++i)
       kb->addStatements(krr::readFile(params_.domain_files[i]), "", params_.domain_files[i]);
@@ -154,6 +158,7 @@ class ReasonerNode {
     auto nav = std::make_unique<krr::kb::NavigationKnowledge>(*domain_.grid,
                                                                domain_.knowledge_files);
     nav->reasoner().setLimits(limits());
+    nav->reasoner().setBackend(params_.backend);
     if (!std::filesystem::exists(params_.learned_file)) return nav;
     try {
       nav->loadLearned(params_.learned_file);
@@ -164,6 +169,7 @@ class ReasonerNode {
     }
     nav = std::make_unique<krr::kb::NavigationKnowledge>(*domain_.grid, domain_.knowledge_files);
     nav->reasoner().setLimits(limits());
+    nav->reasoner().setBackend(params_.backend);
     return nav;
   }
 
