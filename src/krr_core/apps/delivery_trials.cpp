@@ -16,8 +16,8 @@
 #include "krr_core/common/json.h"
 #include "krr_core/common/main_guard.h"
 #include "krr_core/common/resources.h"
-#include "krr_core/dialog/delivery_experiment.h"
-#include "krr_core/dialog/experiment_cli.h"
+#include "krr_core/experiments/delivery_experiment.h"
+#include "krr_core/experiments/experiment_cli.h"
 
 namespace {
 

@@ -14,9 +14,9 @@
 #include "krr_core/common/files.h"
 #include "krr_core/common/main_guard.h"
 #include "krr_core/common/resources.h"
-#include "krr_core/dialog/belief_entropy_survey.h"
-#include "krr_core/dialog/delivery_experiment.h"
-#include "krr_core/dialog/experiment_cli.h"
+#include "krr_core/experiments/belief_entropy_survey.h"
+#include "krr_core/experiments/delivery_experiment.h"
+#include "krr_core/experiments/experiment_cli.h"
 
 namespace {
 

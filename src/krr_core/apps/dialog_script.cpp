@@ -35,7 +35,7 @@
 #include "krr_core/dialog/dialog_knowledge.h"
 #include "krr_core/dialog/dialog_policy.h"
 #include "krr_core/dialog/dialog_script.h"
-#include "krr_core/dialog/experiment_paths.h"
+#include "krr_core/experiments/experiment_paths.h"
 
 namespace {
 

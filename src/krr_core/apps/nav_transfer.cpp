@@ -17,7 +17,7 @@
 #include "krr_core/common/files.h"
 #include "krr_core/common/main_guard.h"
 #include "krr_core/common/resources.h"
-#include "krr_core/kb/nav_transfer.h"
+#include "krr_core/experiments/nav_transfer.h"
 
 namespace {
 

@@ -22,7 +22,7 @@
 #include "krr_core/common/files.h"
 #include "krr_core/common/main_guard.h"
 #include "krr_core/common/resources.h"
-#include "krr_core/kb/new_circumstances.h"
+#include "krr_core/experiments/new_circumstances.h"
 
 namespace {
 

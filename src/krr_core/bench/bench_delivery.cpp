@@ -9,8 +9,8 @@
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/resources.h"
-#include "krr_core/dialog/delivery_experiment.h"
-#include "krr_core/dialog/experiment_paths.h"
+#include "krr_core/experiments/delivery_experiment.h"
+#include "krr_core/experiments/experiment_paths.h"
 
 int main(int argc, char** argv) {
   using namespace krr;

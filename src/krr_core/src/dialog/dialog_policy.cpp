@@ -3,6 +3,7 @@
 #include <sys/stat.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <sstream>
 
@@ -140,6 +141,20 @@ pomdp::TurnLimitedPolicy solveDialogPolicy(const pomdp::DialogPomdp& dialog,
   rep.seconds = clock.seconds();
   if (report) *report = rep;
   return policy;
+}
+
+std::string defaultCacheDir() {
+  auto env = [](const char* name) {
+    const char* v = std::getenv(name);
+    return v ? std::string(v) : std::string();
+  };
+  std::string d = env("KRR_CACHE_DIR");
+  if (!d.empty()) return d;
+  d = env("XDG_CACHE_HOME");
+  if (!d.empty()) return d + "/krr_rl/delivery";
+  d = env("HOME");
+  if (!d.empty()) return d + "/.cache/krr_rl/delivery";
+  return "";
 }
 
 }  // namespace dialog

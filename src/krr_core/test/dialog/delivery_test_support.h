@@ -7,7 +7,7 @@
 #include <string>
 
 #include "krr_core/common/files.h"
-#include "krr_core/kb/nav_transfer.h"
+#include "krr_core/kb/nav_domain.h"
 #include "krr_core/mdp/sparse_model.h"
 #include "krr_core/nav/occupancy_grid.h"
 

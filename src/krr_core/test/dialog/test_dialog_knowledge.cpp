@@ -13,7 +13,7 @@
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/random.h"
-#include "krr_core/dialog/belief_entropy_survey.h"
+#include "krr_core/experiments/belief_entropy_survey.h"
 #include "krr_core/dialog/delivery_manager.h"
 #include "krr_core/dialog/dialog_knowledge.h"
 #include "krr_core/dialog/dialog_policy.h"

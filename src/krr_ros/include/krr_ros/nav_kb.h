@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "krr_core/kb/nav_transfer.h"
+#include "krr_core/kb/nav_domain.h"
 #include "krr_ros/params.h"
 
 namespace krr_ros {

@@ -38,7 +38,6 @@
 #include "krr_core/dialog/dialog_config.h"
 #include "krr_core/dialog/dialog_knowledge.h"
 #include "krr_core/dialog/dialog_policy.h"
-#include "krr_core/dialog/experiment_paths.h"
 #include "krr_core/dialog/language.h"
 #include "krr_core/kb/navigation_knowledge.h"
 #include "krr_ros/conversions.h"

@@ -33,7 +33,7 @@
 
 #include "krr_core/common/random.h"
 #include "krr_core/dialog/dialog_config.h"
-#include "krr_core/kb/nav_transfer.h"
+#include "krr_core/kb/nav_domain.h"
 #include "krr_core/kb/navigation_knowledge.h"
 #include "krr_core/mdp/navigation_task.h"
 #include "krr_core/mdp/sparse_model.h"

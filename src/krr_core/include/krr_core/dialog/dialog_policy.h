@@ -47,5 +47,12 @@ pomdp::TurnLimitedPolicy solveDialogPolicy(const pomdp::DialogPomdp& dialog,
 /// @brief The solver options solveDialogPolicy uses for `config`.
 pomdp::TurnLimitedSolverOptions dialogSolverOptions(const DialogConfig& config);
 
+/**
+ * @brief Default directory of solved policies (and of the experiments' learned knowledge):
+ * $KRR_CACHE_DIR, else $XDG_CACHE_HOME/krr_rl/delivery, else $HOME/.cache/krr_rl/delivery;
+ * empty if none is set. Here because dialog_node and the experiments must share one cache.
+ */
+std::string defaultCacheDir();
+
 }  // namespace dialog
 }  // namespace krr

@@ -19,7 +19,8 @@
 #include <string>
 #include <vector>
 
-#include "krr_core/kb/nav_transfer.h"
+#include "krr_core/kb/nav_domain.h"
+#include "krr_core/kb/navigation_learning.h"
 
 namespace krr {
 namespace kb {

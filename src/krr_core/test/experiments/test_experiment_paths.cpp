@@ -1,11 +1,9 @@
 // ExperimentPaths: finding the repository's config/ and maps/ for the CLIs.
 #include <gtest/gtest.h>
 
-#include <cstdlib>
-
 #include "krr_core/common/errors.h"
-#include "krr_core/dialog/experiment_paths.h"
-#include "delivery_test_support.h"
+#include "krr_core/experiments/experiment_paths.h"
+#include "../dialog/delivery_test_support.h"
 
 namespace {
 
@@ -26,17 +24,6 @@ TEST(ExperimentPaths, ResolvesTheRepositoryFiles) {
   }
   EXPECT_THROW(ExperimentPaths::find(delivery_test::tempDir("no_repo"), "office_30x30"),
                krr::ConfigError);
-}
-
-TEST(ExperimentPaths, DefaultCacheDirectoryFollowsTheEnvironment) {
-  ::setenv("KRR_CACHE_DIR", "/tmp/some_cache", 1);
-  EXPECT_EQ(defaultCacheDir(), "/tmp/some_cache");
-  ::unsetenv("KRR_CACHE_DIR");
-  ::setenv("XDG_CACHE_HOME", "/tmp/xdg", 1);
-  EXPECT_EQ(defaultCacheDir(), "/tmp/xdg/krr_rl/delivery");
-  ::unsetenv("XDG_CACHE_HOME");
-  ::setenv("HOME", "/tmp/home", 1);
-  EXPECT_EQ(defaultCacheDir(), "/tmp/home/.cache/krr_rl/delivery");
 }
 
 }  // namespace

@@ -9,10 +9,10 @@
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
-#include "krr_core/dialog/delivery_learning.h"
+#include "krr_core/experiments/delivery_learning.h"
 #include "krr_core/dialog/delivery_navigation.h"
 #include "krr_core/kb/simulated_navigation.h"
-#include "delivery_test_support.h"
+#include "../dialog/delivery_test_support.h"
 
 namespace {
 

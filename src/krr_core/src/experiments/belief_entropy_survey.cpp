@@ -1,5 +1,5 @@
 #include "krr_core/common/parallel.h"
-#include "krr_core/dialog/belief_entropy_survey.h"
+#include "krr_core/experiments/belief_entropy_survey.h"
 #include "krr_core/dialog/dialog_session.h"
 
 #include <algorithm>

@@ -1,34 +1,16 @@
-#include "krr_core/common/parallel.h"
-#include "krr_core/kb/nav_transfer.h"
+#include "krr_core/experiments/nav_transfer.h"
 
 #include <cmath>
 #include <exception>
 
 #include "experiment_yaml.h"
 #include "krr_core/common/errors.h"
+#include "krr_core/common/parallel.h"
 #include "krr_core/common/random.h"
 #include "krr_core/kb/simulated_navigation.h"
-#include "krr_core/nav/occupancy_grid.h"
 
 namespace krr {
 namespace kb {
-
-NavDomain NavDomain::load(const std::string& navigation_yaml, const std::string& domain_name,
-                          const std::string& geometry_file, const std::string& navigation_plog) {
-  NavDomain d;
-  d.config = nav::loadNavigationConfig(navigation_yaml);
-  d.domain = d.config.domain(domain_name);
-  nav::NavGridOptions opt;
-  opt.cols = d.domain.cols;
-  opt.rows = d.domain.rows;
-  opt.max_blocked_fraction = d.config.max_blocked_fraction;
-  d.grid = std::make_shared<nav::NavGrid>(
-      nav::NavGrid::fromMap(nav::loadMap(d.config.map), nav::loadPlaces(d.config.places), opt));
-  d.space = std::make_shared<NavStateSpace>(*d.grid);
-  d.simulator = std::make_shared<nav::BlockageSimulator>(*d.grid, d.config.simulator);
-  d.knowledge_files = {geometry_file, navigation_plog};
-  return d;
-}
 
 void NavTransferOptions::validate() const {
   auto bad = [](const std::string& f, const std::string& v) {
@@ -65,47 +47,6 @@ NavTransferOptions loadNavTransferOptions(const std::string& path,
     throw ConfigError(path + ": " + e.what());
   }
   return o;
-}
-
-mdp::RMaxAgent makeNavigationAgent(const NavDomain& dom, const SimulatedNavigation& env,
-                                   const mdp::RMaxParams& p, const NavModel* kb_model,
-                                   std::size_t* prior_pairs) {
-  const NavStateSpace& sp = *dom.space;
-  auto task = mdp::makeNavigationRMaxTask(sp.numStates(), 4, env.goals(), {sp.trappedState()},
-                                          p.navigationReward());
-  mdp::RMaxAgent agent(task, p);
-  std::size_t n = 0;
-  if (kb_model) {
-    std::vector<std::uint8_t> goal(sp.numStates(), 0);
-    for (mdp::StateId g : env.goals()) goal[g] = 1;
-    for (mdp::StateId s = 0; s < sp.trappedState(); ++s) {
-      if (goal[s]) continue;  // terminal in this task: nothing to learn there
-      for (mdp::ActionId a = 0; a < 4; ++a) {
-        if (!kb_model->learned[s * 4 + a]) continue;
-        mdp::Distribution d;
-        for (mdp::Outcome out : kb_model->dynamics.successors(s, a)) d.push_back(out);
-        agent.setPrior(s, a, d, true);
-        ++n;
-      }
-    }
-  }
-  if (prior_pairs) *prior_pairs = n;
-  return agent;
-}
-
-std::size_t learnUntilConverged(SimulatedNavigation& env, mdp::RMaxAgent& agent,
-                                std::size_t max_episodes, std::size_t quiet_episodes, Rng& rng,
-                                const std::function<bool()>& interrupted, bool* converged) {
-  const std::uint32_t limit = agent.params().step_limit;
-  std::size_t run = 0, quiet = 0;
-  while (run < max_episodes && quiet < quiet_episodes && !(interrupted && interrupted())) {
-    const std::size_t before = agent.model().numKnown();
-    mdp::runEpisode(env, agent, limit, agent.params().rmax, rng);
-    ++run;
-    quiet = agent.model().numKnown() == before ? quiet + 1 : 0;
-  }
-  if (converged) *converged = quiet >= quiet_episodes;
-  return run;
 }
 
 NavTransferTrial runNavTransferTrial(const NavDomain& dom, NavigationKnowledge& knowledge,

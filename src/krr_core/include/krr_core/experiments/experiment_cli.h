@@ -10,9 +10,9 @@
 #include <cstdint>
 #include <string>
 
-#include "krr_core/dialog/delivery_experiment.h"
+#include "krr_core/experiments/delivery_experiment.h"
 #include "krr_core/dialog/dialog_config.h"
-#include "krr_core/dialog/experiment_paths.h"
+#include "krr_core/experiments/experiment_paths.h"
 
 namespace krr {
 namespace dialog {

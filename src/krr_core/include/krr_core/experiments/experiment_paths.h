@@ -28,11 +28,5 @@ struct ExperimentPaths {
   static ExperimentPaths find(const std::string& root_hint, const std::string& domain);
 };
 
-/**
- * @brief Default directory of learned knowledge and policies: $KRR_CACHE_DIR, else
- * $XDG_CACHE_HOME/krr_rl/delivery, else $HOME/.cache/krr_rl/delivery; empty if none is set.
- */
-std::string defaultCacheDir();
-
 }  // namespace dialog
 }  // namespace krr

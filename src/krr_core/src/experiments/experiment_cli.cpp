@@ -1,4 +1,4 @@
-#include "krr_core/dialog/experiment_cli.h"
+#include "krr_core/experiments/experiment_cli.h"
 
 #include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"

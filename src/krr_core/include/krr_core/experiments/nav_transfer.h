@@ -17,56 +17,16 @@
 #pragma once
 
 #include <cstdint>
-#include <functional>
-#include <memory>
 #include <string>
 #include <vector>
 
+#include "krr_core/kb/nav_domain.h"
 #include "krr_core/kb/navigation_knowledge.h"
-#include "krr_core/kb/simulated_navigation.h"
+#include "krr_core/kb/navigation_learning.h"
 #include "krr_core/mdp/rmax_agent.h"
-#include "krr_core/nav/blockage_simulator.h"
-#include "krr_core/nav/navigation_config.h"
 
 namespace krr {
 namespace kb {
-
-/// @brief A navigation domain loaded once and shared read-only by all trials.
-struct NavDomain {
-  nav::NavigationConfig config;
-  nav::DomainConfig domain;
-  std::shared_ptr<nav::NavGrid> grid;
-  std::shared_ptr<NavStateSpace> space;
-  std::shared_ptr<nav::BlockageSimulator> simulator;
-  std::vector<std::string> knowledge_files;  ///< geometry, then human navigation knowledge
-
-  /**
-   * @brief Load config/navigation.yaml, derive the named domain's grid from the map, and
-   * name its knowledge files: `geometry_file` (generated, e.g. maps/office_30x30_geometry.plog)
-   * and `navigation_plog` (config/navigation.plog).
-   */
-  static NavDomain load(const std::string& navigation_yaml, const std::string& domain_name,
-                        const std::string& geometry_file, const std::string& navigation_plog);
-};
-
-/**
- * @brief An R-Max agent for a navigation task in `env`. With `kb_model` (Procedure 2's model),
- * every pair the knowledge base knows from learning starts known with the KB's distribution
- * (goal states excepted: they are terminal in this task); everything else is optimistic.
- * @param prior_pairs if given, receives the number of pairs that started known.
- */
-mdp::RMaxAgent makeNavigationAgent(const NavDomain& domain, const SimulatedNavigation& env,
-                                   const mdp::RMaxParams& params, const NavModel* kb_model,
-                                   std::size_t* prior_pairs = nullptr);
-
-/**
- * @brief Run R-Max episodes until it converged (no newly known pair for `quiet_episodes`
- * episodes), `max_episodes` ran, or `interrupted()` (checked before each episode) is true.
- * @return episodes run; *converged tells whether convergence ended it.
- */
-std::size_t learnUntilConverged(SimulatedNavigation& env, mdp::RMaxAgent& agent,
-                                std::size_t max_episodes, std::size_t quiet_episodes, Rng& rng,
-                                const std::function<bool()>& interrupted, bool* converged);
 
 /// @brief Parameters of the transfer experiment.
 struct NavTransferOptions {

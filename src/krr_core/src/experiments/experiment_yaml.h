@@ -1,4 +1,4 @@
-// Private helper of the kb experiments: strict reading of small YAML option files (every
+// Private helper of the experiments: strict reading of small YAML option files (every
 // field optional, unknown fields and bad values are ConfigErrors naming file and field).
 #pragma once
 

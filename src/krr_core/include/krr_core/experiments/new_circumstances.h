@@ -52,7 +52,7 @@
 #include <vector>
 
 #include "krr_core/kb/free_time_learner.h"
-#include "krr_core/kb/nav_transfer.h"
+#include "krr_core/experiments/nav_transfer.h"
 #include "krr_core/mdp/rmax_agent.h"
 
 namespace krr {

@@ -36,13 +36,13 @@
 #include <string>
 #include <vector>
 
-#include "krr_core/dialog/delivery_learning.h"
+#include "krr_core/experiments/delivery_learning.h"
 #include "krr_core/dialog/delivery_manager.h"
 #include "krr_core/dialog/delivery_navigation.h"
 #include "krr_core/dialog/dialog_config.h"
 #include "krr_core/dialog/dialog_knowledge.h"
 #include "krr_core/dialog/dialog_policy.h"
-#include "krr_core/kb/nav_transfer.h"
+#include "krr_core/experiments/nav_transfer.h"
 #include "krr_core/pomdp/dialog_pomdp.h"
 #include "krr_core/pomdp/turn_limited_policy.h"
 

@@ -1,5 +1,5 @@
 #include "krr_core/common/parallel.h"
-#include "krr_core/dialog/delivery_experiment.h"
+#include "krr_core/experiments/delivery_experiment.h"
 
 #include <cmath>
 #include <cstdio>

@@ -8,7 +8,7 @@
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
-#include "krr_core/kb/nav_transfer.h"
+#include "krr_core/experiments/nav_transfer.h"
 
 namespace {
 

@@ -1,4 +1,4 @@
-#include "krr_core/kb/new_circumstances.h"
+#include "krr_core/experiments/new_circumstances.h"
 
 #include <algorithm>
 #include <cmath>

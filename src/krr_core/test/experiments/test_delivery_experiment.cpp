@@ -8,8 +8,8 @@
 #include <cmath>
 
 #include "krr_core/common/errors.h"
-#include "krr_core/dialog/delivery_experiment.h"
-#include "delivery_test_support.h"
+#include "krr_core/experiments/delivery_experiment.h"
+#include "../dialog/delivery_test_support.h"
 
 namespace {
 

@@ -1,8 +1,6 @@
-#include "krr_core/dialog/experiment_paths.h"
+#include "krr_core/experiments/experiment_paths.h"
 
 #include <sys/stat.h>
-
-#include <cstdlib>
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
@@ -15,11 +13,6 @@ namespace {
 bool isFile(const std::string& p) {
   struct stat st;
   return ::stat(p.c_str(), &st) == 0 && S_ISREG(st.st_mode);
-}
-
-std::string env(const char* name) {
-  const char* v = std::getenv(name);
-  return v ? std::string(v) : std::string();
 }
 
 }  // namespace
@@ -38,16 +31,6 @@ ExperimentPaths ExperimentPaths::find(const std::string& root_hint, const std::s
     throw ConfigError("no geometry file " + p.geometry + " for domain '" + domain +
                       "' (generate it with make_nav_domain)");
   return p;
-}
-
-std::string defaultCacheDir() {
-  std::string d = env("KRR_CACHE_DIR");
-  if (!d.empty()) return d;
-  d = env("XDG_CACHE_HOME");
-  if (!d.empty()) return d + "/krr_rl/delivery";
-  d = env("HOME");
-  if (!d.empty()) return d + "/.cache/krr_rl/delivery";
-  return "";
 }
 
 }  // namespace dialog

@@ -19,7 +19,7 @@
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
-#include "krr_core/kb/new_circumstances.h"
+#include "krr_core/experiments/new_circumstances.h"
 
 namespace {
 

@@ -1,4 +1,4 @@
-#include "krr_core/dialog/delivery_learning.h"
+#include "krr_core/experiments/delivery_learning.h"
 
 #include <sys/stat.h>
 

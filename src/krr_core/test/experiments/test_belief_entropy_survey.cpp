@@ -5,7 +5,7 @@
 #include <cmath>
 
 #include "krr_core/common/errors.h"
-#include "krr_core/dialog/belief_entropy_survey.h"
+#include "krr_core/experiments/belief_entropy_survey.h"
 #include "krr_core/dialog/dialog_session.h"
 #include "krr_core/pomdp/belief.h"
 #include "krr_core/pomdp/turn_limited_solver.h"
