@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
-# Record the README's example ROS session: start the headless stack (sim.launch, no simulated
+# Record the example ROS session of src/krr_ros/README.md: start the headless stack (sim.launch, no simulated
 # user, no free-time learner, human knowledge only, a fresh learned_dir, seed 1) on its own
 # master, run the commands below (reasoner queries, a dialog typed through /user_utterance,
 # navigation goals, knowledge updates), and write their real output to
-# docs/example_session.txt; `rosrun krr_eval record_results` then puts it into README.md (so the
+# docs/example_session.txt; `rosrun krr_eval record_results` then puts it into src/krr_ros/README.md (so the
 # README never shows output that was typed by hand).
 #   bash tools/record_session.sh        (after bash tools/build.sh)
 set -euo pipefail

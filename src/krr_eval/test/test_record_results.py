@@ -11,9 +11,11 @@ from krr_eval import record_results
 class RecordResultsTest(unittest.TestCase):
     def setUp(self):
         self.tmp = tempfile.mkdtemp(prefix="krr_record_")
-        self.saved = (record_results.DOCS, record_results.README, record_results.SESSION)
+        self.saved = (record_results.DOCS, record_results.README, record_results.SESSION,
+                      record_results.SESSION_README)
         record_results.DOCS = os.path.join(self.tmp, "eval")
         record_results.README = os.path.join(self.tmp, "README.md")
+        record_results.SESSION_README = record_results.README  # both blocks in one file here
         record_results.SESSION = os.path.join(self.tmp, "session.txt")
         os.makedirs(record_results.DOCS)
         claims = [
@@ -41,7 +43,8 @@ class RecordResultsTest(unittest.TestCase):
                 record_results.SESSION_END))
 
     def tearDown(self):
-        record_results.DOCS, record_results.README, record_results.SESSION = self.saved
+        (record_results.DOCS, record_results.README, record_results.SESSION,
+         record_results.SESSION_README) = self.saved
         shutil.rmtree(self.tmp)
 
     def readme(self):
@@ -85,7 +88,7 @@ class RepositoryReadmeTest(unittest.TestCase):
                         "docs/eval is missing: run `rosrun krr_eval record_results --from "
                         "<eval out>`")
         self.assertEqual(record_results.main(["--check"]), 0,
-                         "README.md's generated blocks differ from docs/")
+                         "the READMEs' generated blocks differ from docs/")
 
 
 if __name__ == "__main__":

@@ -1,12 +1,13 @@
-"""Record an evaluation run in docs/eval and regenerate the README's results block from it.
+"""Record an evaluation run in docs/eval and regenerate the READMEs' generated blocks from it.
 
     rosrun krr_eval record_results --from out/eval   # copy the run, add the model report,
                                                    # rewrite README's block
     rosrun krr_eval record_results --check           # exit 1 if README's blocks differ from
                                                    # docs/ (tools test)
 
-It also puts docs/example_session.txt (written by tools/record_session.sh, a real ROS session)
-into the README's example-session block.
+The results block is in src/krr_eval/README.md. It also puts docs/example_session.txt (written
+by tools/record_session.sh, a real ROS session) into the example-session block of
+src/krr_ros/README.md.
 
 `--from DIR` copies the run's report.md, claims.{md,json}, every table (*.md) and figure
 (*.png) and a trimmed params.json into docs/eval, runs `delivery_trials --model-report` at
@@ -25,7 +26,8 @@ from . import paths
 
 ROOT = paths.root()
 DOCS = os.path.join(ROOT, "docs", "eval")
-README = os.path.join(ROOT, "README.md")
+README = os.path.join(ROOT, "src", "krr_eval", "README.md")  # the results block
+SESSION_README = os.path.join(ROOT, "src", "krr_ros", "README.md")  # the example session
 BEGIN = "<!-- recorded-results:begin (rosrun krr_eval record_results writes this block) -->"
 END = "<!-- recorded-results:end -->"
 SESSION = os.path.join(ROOT, "docs", "example_session.txt")
@@ -86,14 +88,16 @@ def render():
     times = params.get("times_s", {})
     lines.append("Recorded run (`docs/eval/`, seed %s, %s): %d of %d claims supported; the full "
                  "report with every table, figure and the reason for each unsupported claim is "
-                 "[`docs/eval/report.md`](docs/eval/report.md) (your own run writes the same "
+                 "[`docs/eval/report.md`](%s) (your own run writes the same "
                  "`report.md` in its `--out` folder). Evaluation time %.0f s wall (%s; the trials "
                  "of every experiment are queued at the start, so one experiment's time is the "
                  "wait for its last chunks plus its analysis)."
                  % (params.get("seed"),
                     "default trial counts" if params.get("trials_scale", 1) == 1
                     and not params.get("quick") else "reduced trial counts",
-                    supported, len(claims), sum(times.values()),
+                    supported, len(claims),
+                    os.path.relpath(os.path.join(DOCS, "report.md"), os.path.dirname(README)),
+                    sum(times.values()),
                     ", ".join("%s %.0f s" % (k, v) for k, v in sorted(times.items()))))
     lines += ["", "| experiment | claims supported | claims |", "| --- | --- | --- |"]
     order = []
@@ -132,16 +136,17 @@ def render_session():
     return "\n".join([SESSION_BEGIN, "```", body, "```", SESSION_END])
 
 
-def readme_block(text, begin=BEGIN, end=END):
+def readme_block(text, begin=BEGIN, end=END, name="README.md"):
     a, b = text.find(begin), text.find(end)
     if a < 0 or b < a:
-        raise SystemExit("record_results: README.md has no %s ... %s markers" % (begin, end))
+        raise SystemExit("record_results: %s has no %s ... %s markers" % (name, begin, end))
     return a, b + len(end)
 
 
 def blocks():
-    """(begin marker, end marker, rendered text) of every generated README block."""
-    return [(BEGIN, END, render()), (SESSION_BEGIN, SESSION_END, render_session())]
+    """(file, begin marker, end marker, rendered text) of every generated README block."""
+    return [(README, BEGIN, END, render()),
+            (SESSION_README, SESSION_BEGIN, SESSION_END, render_session())]
 
 
 def main(argv=None):
@@ -149,16 +154,21 @@ def main(argv=None):
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--from", dest="src", help="an evaluation output folder to record")
     ap.add_argument("--check", action="store_true",
-                    help="only compare README's block with docs/eval (exit 1 if they differ)")
+                    help="only compare the READMEs' blocks with docs/ (exit 1 if they differ)")
     a = ap.parse_args(argv)
-    with open(README) as f:
-        text = f.read()
+    texts = {}
+    for path, _, _, _ in blocks():
+        if path not in texts:
+            with open(path) as f:
+                texts[path] = f.read()
     if a.check:
-        for begin, end, want in blocks():
-            i, j = readme_block(text, begin, end)
+        for path, begin, end, want in blocks():
+            text = texts[path]
+            i, j = readme_block(text, begin, end, os.path.relpath(path, ROOT))
             if text[i:j] != want:
-                sys.stderr.write("record_results: README.md's block %s differs from docs/; run "
-                                 "rosrun krr_eval record_results to regenerate it\n" % begin)
+                sys.stderr.write("record_results: %s's block %s differs from docs/; run "
+                                 "rosrun krr_eval record_results to regenerate it\n"
+                                 % (os.path.relpath(path, ROOT), begin))
                 return 1
         return 0
     if a.src:
@@ -166,15 +176,17 @@ def main(argv=None):
         # As many deliveries as Table I's learned condition had (same seed: the same trials).
         trials = params.get("experiments", {}).get("exp2", {}).get("trials", 10000)
         model_report(params.get("seed", 1), trials)
-    new = text
-    for begin, end, want in blocks():
-        i, j = readme_block(new, begin, end)
-        new = new[:i] + want + new[j:]
-    tmp = README + ".tmp"
-    with open(tmp, "w") as f:
-        f.write(new)
-    os.replace(tmp, README)
-    print("record_results: README.md block rewritten from %s" % os.path.relpath(DOCS, ROOT))
+    new = dict(texts)
+    for path, begin, end, want in blocks():
+        i, j = readme_block(new[path], begin, end, os.path.relpath(path, ROOT))
+        new[path] = new[path][:i] + want + new[path][j:]
+    for path, text in new.items():
+        tmp = path + ".tmp"
+        with open(tmp, "w") as f:
+            f.write(text)
+        os.replace(tmp, path)
+        print("record_results: %s rewritten from %s" % (os.path.relpath(path, ROOT),
+                                                         os.path.relpath(DOCS, ROOT)))
     return 0
 
 

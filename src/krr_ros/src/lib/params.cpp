@@ -63,7 +63,7 @@ void exitOnHelp(int argc, char** argv, const std::string& node) {
   const fs::path cfg = fs::path(root) / "config" / (node + ".yaml");
   std::ifstream in(cfg);
   if (!in) {
-    std::printf("  (see config/%s.yaml in the repository and README.md, section %s)\n",
+    std::printf("  (see config/%s.yaml in the repository and src/krr_ros/README.md, section %s)\n",
                 node.c_str(), node.c_str());
   } else {
     std::error_code ec;
