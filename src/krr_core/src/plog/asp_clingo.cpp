@@ -2,8 +2,8 @@
  * @file asp_clingo.cpp
  * @brief Running the clingo binary as a subprocess and reading its answer sets.
  *
- * clingo is started with posix_spawnp on a program written to a private temporary directory
- * (mkdtemp), its stdout and stderr go to files in that directory, and the parent waits for its
+ * clingo is started (fork + exec, and killed by the kernel if its parent dies) on a program
+ * written to a private temporary directory (mkdtemp), its stdout and stderr go to files in that directory, and the parent waits for its
  * end on a pidfd with the remaining time as poll timeout, killing it when the time limit is
  * exceeded. The directory is always removed (unless AspOptions::keep_files).
  * Answer sets are read from clingo's plain text output (-V0: one answer set per line, then
@@ -15,7 +15,7 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
-#include <spawn.h>
+#include <sys/prctl.h>
 #include <sys/syscall.h>
 #include <sys/stat.h>
 #include <sys/types.h>
@@ -214,20 +214,53 @@ ClingoResult runClingo(const std::string& program, const AspOptions& options,
   for (auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
   argv.push_back(nullptr);
 
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
-  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, out_path.c_str(),
-                                   O_WRONLY | O_CREAT | O_TRUNC, 0600);
-  posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, err_path.c_str(),
-                                   O_WRONLY | O_CREAT | O_TRUNC, 0600);
-  pid_t pid = 0;
-  int rc = posix_spawnp(&pid, options.clingo_path.c_str(), &actions, nullptr, argv.data(),
-                        environ);
-  posix_spawn_file_actions_destroy(&actions);
-  if (rc != 0) {
+  // fork + exec rather than posix_spawn: the child asks the kernel to kill it when this
+  // process dies (PR_SET_PDEATHSIG), so a plog or node killed mid-query (Ctrl-C, `timeout`,
+  // kill -9) leaves no clingo running past its time limit. A close-on-exec pipe carries the
+  // errno of a failed exec back.
+  int errpipe[2];
+  if (pipe2(errpipe, O_CLOEXEC) != 0)
+    throw Error(std::string("AspBackend: cannot create a pipe for clingo: ") + std::strerror(errno));
+  const pid_t parent = getpid();
+  pid_t pid = fork();
+  if (pid < 0) {
+    const int e = errno;
+    close(errpipe[0]);
+    close(errpipe[1]);
     throw Error("AspBackend: cannot start clingo '" + options.clingo_path + "' on " + subject +
-                ": " + std::strerror(rc) +
+                ": " + std::strerror(e));
+  }
+  if (pid == 0) {
+    // Child: async-signal-safe calls only until exec.
+    prctl(PR_SET_PDEATHSIG, SIGKILL);
+    if (getppid() != parent) _exit(127);  // the parent died before prctl took effect
+    int e = 0;
+    const int in = open("/dev/null", O_RDONLY);
+    const int out = open(out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    const int err = open(err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
+    if (in < 0 || out < 0 || err < 0 || dup2(in, STDIN_FILENO) < 0 ||
+        dup2(out, STDOUT_FILENO) < 0 || dup2(err, STDERR_FILENO) < 0) {
+      e = errno;
+    } else {
+      execvp(argv[0], argv.data());
+      e = errno;
+    }
+    ssize_t ignored = write(errpipe[1], &e, sizeof(e));
+    (void)ignored;
+    _exit(127);
+  }
+  close(errpipe[1]);
+  int child_errno = 0;
+  ssize_t got;
+  while ((got = read(errpipe[0], &child_errno, sizeof(child_errno))) < 0 && errno == EINTR) {
+  }
+  close(errpipe[0]);
+  if (got > 0) {
+    int st = 0;
+    while (waitpid(pid, &st, 0) < 0 && errno == EINTR) {
+    }
+    throw Error("AspBackend: cannot start clingo '" + options.clingo_path + "' on " + subject +
+                ": " + std::strerror(child_errno) +
                 " (install clingo >= 5.4 or set AspOptions.clingo_path)");
   }
 
@@ -306,8 +339,7 @@ ClingoResult runClingo(const std::string& program, const AspOptions& options,
   }
   const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   // clingo's exit code is a bit set: 1 interrupted, 10 satisfiable, 20 search space exhausted,
-  // 33 out of memory, 65 error, 128 no run. posix_spawnp reports exec failures of a found but
-  // unrunnable file through exit code 127.
+  // 33 out of memory, 65 error, 128 no run; 127 is a child that could not run clingo.
   if (code == 127 || code >= 33 || (code & 1) != 0 || (code & 20) != 20) {
     std::string why = pLogLocations(trimmed(err), lp, program);
     if (why.empty()) why = trimmed(out);

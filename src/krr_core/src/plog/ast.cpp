@@ -224,8 +224,11 @@ std::string toString(const Program& p) {
   for (const auto& a : p.attributes) {
     if (a.implicit) continue;
     os << a.name << " : ";
-    for (size_t i = 0; i < a.arg_sorts.size(); ++i) os << (i ? ", " : "") << a.arg_sorts[i];
-    if (!a.arg_sorts.empty()) os << " -> ";
+    // a classic `a : s.` whose arity came from use (untyped arguments) is written as read
+    bool typed = std::find(a.arg_sorts.begin(), a.arg_sorts.end(), "") == a.arg_sorts.end();
+    for (size_t i = 0; typed && i < a.arg_sorts.size(); ++i)
+      os << (i ? ", " : "") << a.arg_sorts[i];
+    if (typed && !a.arg_sorts.empty()) os << " -> ";
     os << a.range_sort << ".\n";
   }
   for (const auto& r : p.rules) os << toString(r) << "\n";

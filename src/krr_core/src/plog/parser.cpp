@@ -4,7 +4,9 @@
 
 #include <cctype>
 #include <cmath>
+#include <algorithm>
 #include <cstdlib>
+#include <functional>
 #include <map>
 #include <set>
 #include <unordered_set>
@@ -198,6 +200,20 @@ class Parser {
       }
     }
     std::vector<RawStmt> out;
+    parseStatements(out);
+    for (const auto& d : pending_domains_)
+      if (!prog_.findSort(d.sort))
+        throw UnknownSymbolError(d.loc.str() + ": unknown sort '" + d.sort + "' in #domain");
+    for (const auto& n : pending_sorts_) {
+      if (!prog_.findSort(n.text))
+        throw UnknownSymbolError(n.loc.str() + ": unknown sort '" + n.text + "'");
+    }
+    if (!pending_sorts_.empty())
+      for (auto& a : prog_.attributes) a.range_sort = booleanRange(a.range_sort);
+    return out;
+  }
+
+  void parseStatements(std::vector<RawStmt>& out) {
     while (peek().kind != Tok::End) {
       if (dialect_ == Dialect::Plog2 && peek().kind == Tok::Ident &&
           (peek().text == "sorts" || peek().text == "attributes" || peek().text == "statements")) {
@@ -211,10 +227,11 @@ class Parser {
       }
       parseStatement(out);
     }
-    return out;
   }
 
   Dialect dialect() const { return dialect_; }
+  /// @brief Classic `a : s.` attributes: the classic solver takes their arity from use.
+  const std::set<std::string>& rangeOnly() const { return range_only_; }
   bool allow_empty_formula_ = false;
   int generation_ = 0;
 
@@ -262,6 +279,22 @@ class Parser {
     return peek(k).kind == Tok::Ident && peek(k).text == s;
   }
 
+  /// @brief Consistency-restoring rules `h :+ body.` need the minimal-abduction semantics of
+  /// CR-Prolog, which neither back end implements: refuse them by name instead of misreading
+  /// `:+` or dropping the rule.
+  void refuseCrRule() {
+    if (peek().kind == Tok::Colon && peek(1).kind == Tok::Plus)
+      throw ParseError(peek().loc, "consistency-restoring rules (':+') are not supported");
+  }
+
+  /// @brief Observations and actions are facts (plog2.0 manual, section on statements); a
+  /// conditional `do(a, y) :- b.` would need actions that depend on the world.
+  void refuseBody(const char* what) {
+    if (peek().kind == Tok::If)
+      throw ParseError(peek().loc, std::string(what) + " must be a fact: a rule with " + what +
+                                       " as its head is not supported");
+  }
+
   // Statement terminator: '.' (a query at end of input may omit it).
   void endStatement() { expect(Tok::Dot, "'.' at end of statement"); }
 
@@ -269,7 +302,8 @@ class Parser {
     const Token& first = peek();
     // plog2 and classic sort declarations: '#s = ...' / 's = {...}'
     if (first.kind == Tok::Hash) {
-      if (peek(1).kind == Tok::Ident && peek(1).text == "generation") {
+      if (peek(1).kind == Tok::Ident && peek(1).text == "generation" &&
+          peek(2).kind == Tok::Int) {
         // `#generation N.` (extension written by export): pr-atoms that follow belong to
         // knowledge generation N (see PrAtom::priority)
         next();
@@ -279,8 +313,13 @@ class Parser {
         endStatement();
         return;
       }
-      if (peek(1).kind == Tok::Ident && peek(1).text == "domain") {
+      if (peek(1).kind == Tok::Ident && peek(1).text == "domain" &&
+          peek(2).kind == Tok::Ident) {
         parseDomain();
+        return;
+      }
+      if (peek(1).kind == Tok::Ident && peek(1).text == "const" && peek(2).kind == Tok::Ident) {
+        parseConst();
         return;
       }
       if (peek(1).kind == Tok::Ident && peek(2).kind == Tok::Eq) {
@@ -288,7 +327,7 @@ class Parser {
         parseSortDecl();
         return;
       }
-      fail(peek(1), "sort name or 'domain' after '#'");
+      fail(peek(1), "sort name, 'const' or 'domain' after '#'");
     }
     if (first.kind == Tok::Ident && peek(1).kind == Tok::Eq &&
         (peek(2).kind == Tok::LBrace ||
@@ -298,6 +337,9 @@ class Parser {
       return;
     }
     if (first.kind == Tok::Ident && peek(1).kind == Tok::Colon) {
+      pos_ += 1;
+      refuseCrRule();  // `a :+ b.` is a CR-rule, not a declaration
+      pos_ -= 1;
       parseAttributeDecl();
       return;
     }
@@ -326,6 +368,14 @@ class Parser {
       if (l.kind != Tok::Ident && l.kind != Tok::Var && l.kind != Tok::Int)
         fail(l, "label name after '['");
       st.label = next().text;
+      if (l.kind == Tok::Ident && peek().kind == Tok::LParen) {
+        // classic `[r(B)] random(place(B))`: the label names the rule; its arguments only
+        // repeat the attribute's, so labels match by name
+        next();
+        parseExpr();
+        while (accept(Tok::Comma)) parseExpr();
+        expect(Tok::RParen, "')' closing the label's arguments");
+      }
       expect(Tok::RBracket, "']' after label");
       if (!isIdent("random") && !isIdent("pr")) fail(peek(), "'random' or 'pr' after a label");
     }
@@ -338,12 +388,14 @@ class Parser {
       next();
       st.kind = RawStmt::Kind::Obs;
       st.obs = parseObsArgs(st.loc);
+      refuseBody("obs(...)");
       endStatement();
     } else if (isIdent("do") && peek(1).kind == Tok::LParen) {
       next();
       next();
       st.kind = RawStmt::Kind::Do;
       st.do_lit = parseDoArgs();
+      refuseBody("do(...)");
       endStatement();
     } else if (first.kind == Tok::Question) {
       next();
@@ -358,10 +410,26 @@ class Parser {
     } else {
       st.kind = RawStmt::Kind::Rule;
       st.head = parseLiteral(false);
+      refuseCrRule();
       if (accept(Tok::If)) st.body = parseBody();
       endStatement();
     }
     out.push_back(std::move(st));
+  }
+
+  /// @brief `#const n = 3.`: n stands for the integer wherever it is used as a term, so
+  /// plog2.0 programs parameterised by constants read as written.
+  void parseConst() {
+    next();  // '#'
+    next();  // const
+    const Token& n = expect(Tok::Ident, "constant name after #const");
+    expect(Tok::Eq, "'=' in #const");
+    Term v = parseExpr();
+    long long x = evalConst(v);
+    if (consts_.count(n.text))
+      throw ParseError(n.loc, "constant '" + n.text + "' defined twice");
+    consts_[n.text] = x;
+    endStatement();
   }
 
   void parseDomain() {
@@ -377,8 +445,8 @@ class Parser {
         d.variables.push_back(expect(Tok::Var, "variable in #domain").text);
       } while (accept(Tok::Semicolon) || accept(Tok::Comma));
       expect(Tok::RParen, "')' closing #domain");
-      if (!prog_.findSort(d.sort))
-        throw UnknownSymbolError(d.loc.str() + ": unknown sort '" + d.sort + "' in #domain");
+      // the classic examples write #domain before the sorts: checked once all are declared
+      pending_domains_.push_back(d);
       prog_.domains.push_back(d);
     } while (accept(Tok::Comma));
     (void)loc;
@@ -403,6 +471,10 @@ class Parser {
   /// instead of comparing x <= hi (which never fails for hi = INT64_MAX).
   void addRange(SortDecl& s, long long lo, long long hi, const SourceLocation& loc,
                 std::set<std::string>& seen) {
+    // plog2.0 and the classic solver both refuse lo > hi; an empty sort is almost always a typo
+    if (lo > hi)
+      throw ParseError(loc, "empty range " + std::to_string(lo) + ".." + std::to_string(hi) +
+                                " in sort " + s.name + " (the lower bound exceeds the upper)");
     const unsigned long long n = rangeSize(lo, hi);
     if (n > kMaxSortValues)
       throw ParseError(loc, "range " + std::to_string(lo) + ".." + std::to_string(hi) +
@@ -413,6 +485,102 @@ class Parser {
                seen);
     s.range_lo = lo;
     s.range_hi = hi;
+  }
+
+  /// @brief Sort expression with plog2.0's set operators: `+` union and `-` difference (left
+  /// associative), `*` intersection (binding tighter), parentheses. Values keep first-seen order.
+  void parseSortUnion(SortDecl& s, std::set<std::string>& seen, int& ranges, int& others) {
+    parseSortProduct(s, seen, ranges, others);
+    while (peek().kind == Tok::Plus || peek().kind == Tok::Minus) {
+      bool minus = next().kind == Tok::Minus;
+      SortDecl rhs;
+      rhs.name = s.name;
+      std::set<std::string> rseen;
+      parseSortProduct(rhs, rseen, ranges, others);
+      if (minus) {
+        std::vector<Term> kept;
+        seen.clear();
+        for (auto& v : s.values)
+          if (!rseen.count(toString(v)) && seen.insert(toString(v)).second) kept.push_back(v);
+        s.values = std::move(kept);
+        others += 2;
+      } else {
+        for (const auto& v : rhs.values) addValue(s, v, seen);
+      }
+    }
+  }
+
+  void parseSortProduct(SortDecl& s, std::set<std::string>& seen, int& ranges, int& others) {
+    parseSortOperand(s, seen, ranges, others);
+    while (accept(Tok::Star)) {
+      SortDecl rhs;
+      rhs.name = s.name;
+      std::set<std::string> rseen;
+      parseSortOperand(rhs, rseen, ranges, others);
+      std::vector<Term> kept;
+      seen.clear();
+      for (auto& v : s.values)
+        if (rseen.count(toString(v)) && seen.insert(toString(v)).second) kept.push_back(v);
+      s.values = std::move(kept);
+      others += 2;
+    }
+  }
+
+  void parseSortOperand(SortDecl& s, std::set<std::string>& seen, int& ranges, int& others) {
+    if (peek().kind == Tok::LParen) {
+      next();
+      parseSortUnion(s, seen, ranges, others);
+      expect(Tok::RParen, "')' closing sort expression");
+      return;
+    }
+    // record sort f(#s1, ..., #sn): every f(t1, ..., tn) with ti in si
+    bool hashed = peek().kind == Tok::Hash;
+    if (!hashed && peek().kind == Tok::Ident && peek(1).kind == Tok::LParen) {
+      parseRecordSort(s, seen);
+      others += 2;
+      return;
+    }
+    parseSortElements(s, seen, ranges, others);
+  }
+
+  void parseRecordSort(SortDecl& s, std::set<std::string>& seen) {
+    const Token& f = next();
+    next();  // '('
+    std::vector<std::vector<Term>> args;
+    do {
+      SourceLocation aloc = peek().loc;
+      SortDecl arg;
+      arg.name = s.name;
+      std::set<std::string> aseen;
+      int r = 0, o = 0;
+      parseSortUnion(arg, aseen, r, o);
+      if (peek().kind == Tok::LParen)
+        throw ParseError(peek().loc, "record sorts with variables and conditions "
+                                     "(f(#s(X)) : ...) are not supported");
+      if (arg.values.empty()) throw ParseError(aloc, "empty sort in record sort " + f.text);
+      args.push_back(std::move(arg.values));
+    } while (accept(Tok::Comma));
+    expect(Tok::RParen, "')' closing record sort");
+    unsigned long long total = 1;
+    for (const auto& a : args) {
+      total *= a.size();
+      if (total > kMaxSortValues)
+        throw ParseError(f.loc, "record sort " + f.text + "(...) has more than " +
+                                    std::to_string(kMaxSortValues) + " values");
+    }
+    std::vector<size_t> idx(args.size(), 0);
+    for (unsigned long long k = 0; k < total; ++k) {
+      Term c;
+      c.kind = Term::Kind::Compound;
+      c.name = f.text;
+      c.loc = f.loc;
+      for (size_t i = 0; i < args.size(); ++i) c.args.push_back(args[i][idx[i]]);
+      addValue(s, c, seen);
+      for (size_t i = args.size(); i-- > 0;) {
+        if (++idx[i] < args[i].size()) break;
+        idx[i] = 0;
+      }
+    }
   }
 
   void parseSortElements(SortDecl& s, std::set<std::string>& seen, int& ranges, int& others) {
@@ -493,8 +661,7 @@ class Parser {
       throw ParseError(s.loc, "sort '" + s.name + "' declared twice");
     std::set<std::string> seen;
     int ranges = 0, others = 0;
-    parseSortElements(s, seen, ranges, others);
-    while (accept(Tok::Plus)) parseSortElements(s, seen, ranges, others);
+    parseSortUnion(s, seen, ranges, others);
     s.is_range = ranges == 1 && others == 0 && s.range_hi >= s.range_lo &&
                  s.values.size() == rangeSize(s.range_lo, s.range_hi);
     endStatement();
@@ -505,9 +672,23 @@ class Parser {
   std::string parseSortRef() {
     accept(Tok::Hash);
     const Token& n = expect(Tok::Ident, "sort name");
-    if (!prog_.findSort(n.text))
-      throw UnknownSymbolError(n.loc.str() + ": unknown sort '" + n.text + "'");
+    if (!prog_.findSort(n.text)) {
+      // the classic examples declare `kc : kind.` before `kind = {1..4}.`
+      if (dialect_ != Dialect::Classic)
+        throw UnknownSymbolError(n.loc.str() + ": unknown sort '" + n.text + "'");
+      pending_sorts_.push_back(n);
+    }
     return n.text;
+  }
+
+  /// @brief A user sort {true, false} (plog2.0's `#bool`) is the boolean range: bare atoms
+  /// p(t) then mean p(t) = true, exactly as for the builtin `boolean`.
+  std::string booleanRange(const std::string& sort) const {
+    const SortDecl* r = prog_.findSort(sort);
+    if (!r) return sort;
+    std::set<std::string> vals;
+    for (const auto& v : r->values) vals.insert(toString(v));
+    return vals == std::set<std::string>{"true", "false"} ? "boolean" : sort;
   }
 
   void parseAttributeDecl() {
@@ -524,8 +705,21 @@ class Parser {
     } else {
       if (sorts.size() != 1) fail(peek(), "'->' after argument sorts");
       a.range_sort = sorts[0];
+      if (dialect_ == Dialect::Classic) range_only_.insert(a.name);
     }
     endStatement();
+    static const std::set<std::string> kKeywords = {"random", "pr", "obs", "do", "not"};
+    if (kKeywords.count(a.name))
+      throw ParseError(a.loc, "the name of attribute '" + a.name +
+                                  "' coincides with a P-log keyword");
+    a.range_sort = booleanRange(a.range_sort);
+    // f(t) would be both an attribute term and a value (plog2.0 refuses this too)
+    for (const auto& srt : prog_.sorts)
+      for (const auto& v : srt.values)
+        if (v.kind == Term::Kind::Compound && v.name == a.name)
+          throw ParseError(a.loc, "attribute '" + a.name + "' conflicts with the record " +
+                                      toString(v) + " of sort " + srt.name + " (declared at " +
+                                      srt.loc.str() + ")");
     if (const AttributeDecl* old = prog_.findAttribute(a.name)) {
       if (!old->implicit)
         throw ParseError(a.loc, "attribute '" + a.name + "' declared twice");
@@ -561,6 +755,7 @@ class Parser {
       st.range_pred = expect(Tok::Ident, "dynamic range predicate name").text;
     }
     expect(Tok::RParen, "')' closing random(...)");
+    refuseCrRule();
     if (accept(Tok::If)) st.body = parseBody();
     endStatement();
   }
@@ -608,6 +803,19 @@ class Parser {
     o.lit = parseLiteral(false);
     if (accept(Tok::Comma)) {
       Term v = parseExpr();
+      if (accept(Tok::Comma)) {
+        // plog2.0 `obs(a, y, true)` / `obs(a, y, false)`: a = y is observed to hold / not hold
+        Term flag = parseExpr();
+        if (o.lit.has_op) throw ParseError(v.loc, "obs(a, y, flag) needs an attribute term a");
+        if (flag.kind != Term::Kind::Symbol || (flag.name != "true" && flag.name != "false"))
+          throw ParseError(flag.loc, "expected 'true' or 'false' as third argument of obs");
+        if (flag.name == "false") o.truth = !o.truth;
+        o.lit.has_op = true;
+        o.lit.op = CompareOp::Eq;
+        o.lit.rhs = v;
+        expect(Tok::RParen, "')' closing obs(...)");
+        return o;
+      }
       // classic `obs(l, false)`: l does not hold; plog2 `obs(a, y)`: a = y (for a bare
       // predicate in the classic dialect, the second argument is the truth flag)
       bool classic_flag = dialect_ != Dialect::Plog2 && v.kind == Term::Kind::Symbol &&
@@ -635,6 +843,14 @@ class Parser {
       l.has_op = true;
       l.op = CompareOp::Eq;
       l.rhs = parseExpr();
+      if (accept(Tok::Comma)) {
+        // plog2.0 `do(a, y, true)`; an intervention cannot make a = y false
+        Term flag = parseExpr();
+        if (flag.kind != Term::Kind::Symbol || flag.name != "true")
+          throw ParseError(flag.loc, "the third argument of do(a, y, ...) must be 'true' "
+                                     "(an intervention fixes a = y; do(a, y, false) is not "
+                                     "P-log)");
+      }
     }
     expect(Tok::RParen, "')' closing do(...)");
     return l;
@@ -798,6 +1014,8 @@ class Parser {
           expect(Tok::RParen, "')' or ',' in argument list");
           return c;
         }
+        auto c = consts_.find(t.text);
+        if (c != consts_.end()) return Term::integer(c->second, t.loc);
         return Term::symbol(t.text, t.loc);
       }
       case Tok::LParen: {
@@ -817,6 +1035,13 @@ class Parser {
   Dialect dialect_;
   size_t pos_ = 0;
   int depth_ = 0;
+  /// @brief Sorts named in classic declarations before their own declaration.
+  std::vector<Token> pending_sorts_;
+  std::set<std::string> range_only_;
+  /// @brief #domain declarations whose sort is checked at the end of the text.
+  std::vector<DomainDecl> pending_domains_;
+  /// @brief `#const` definitions seen so far (name -> value).
+  std::map<std::string, long long> consts_;
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -880,11 +1105,93 @@ class Resolver {
 
   Term freshVar() { return Term::variable("_V" + std::to_string(fresh_++)); }
 
+  /// @brief plog2.0 lets rule bodies test observations: `not obs(s, true, true)` holds when the
+  /// program does not observe s = true. They are read as the hidden boolean attribute
+  /// `obs(a(t), y, flag)` (untyped arguments), made true by one fact per observation.
+  bool usesObsLiterals() const {
+    const AttributeDecl* d = prog_.findAttribute("obs");
+    return d && d->implicit && d->arg_sorts.size() == 3;
+  }
+
+  static bool rawUsesObs(const std::vector<RawLit>& body) {
+    for (const auto& l : body)
+      if (!l.has_op && l.lhs.kind == Term::Kind::Compound && l.lhs.name == "obs") return true;
+    return false;
+  }
+
+  void declareObsAttribute(const std::vector<RawStmt>& stmts) {
+    if (prog_.findAttribute("obs")) return;
+    for (const auto& s : stmts) {
+      if (!rawUsesObs(s.body) && !rawUsesObs(s.range_body)) continue;
+      AttributeDecl d;
+      d.name = "obs";
+      d.arg_sorts.assign(3, "");
+      d.range_sort = "boolean";
+      d.implicit = true;
+      d.loc = s.loc;
+      prog_.attributes.push_back(d);
+      return;
+    }
+  }
+
+  /// @brief `obs(a(t), y)` / `obs(a(t), y, true|false)` in a body as the atom
+  /// obs(a(t), y, flag) = true, after checking a(t) and y against a's declaration.
+  Atom obsAtom(const Term& t) {
+    if (t.args.size() != 2 && t.args.size() != 3)
+      throw ParseError(t.loc, "obs(a, y) or obs(a, y, true|false) expected in a rule body");
+    const Term& a = t.args[0];
+    if ((a.kind != Term::Kind::Symbol && a.kind != Term::Kind::Compound) ||
+        !prog_.findAttribute(a.name) || a.name == "obs")
+      throw UnknownSymbolError(a.loc.str() + ": obs(...) needs an attribute term, got '" +
+                               toString(a) + "'");
+    makeAtom(a, t.args[1]);  // arity, argument sorts and value sort
+    Term flag = t.args.size() == 3 ? t.args[2] : Term::symbol("true", t.loc);
+    if (flag.kind != Term::Kind::Symbol || (flag.name != "true" && flag.name != "false"))
+      throw ParseError(flag.loc, "expected 'true' or 'false' as third argument of obs");
+    Atom o;
+    o.attr.name = "obs";
+    o.attr.args = {a, t.args[1], flag};
+    o.attr.loc = t.loc;
+    o.value = Term::symbol("true", t.loc);
+    o.loc = t.loc;
+    return o;
+  }
+
+  /// @brief The fact obs(a(t), y, flag) that makes body tests of an observation true.
+  Rule obsFact(const Observation& o) {
+    Term a;
+    a.kind = o.literal.atom.attr.args.empty() ? Term::Kind::Symbol : Term::Kind::Compound;
+    a.name = o.literal.atom.attr.name;
+    a.args = o.literal.atom.attr.args;
+    a.loc = o.loc;
+    Rule r;
+    r.loc = o.loc;
+    Atom h;
+    h.attr.name = "obs";
+    h.attr.args = {a, o.literal.atom.value, Term::symbol(o.truth ? "true" : "false", o.loc)};
+    h.attr.loc = o.loc;
+    h.value = Term::symbol("true", o.loc);
+    h.loc = o.loc;
+    r.head = h;
+    return r;
+  }
+
   // Resolve one raw literal into zero or more literals (rewrites may add literals).
   void resolveLit(const RawLit& r, std::vector<Literal>& out) {
     Literal l;
     l.naf = r.naf;
     l.loc = r.loc;
+    if (!r.has_op && r.lhs.kind == Term::Kind::Compound && !prog_.findAttribute(r.lhs.name) &&
+        r.lhs.name == "do")
+      throw ParseError(r.loc, "do(...) in a rule body is not supported (only as a fact or in "
+                              "a query condition)");
+    if (!r.has_op && r.lhs.kind == Term::Kind::Compound && r.lhs.name == "obs" &&
+        usesObsLiterals()) {
+      l.kind = Literal::Kind::Atom;
+      l.atom = obsAtom(r.lhs);
+      out.push_back(l);
+      return;
+    }
     if (!r.has_op) {
       const Term* t = &r.lhs;
       bool neg = false;
@@ -993,6 +1300,12 @@ class Resolver {
 
   Atom resolveHeadAtom(const RawLit& r, const char* what) {
     if (r.naf) throw ParseError(r.loc, std::string("'not' is not allowed in ") + what);
+    const Term* h = &r.lhs;
+    if (h->kind == Term::Kind::Negate) h = &h->args[0];
+    if ((h->kind == Term::Kind::Symbol || h->kind == Term::Kind::Compound) &&
+        !prog_.findAttribute(h->name))
+      throw UnknownSymbolError(h->loc.str() + ": undeclared attribute '" + h->name + "' in " +
+                               what);
     std::vector<Literal> tmp;
     resolveLit(r, tmp);
     if (tmp.size() != 1 || tmp[0].kind != Literal::Kind::Atom || tmp[0].negated)
@@ -1002,6 +1315,33 @@ class Resolver {
 
   void typeTerm(const Term& t, const std::string& sort, VariableSorts& vs) {
     if (t.kind == Term::Kind::Variable && !sort.empty() && t.name != "_") vs.emplace(t.name, sort);
+    if (t.kind == Term::Kind::Compound && !sort.empty())
+      for (size_t i = 0; i < t.args.size(); ++i)
+        if (!t.args[i].isGround())
+          typeTerm(t.args[i], projectionSort(sort, t.name, t.args.size(), i), vs);
+  }
+
+  /// @brief Sort of the i-th argument of the records f(...) of `sort`, so that a variable
+  /// nested in a value (`genotype_of(X) = g(g_a, Y)`) ranges over what can stand there. The
+  /// sort is hidden (builtin: not exported; a re-parse derives it again).
+  std::string projectionSort(const std::string& sort, const std::string& f, size_t arity,
+                             size_t i) {
+    const SortDecl* s = prog_.findSort(sort);
+    if (!s) return "";
+    std::string name = "arg_" + sort + "_" + f + std::to_string(arity) + "_" + std::to_string(i);
+    if (const SortDecl* old = prog_.findSort(name)) return old->builtin ? name : "";
+    SortDecl p;
+    p.name = name;
+    p.builtin = true;
+    p.loc = s->loc;
+    std::set<std::string> seen;
+    for (const auto& v : s->values)
+      if (v.kind == Term::Kind::Compound && v.name == f && v.args.size() == arity &&
+          seen.insert(toString(v.args[i])).second)
+        p.values.push_back(v.args[i]);
+    if (p.values.empty()) return "";
+    prog_.sorts.push_back(p);
+    return name;
   }
 
   void typeAtom(const Atom& a, VariableSorts& vs) {
@@ -1081,6 +1421,9 @@ class Resolver {
   }
 
   Query resolveQuery(const RawQuery& rq) {
+    if (usesObsLiterals() && !rq.obs.empty())
+      throw Error(rq.loc.str() + ": a query that observes is not supported for a program whose "
+                                 "rules test obs(...); write the observation as a fact");
     for (const auto& l : rq.formula) requireKnownAttribute(l);
     for (const auto& o : rq.obs) requireKnownAttribute(o.lit);
     for (const auto& d : rq.dos) requireKnownAttribute(d);
@@ -1100,6 +1443,8 @@ class Resolver {
 
   // Declare implicit predicates for undeclared heads of rules/facts.
   void declareImplicit(const std::vector<RawStmt>& stmts) {
+    // plog2.0 requires every attribute to be declared in its `attributes` section
+    if (plog2_) return;
     for (const auto& s : stmts) {
       if (s.kind != RawStmt::Kind::Rule || !s.head) continue;
       const RawLit& h = *s.head;
@@ -1122,7 +1467,96 @@ class Resolver {
     }
   }
 
-  void resolveAll(const std::vector<RawStmt>& stmts) {
+  /// @brief Give each classic range-only attribute `a : s.` that the statements use with
+  /// arguments (`random(place(B))`) that arity; an argument's sort is the #domain sort of a
+  /// variable written there, untyped otherwise. The classic solver reads its examples so.
+  void inferClassicArity(const std::vector<RawStmt>& stmts) {
+    if (range_only_.empty()) return;
+    std::map<std::string, std::vector<std::string>> seen;  // name -> argument sorts
+    std::function<void(const Term&)> visit = [&](const Term& t) {
+      if (t.kind == Term::Kind::Compound && range_only_.count(t.name)) {
+        auto it = seen.find(t.name);
+        if (it == seen.end()) it = seen.emplace(t.name, std::vector<std::string>(t.args.size())).first;
+        if (it->second.size() == t.args.size())
+          for (size_t i = 0; i < t.args.size(); ++i)
+            if (it->second[i].empty() && t.args[i].kind == Term::Kind::Variable)
+              it->second[i] = prog_.domainSortOf(t.args[i].name);
+      }
+      for (const auto& a : t.args) visit(a);
+    };
+    auto lit = [&](const RawLit& l) {
+      visit(l.lhs);
+      if (l.has_op) visit(l.rhs);
+    };
+    for (const auto& s : stmts) {
+      if (s.head) lit(*s.head);
+      for (const auto& l : s.body) lit(l);
+      for (const auto& l : s.range_body) lit(l);
+      lit(s.pr_atom);
+      lit(s.obs.lit);
+      lit(s.do_lit);
+      for (const auto& l : s.query.formula) lit(l);
+      for (const auto& o : s.query.obs) lit(o.lit);
+      for (const auto& l : s.query.dos) lit(l);
+    }
+    for (auto& a : prog_.attributes)
+      if (a.arg_sorts.empty() && seen.count(a.name)) a.arg_sorts = seen[a.name];
+  }
+
+  /// @brief Classic programs overload undeclared predicate names by arity, as ASP does
+  /// (Poker: pair(K, S) and pair(K)). One attribute has one arity here, so every arity but the
+  /// first one used is renamed `name_<arity>` (a free name) throughout the statements.
+  std::vector<RawStmt> splitOverloadedPredicates(const std::vector<RawStmt>& stmts) {
+    if (plog2_) return stmts;
+    std::map<std::string, std::vector<size_t>> arities;  // first-use order
+    auto top = [](const RawLit& l) -> const Term* {
+      const Term* t = &l.lhs;
+      if (t->kind == Term::Kind::Negate) t = &t->args[0];
+      return (t->kind == Term::Kind::Symbol || t->kind == Term::Kind::Compound) ? t : nullptr;
+    };
+    auto note = [&](const RawLit& l) {
+      const Term* t = top(l);
+      if (!t || prog_.findAttribute(t->name) || t->name == "obs" || t->name == "do") return;
+      auto& v = arities[t->name];
+      if (std::find(v.begin(), v.end(), t->args.size()) == v.end()) v.push_back(t->args.size());
+    };
+    for (const auto& s : stmts) {
+      if (s.kind == RawStmt::Kind::Rule && s.head) note(*s.head);
+      for (const auto& l : s.body) note(l);
+    }
+    std::map<std::pair<std::string, size_t>, std::string> rename;
+    for (const auto& a : arities) {
+      for (size_t k = 1; k < a.second.size(); ++k) {
+        std::string n = a.first + "_" + std::to_string(a.second[k]);
+        while (prog_.findAttribute(n) || arities.count(n)) n += "_";
+        rename[{a.first, a.second[k]}] = n;
+      }
+    }
+    if (rename.empty()) return stmts;
+    std::vector<RawStmt> out = stmts;
+    auto fix = [&](RawLit& l) {
+      Term* t = &l.lhs;
+      if (t->kind == Term::Kind::Negate) t = &t->args[0];
+      if (t->kind != Term::Kind::Symbol && t->kind != Term::Kind::Compound) return;
+      auto it = rename.find({t->name, t->args.size()});
+      if (it != rename.end()) t->name = it->second;
+    };
+    for (auto& s : out) {
+      if (s.head) fix(*s.head);
+      for (auto& l : s.body) fix(l);
+      for (auto& l : s.range_body) fix(l);
+      fix(s.pr_atom);
+      fix(s.obs.lit);
+      for (auto& l : s.query.formula) fix(l);
+      for (auto& o : s.query.obs) fix(o.lit);
+    }
+    return out;
+  }
+
+  void resolveAll(const std::vector<RawStmt>& raw) {
+    const std::vector<RawStmt> stmts = splitOverloadedPredicates(raw);
+    inferClassicArity(stmts);
+    declareObsAttribute(stmts);
     declareImplicit(stmts);
     for (const auto& s : stmts) {
       switch (s.kind) {
@@ -1205,6 +1639,7 @@ class Resolver {
         case RawStmt::Kind::Obs:
           requireKnownAttribute(s.obs.lit);
           prog_.observations.push_back(resolveObs(s.obs));
+          if (usesObsLiterals()) prog_.rules.push_back(obsFact(prog_.observations.back()));
           break;
         case RawStmt::Kind::Do:
           requireKnownAttribute(s.do_lit);
@@ -1218,6 +1653,10 @@ class Resolver {
   }
 
   int fresh_ = 0;
+  /// @brief The statements are in the plog2.0 dialect (no implicit predicates).
+  bool plog2_ = false;
+  /// @brief Classic attributes declared with their range only (arity taken from use).
+  std::set<std::string> range_only_;
 
  private:
   Program& prog_;
@@ -1249,6 +1688,8 @@ void parseInto(Program& program, const std::string& text, const std::string& fil
   std::vector<RawStmt> stmts = parser.parseAll();
   Resolver res(work);
   res.fresh_ = freshBase(program);
+  res.plog2_ = parser.dialect() == Dialect::Plog2;
+  res.range_only_ = parser.rangeOnly();
   res.resolveAll(stmts);
   if (program.sorts.empty() && program.attributes.empty() && program.rules.empty() &&
       program.random_rules.empty() && program.pr_atoms.empty())

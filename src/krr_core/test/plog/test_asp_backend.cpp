@@ -9,10 +9,15 @@
  */
 #include <gtest/gtest.h>
 
+#include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
+
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
@@ -507,6 +512,67 @@ TEST(AspBackend, TimeoutKillsClingo) {
   }
   o.timeout_s = 0.0;
   EXPECT_THROW(AspBackend(o).probability(p, parseQuery(p, "?{f(1)}")), ConfigError);
+}
+
+// A process killed while clingo runs (Ctrl-C on plog, `timeout`, kill -9 of a node) takes its
+// clingo with it: nothing keeps computing past the caller's life and its time limit.
+TEST(AspBackend, ClingoDiesWithItsParent) {
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    // 2^24 worlds: clingo is still enumerating when the parent is killed.
+    Program p = parseProgram("n = {1..24}.\nf : n -> boolean.\nrandom(f(X)).\n", "<big>");
+    AspOptions o;
+    o.timeout_s = 120;
+    AspBackend b(o);
+    try {
+      ask(b, p, "?{f(1)}");
+    } catch (...) {
+    }
+    _exit(0);
+  }
+  // Find the clingo whose parent is the child.
+  auto clingoOf = [](pid_t parent) {
+    for (const auto& e : std::filesystem::directory_iterator("/proc")) {
+      const std::string name = e.path().filename().string();
+      if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+      std::ifstream stat(e.path() / "stat");
+      std::string line;
+      if (!std::getline(stat, line)) continue;
+      const auto close = line.rfind(')');
+      if (close == std::string::npos || line.find("(clingo)") == std::string::npos) continue;
+      std::istringstream rest(line.substr(close + 2));
+      char state;
+      long ppid = 0;
+      rest >> state >> ppid;
+      if (ppid == parent && state != 'Z') return static_cast<pid_t>(std::stol(name));
+    }
+    return static_cast<pid_t>(-1);
+  };
+  pid_t clingo = -1;
+  for (int i = 0; i < 200 && clingo < 0; ++i) {
+    usleep(20000);
+    clingo = clingoOf(child);
+  }
+  ASSERT_GT(clingo, 0) << "clingo did not start";
+  kill(child, SIGKILL);
+  int st = 0;
+  waitpid(child, &st, 0);
+  bool gone = false;
+  for (int i = 0; i < 200 && !gone; ++i) {
+    usleep(10000);
+    // gone, or a zombie waiting for whoever adopted it to reap it
+    std::ifstream stat("/proc/" + std::to_string(clingo) + "/stat");
+    std::string line;
+    if (!std::getline(stat, line)) {
+      gone = true;
+    } else {
+      const auto close = line.rfind(')');
+      gone = close != std::string::npos && close + 2 < line.size() && line[close + 2] == 'Z';
+    }
+  }
+  if (!gone) kill(clingo, SIGKILL);
+  EXPECT_TRUE(gone) << "clingo " << clingo << " outlived its parent";
 }
 
 TEST(AspBackend, TemporaryFilesAreRemovedOrKeptOnRequest) {
