@@ -5,13 +5,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <iostream>
 #include <sstream>
 #include <string>
 
 #include "krr_core/common/cli.h"
-#include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/json.h"
 #include "krr_core/common/main_guard.h"
@@ -21,19 +19,16 @@
 
 namespace {
 
-const char* kUsage =
-    "usage: delivery_trials --trials N [--export-pomdp FILE] [--model-report]\n"
-    "                       (shared options below)\n";
-const char* kHelp =
-    "  One CSV row per trial (trial index first). reward = +80 fulfilled / -80, minus the\n"
-    "  questions' costs, the navigation cost driven and the wrong-delivery penalty\n"
-    "  (config/dialog.yaml, serve_cost). policy_lower / policy_upper: the certified bounds of\n"
-    "  the dialog policy at the prior. --learned-cache: learned knowledge and solved policies\n"
-    "  (default $KRR_CACHE_DIR or ~/.cache/krr_rl/delivery); 'none' learns and solves every run.\n"
-    "  --model-report: print (only) a JSON report on stdout: per room the believed P^N (the\n"
-    "  knowledge base's model) and the true P^N (the simulator's exact dynamics, driven with\n"
-    "  the robot's policies), the policy's certified bounds and, after the trials, the\n"
-    "  forced-serve rate; the usual summary goes to stderr.\n";
+const char* kSummary =
+    "The paper's delivery experiment (Table I), headless: one CSV row per trial (trial index\n"
+    "first). reward = +80 fulfilled / -80, minus the questions' costs, the navigation cost\n"
+    "driven and the wrong-delivery penalty (config/dialog.yaml, serve_cost). policy_lower /\n"
+    "policy_upper: the certified bounds of the dialog policy at the prior.";
+const char* kModelReportHelp =
+    "print (only) a JSON report on stdout: per room the believed P^N (the knowledge base's "
+    "model) and the true P^N (the simulator's exact dynamics, driven with the robot's "
+    "policies), the policy's certified bounds and, after the trials, the forced-serve rate; "
+    "the usual summary goes to stderr";
 
 struct Mean {
   double sum = 0, sq = 0;
@@ -52,33 +47,15 @@ struct Mean {
 /// @brief The program; main() runs it under guardedMain so that no exception aborts it.
 static int mainBody(int argc, char** argv) {
   krr::dialog::ExperimentCli cli;
-  long trials = -1;
+  std::size_t trials = 0;
   std::string exportPomdp;
   bool modelReport = false;
-  try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string f = argv[i];
-      if (f == "-h" || f == "--help") {
-        std::cout << kUsage << krr::dialog::kExperimentCliUsage << kHelp;
-        return 0;
-      }
-      if (f == "--model-report") {
-        modelReport = true;
-        continue;
-      }
-      if (i + 1 >= argc) throw krr::ConfigError("option " + f + " needs a value");
-      const std::string v = argv[++i];
-      if (cli.take(f, v)) continue;
-      if (f == "--trials") trials = static_cast<long>(krr::parseCountOption(f, v));
-      else if (f == "--export-pomdp") exportPomdp = v;
-      else throw krr::ConfigError("unknown option " + f);
-    }
-    if (trials < 0) throw krr::ConfigError("--trials is required");
-    cli.finish();
-  } catch (const krr::Error& e) {
-    std::cerr << "delivery_trials: error: " << e.what() << "\n" << kUsage << krr::dialog::kExperimentCliUsage;
-    return 2;
-  }
+  krr::OptionParser parser("delivery_trials", kSummary);
+  parser.add("--trials", "N", "trials to run", &trials).required();
+  cli.declare(parser);
+  parser.add("--export-pomdp", "FILE", "write the dialog POMDP (Cassandra format)", &exportPomdp);
+  parser.flag("--model-report", kModelReportHelp, &modelReport);
+  if (const auto status = parser.parse(argc, argv, [&] { cli.finish(); })) return *status;
   try {
     using namespace krr::dialog;
     const ExperimentPaths paths = cli.paths();
@@ -92,7 +69,7 @@ static int mainBody(int argc, char** argv) {
     if (!exportPomdp.empty()) krr::writeFileAtomic(exportPomdp, ex.dialog().exportCassandra());
 
     clock.reset();
-    const auto results = ex.runTrials(cli.begin, static_cast<std::size_t>(trials), cli.threads);
+    const auto results = ex.runTrials(cli.begin, trials, cli.threads);
     const double trialSeconds = clock.seconds();
     if (!cli.out.empty()) {
       std::ostringstream csv;

@@ -3,14 +3,12 @@
 // it suggests a delivery, with the delivered request's room. Sample i depends only on (seed, i).
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <iostream>
 #include <map>
 #include <sstream>
 #include <string>
 
 #include "krr_core/common/cli.h"
-#include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/main_guard.h"
 #include "krr_core/common/resources.h"
@@ -20,45 +18,30 @@
 
 namespace {
 
-const char* kUsage =
-    "usage: dialog_entropy --samples N [--alpha-min 0.005] [--alpha-max 0.5]\n"
-    "                      (shared options below; --trials is a synonym of --samples)\n";
-const char* kHelp =
-    "  One CSV row per sample: trial, action, room (of the delivery, empty otherwise), entropy\n"
-    "  (nats), entropy_bits, max_probability, served, policy_lower, policy_upper (the dialog\n"
-    "  policy's certified bounds at the prior). Beliefs: Dirichlet(alpha) over the\n"
-    "  requests, alpha log-uniform in [alpha-min, alpha-max]; the action is the policy's at\n"
-    "  the start of a dialog.\n";
+const char* kSummary =
+    "The paper's Table II experiment, headless: one CSV row per sample: trial, action, room\n"
+    "(of the delivery, empty otherwise), entropy (nats), entropy_bits, max_probability,\n"
+    "served, policy_lower, policy_upper (the dialog policy's certified bounds at the prior).\n"
+    "Beliefs: Dirichlet(alpha) over the requests, alpha log-uniform in [alpha-min,\n"
+    "alpha-max]; the action is the policy's at the start of a dialog.";
 
 }  // namespace
 
 /// @brief The program; main() runs it under guardedMain so that no exception aborts it.
 static int mainBody(int argc, char** argv) {
   krr::dialog::ExperimentCli cli;
-  long count = -1;
+  std::size_t count = 0;
   krr::dialog::BeliefSamplerOptions sampler;
-  try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string f = argv[i];
-      if (f == "-h" || f == "--help") {
-        std::cout << kUsage << krr::dialog::kExperimentCliUsage << kHelp;
-        return 0;
-      }
-      if (i + 1 >= argc) throw krr::ConfigError("option " + f + " needs a value");
-      const std::string v = argv[++i];
-      if (cli.take(f, v)) continue;
-      if (f == "--samples" || f == "--trials") count = static_cast<long>(krr::parseCountOption(f, v));
-      else if (f == "--alpha-min") sampler.alpha_min = krr::parseNumberOption(f, v);
-      else if (f == "--alpha-max") sampler.alpha_max = krr::parseNumberOption(f, v);
-      else throw krr::ConfigError("unknown option " + f);
-    }
-    if (count < 0) throw krr::ConfigError("--samples is required");
+  krr::OptionParser parser("dialog_entropy", kSummary);
+  parser.add("--samples", "N", "beliefs to sample", &count).required().alias("--trials");
+  cli.declare(parser);
+  parser.add("--alpha-min", "A", "smallest Dirichlet concentration", &sampler.alpha_min);
+  parser.add("--alpha-max", "A", "largest Dirichlet concentration", &sampler.alpha_max);
+  const auto check = [&] {
     cli.finish();
     sampler.validate();
-  } catch (const krr::Error& e) {
-    std::cerr << "dialog_entropy: error: " << e.what() << "\n" << kUsage << krr::dialog::kExperimentCliUsage;
-    return 2;
-  }
+  };
+  if (const auto status = parser.parse(argc, argv, check)) return *status;
   try {
     using namespace krr::dialog;
     const ExperimentPaths paths = cli.paths();
@@ -68,7 +51,7 @@ static int mainBody(int argc, char** argv) {
     DeliveryExperiment ex(domain, config, cli.experiment);
     BeliefEntropySurvey survey(ex.dialog(), ex.policy(), sampler, cli.experiment.seed);
     krr::Stopwatch clock;
-    const auto samples = survey.run(cli.begin, static_cast<std::size_t>(count), cli.threads);
+    const auto samples = survey.run(cli.begin, count, cli.threads);
     if (!cli.out.empty()) {
       std::ostringstream csv;
       // The policy's certified bounds at the prior on every row (the evaluation checks them).

@@ -20,16 +20,15 @@
 //     (JSON with --json), the same log dialog_node's rostests compare against.
 // Errors: message on stderr, exit 1; bad arguments exit 2.
 #include <cstdio>
-#include <cstdlib>
 #include <iostream>
 #include <memory>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
+#include "krr_core/common/resource_locator.h"
 #include "krr_core/common/main_guard.h"
 #include "krr_core/dialog/delivery_navigation.h"
 #include "krr_core/dialog/dialog_knowledge.h"
@@ -39,12 +38,10 @@
 
 namespace {
 
-const char* kUsage =
-    "usage: dialog_script --utterance TEXT [--utterance TEXT ...] [--question ACTION ...]\n"
-    "         [--no-policy] [--deliver [--check TEXT ...] [--legs ok,ok,fail]]\n"
-    "         [--out turns.csv] [--json] [--reach r1,...,r5 [--reach-back b1,...,b5]]\n"
-    "         [--dialog-config config/dialog.yaml] [--language config/language.yaml]\n"
-    "         [--domain office_30x30] [--root DIR] [--cache DIR|none]\n";
+const char* kSummary =
+    "Talk to the robot's dialog manager without ROS. Default: Figure 4 (per-turn marginals;\n"
+    "the user speaks first, before each further utterance the robot asks the next --question\n"
+    "or the policy's question). --deliver: the whole delivery through the DeliveryManager.";
 
 struct Args {
   std::vector<std::string> utterances, questions, checks;
@@ -52,73 +49,59 @@ struct Args {
   std::string out, dialogConfig, language, domain = "office_30x30", root, cache;
   bool json = false, noPolicy = false, deliver = false, haveCache = false;
   std::vector<double> reach, reachBack;
-};
 
-std::vector<double> numbers(const std::string& flag, const std::string& v) {
-  std::vector<double> out;
-  std::stringstream ss(v);
-  std::string item;
-  while (std::getline(ss, item, ',')) out.push_back(krr::parseNumberOption(flag, item));
-  return out;
-}
-
-Args parse(int argc, char** argv) {
-  Args a;
-  for (int i = 1; i < argc; ++i) {
-    const std::string f = argv[i];
-    if (f == "-h" || f == "--help") {
-      std::cout << kUsage;
-      std::exit(0);
-    }
-    if (f == "--json") { a.json = true; continue; }
-    if (f == "--no-policy") { a.noPolicy = true; continue; }
-    if (f == "--deliver") { a.deliver = true; continue; }
-    if (i + 1 >= argc) throw krr::ConfigError("option " + f + " needs a value");
-    const std::string v = argv[++i];
-    if (f == "--utterance") a.utterances.push_back(v);
-    else if (f == "--question") a.questions.push_back(v);
-    else if (f == "--check") a.checks.push_back(v);
-    else if (f == "--out") a.out = v;
-    else if (f == "--dialog-config") a.dialogConfig = v;
-    else if (f == "--language") a.language = v;
-    else if (f == "--domain") a.domain = v;
-    else if (f == "--root") a.root = v;
-    else if (f == "--cache") a.cache = v, a.haveCache = true;
-    else if (f == "--reach") a.reach = numbers(f, v);
-    else if (f == "--reach-back") a.reachBack = numbers(f, v);
-    else if (f == "--legs") {
-      std::stringstream ss(v);
-      std::string item;
-      while (std::getline(ss, item, ',')) {
-        if (item != "ok" && item != "fail")
-          throw krr::ConfigError("option --legs: '" + item + "' must be ok or fail");
-        a.legs.push_back(item == "ok");
-      }
-    } else {
-      throw krr::ConfigError("unknown option " + f);
-    }
+  /// @brief Declare the options on `p`; this object receives their values.
+  void declare(krr::OptionParser& p) {
+    p.add("--utterance", "TEXT", "what the person says, in order", &utterances).required();
+    p.add("--question", "ACTION", "the robot's question before the next utterance", &questions);
+    p.flag("--no-policy", "ask only the --question actions", &noPolicy);
+    p.flag("--deliver", "run the whole delivery (the utterances answer the questions)", &deliver);
+    p.add("--check", "TEXT", "with --deliver: what the person says at the room", &checks);
+    p.add("--legs", "ok,fail,...", "with --deliver: how the navigation legs end (default: all ok)",
+          [this](const std::string& v) {
+            for (const std::string& item : krr::splitOption(v)) {
+              if (item != "ok" && item != "fail")
+                throw krr::ConfigError("option --legs: '" + item + "' must be ok or fail");
+              legs.push_back(item == "ok");
+            }
+          });
+    p.add("--out", "FILE", "per-turn marginals as CSV", &out);
+    p.flag("--json", "print JSON", &json);
+    p.add("--reach", "r1,...,r5", "P^N(shop, room) per room instead of the knowledge base's",
+          [this](const std::string& v) { reach = krr::parseNumberListOption("--reach", v); });
+    p.add("--reach-back", "b1,...,b5", "with --reach: P^N(room, shop) per room",
+          [this](const std::string& v) {
+            reachBack = krr::parseNumberListOption("--reach-back", v);
+          });
+    p.add("--dialog-config", "FILE", "dialog settings", &dialogConfig)
+        .defaultText("ROOT/config/dialog.yaml");
+    p.add("--language", "FILE", "language front end", &language)
+        .defaultText("ROOT/config/language.yaml");
+    p.add("--domain", "NAME", "navigation domain", &domain);
+    p.add("--root", "DIR", krr::kRepositoryRootHelp, &root);
+    p.add("--cache", "DIR|none", "solved policies; none: solve every run",
+          [this](const std::string& v) { cache = v, haveCache = true; },
+          "$KRR_CACHE_DIR or ~/.cache/krr_rl/delivery");
   }
-  if (a.utterances.empty()) throw krr::ConfigError("at least one --utterance is required");
-  if (a.deliver && (a.noPolicy || !a.questions.empty()))
-    throw krr::ConfigError("--deliver runs the robot's policy: no --question / --no-policy");
-  if (!a.deliver && (!a.checks.empty() || !a.legs.empty()))
-    throw krr::ConfigError("--check and --legs need --deliver");
-  if (!a.reachBack.empty() && a.reach.empty())
-    throw krr::ConfigError("--reach-back needs --reach");
-  return a;
-}
+
+  /// @brief The combinations the options allow. @throws ConfigError.
+  void check() const {
+    if (deliver && (noPolicy || !questions.empty()))
+      throw krr::ConfigError("--deliver runs the robot's policy: no --question / --no-policy");
+    if (!deliver && (!checks.empty() || !legs.empty()))
+      throw krr::ConfigError("--check and --legs need --deliver");
+    if (!reachBack.empty() && reach.empty()) throw krr::ConfigError("--reach-back needs --reach");
+  }
+};
 
 }  // namespace
 
 /// @brief The program; main() runs it under guardedMain so that no exception aborts it.
 static int mainBody(int argc, char** argv) {
   Args a;
-  try {
-    a = parse(argc, argv);
-  } catch (const krr::Error& e) {
-    std::cerr << "dialog_script: " << e.what() << "\n" << kUsage;
-    return 2;
-  }
+  krr::OptionParser parser("dialog_script", kSummary);
+  a.declare(parser);
+  if (const auto status = parser.parse(argc, argv, [&] { a.check(); })) return *status;
   try {
     using namespace krr::dialog;
     const std::string root = krr::findRepositoryRoot(a.root, "config/dialog.yaml");

@@ -2,7 +2,7 @@
  * @file make_nav_domain.cpp
  * @brief Generate the office map and the navigation domains derived from it.
  *
- *   make_nav_domain [--config config/navigation.yaml] [--generate-office] [-h | --help]
+ *   make_nav_domain [--config ROOT/config/navigation.yaml] [--generate-office] [-h | --help]
  *
  * --generate-office (re)writes the map files named by the config (office.yaml + office.pgm and
  * office_places.yaml) from the code in office_map.cpp. Then, for every domain of the config, the
@@ -15,11 +15,13 @@
 #include <iostream>
 #include <string>
 
+#include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/json.h"
 #include "krr_core/common/limits.h"
 #include "krr_core/common/main_guard.h"
+#include "krr_core/common/resource_locator.h"
 #include "krr_core/nav/grid_astar.h"
 #include "krr_core/nav/nav_grid.h"
 #include "krr_core/nav/navigation_config.h"
@@ -46,30 +48,19 @@ std::string stem(const std::string& p) {
 
 /// @brief The program; main() runs it under guardedMain so that no exception aborts it.
 static int mainBody(int argc, char** argv) {
-  std::string config_path = "config/navigation.yaml";
+  std::string config_path;
   bool generate = false;
-  const char* usage =
-      "usage: make_nav_domain [--config navigation.yaml] [--generate-office]\n"
-      "  Cut the map named by the config (map_server YAML + PGM or PNG) into the navigation\n"
-      "  domains it lists; write <domain>.yaml and <domain>_geometry.plog next to the map.\n"
-      "  --config FILE       navigation config (default config/navigation.yaml)\n"
-      "  --generate-office   first (re)write the office map and places from office_map.cpp\n"
-      "  -h, --help          print this help and exit\n";
-  for (int i = 1; i < argc; ++i) {
-    std::string a = argv[i];
-    if (a == "-h" || a == "--help") {
-      std::cout << usage;
-      return 0;
-    } else if (a == "--config" && i + 1 < argc) {
-      config_path = argv[++i];
-    } else if (a == "--generate-office") {
-      generate = true;
-    } else {
-      std::cerr << "make_nav_domain: unknown or incomplete option '" << a << "'\n" << usage;
-      return 2;
-    }
-  }
+  OptionParser parser("make_nav_domain",
+                      "Cut the map named by the config (map_server YAML + PGM or PNG) into the\n"
+                      "navigation domains it lists; write <domain>.yaml and\n"
+                      "<domain>_geometry.plog next to the map.");
+  parser.add("--config", "FILE", "navigation config", &config_path)
+      .defaultText("ROOT/config/navigation.yaml");
+  parser.flag("--generate-office", "first (re)write the office map and places from office_map.cpp",
+              &generate);
+  if (const auto status = parser.parse(argc, argv)) return *status;
   try {
+    config_path = resourcePath(config_path, "config/navigation.yaml");
     NavigationConfig cfg = loadNavigationConfig(config_path);
     if (generate) {
       OfficeMap office = makeOfficeMap();

@@ -2,10 +2,7 @@
 // headless. Prints a summary and writes per-episode means as CSV (--out) and, optionally, one
 // row per (trial, episode, condition) (--trials-out) for an evaluator that splits trial ranges
 // over processes (--trial-begin) and concatenates them: trial i depends only on (seed, i).
-#include <sys/stat.h>
-
 #include <cstdio>
-#include <cstdlib>
 #include <iostream>
 #include <sstream>
 #include <fstream>
@@ -17,21 +14,16 @@
 #include "krr_core/common/files.h"
 #include "krr_core/common/main_guard.h"
 #include "krr_core/common/resources.h"
+#include "krr_core/experiments/experiment_cli.h"
 #include "krr_core/experiments/nav_transfer.h"
 
 namespace {
 
-const char* kUsage =
-    "usage: nav_transfer [--domain office_30x30] [--trials 1000] [--trial-begin 0] [--threads N]\n"
-    "         [--seed 1] [--out means.csv] [--trials-out trials.csv]\n"
-    "         [--options config/nav_transfer.yaml] [--config config/navigation.yaml]\n"
-    "         [--geometry maps/<domain>_geometry.plog] [--knowledge config/navigation.plog]\n"
-    "         [--target-episodes N] [--source-episodes N] [--convergence-episodes N] [--br 0.3]\n"
-    "         [--time morning] [--source room1] [--target room2] [--rmax 40] [--step-cost 1]\n"
-    "         [--known M] [--replan E] [--discount 0.95] [--repo DIR]\n"
-    "Experiment defaults come from the options file (default DIR/config/nav_transfer.yaml when\n"
-    "it exists); flags override them. Relative default paths are under DIR (the\n"
-    "checkout found from $KRR_ROOT, the working directory or this program).\n"
+const char* kSummary =
+    "The paper's navigation experiment: learn shop-room1, extract, apply to shop-room2.\n"
+    "Experiment defaults come from the options file; flags override them. Default paths are\n"
+    "under ROOT (see --repo).";
+const char* kEpilog =
     "--out: episode, mean and 95% CI of the reward with/without extraction, success rates.\n"
     "--trials-out: trial, episode, condition (with/without), reward, success.\n";
 
@@ -41,46 +33,6 @@ double toNumber(const std::string& flag, const std::string& v) {
 
 std::size_t toCount(const std::string& flag, const std::string& v) {
   return krr::parseCountOption(flag, v);
-}
-
-struct Args {
-  std::string repo, options, config, domain = "office_30x30", geometry, knowledge, out, trials_out;
-  std::size_t trials = 1000, begin = 0, threads = std::max(1u, std::thread::hardware_concurrency());
-  std::uint64_t seed = 1;
-  std::vector<std::pair<std::string, std::string>> overrides;  // applied after the options file
-};
-
-Args parse(int argc, char** argv) {
-  Args a;
-  for (int i = 1; i < argc; ++i) {
-    const std::string f = argv[i];
-    if (f == "-h" || f == "--help") {
-      std::cout << kUsage;
-      std::exit(0);
-    }
-    if (i + 1 >= argc) throw krr::ConfigError("option " + f + " needs a value");
-    const std::string v = argv[++i];
-    if (f == "--repo") a.repo = v;
-    else if (f == "--options") a.options = v;
-    else if (f == "--config") a.config = v;
-    else if (f == "--domain") a.domain = v;
-    else if (f == "--geometry") a.geometry = v;
-    else if (f == "--knowledge") a.knowledge = v;
-    else if (f == "--out") a.out = v;
-    else if (f == "--trials-out") a.trials_out = v;
-    else if (f == "--trials") a.trials = toCount(f, v);
-    else if (f == "--trial-begin") a.begin = toCount(f, v);
-    else if (f == "--threads") a.threads = std::max<std::size_t>(1, toCount(f, v));
-    else if (f == "--seed") a.seed = toCount(f, v);
-    else if (f == "--target-episodes" || f == "--source-episodes" ||
-             f == "--convergence-episodes" || f == "--br" || f == "--time" || f == "--source" ||
-             f == "--target" || f == "--rmax" || f == "--step-cost" || f == "--known" ||
-             f == "--replan" || f == "--discount")
-      a.overrides.emplace_back(f, v);
-    else throw krr::ConfigError("unknown option " + f);
-  }
-  if (a.trials == 0) throw krr::ConfigError("--trials must be at least 1");
-  return a;
 }
 
 void applyOverride(krr::kb::NavTransferOptions& o, const std::string& f, const std::string& v) {
@@ -98,35 +50,72 @@ void applyOverride(krr::kb::NavTransferOptions& o, const std::string& f, const s
   else if (f == "--discount") o.rmax.discount = toNumber(f, v);
 }
 
+struct Args {
+  krr::kb::NavExperimentFiles files;
+  std::string domain = "office_30x30", out, trials_out;
+  std::size_t trials = 1000, begin = 0, threads = std::max(1u, std::thread::hardware_concurrency());
+  std::uint64_t seed = 1;
+  std::vector<std::pair<std::string, std::string>> overrides;  // applied after the options file
+
+  /// @brief Declare the options on `p`; this object receives their values.
+  void declare(krr::OptionParser& p) {
+    p.add("--domain", "NAME", "navigation domain", &domain);
+    p.add("--trials", "N", "trials to run (at least 1)", &trials);
+    p.add("--trial-begin", "K", "index of the first trial (trial i depends only on seed and i)",
+          &begin);
+    p.add("--threads", "N", "worker threads", &threads).defaultText("the number of cores");
+    p.add("--seed", "S", "root seed", &seed);
+    p.add("--out", "FILE", "per-episode means as CSV", &out);
+    p.add("--trials-out", "FILE", "one CSV row per (trial, episode, condition)", &trials_out);
+    files.declare(p, "config/experiments/nav_transfer.yaml", " when it exists");
+    // Overrides of the options file, applied after it is read (a bad value fails now).
+    const std::pair<const char*, const char*> experiment[] = {
+        {"--target-episodes", "N"}, {"--source-episodes", "N"}, {"--convergence-episodes", "N"},
+        {"--br", "B"}, {"--time", "TIME"}, {"--source", "PLACE"}, {"--target", "PLACE"},
+        {"--rmax", "R"}, {"--step-cost", "C"}, {"--known", "M"}, {"--replan", "E"},
+        {"--discount", "G"}};
+    for (const auto& [flag, value] : experiment) {
+      const std::string f = flag;
+      p.add(f, value, "override of the options file", [this, f](const std::string& v) {
+        krr::kb::NavTransferOptions scratch;
+        applyOverride(scratch, f, v);
+        overrides.emplace_back(f, v);
+      });
+    }
+  }
+};
+
 }  // namespace
 
 /// @brief The program; main() runs it under guardedMain so that no exception aborts it.
 static int mainBody(int argc, char** argv) {
   Args a;
+  krr::OptionParser parser("nav_transfer", kSummary);
+  a.declare(parser);
+  parser.epilog(kEpilog);
+  const auto check = [&] {
+    if (a.trials == 0) throw krr::ConfigError("--trials must be at least 1");
+    a.threads = std::max<std::size_t>(1, a.threads);
+  };
+  if (const auto status = parser.parse(argc, argv, check)) return *status;
   try {
-    a = parse(argc, argv);
-  } catch (const krr::Error& e) {
-    std::cerr << "nav_transfer: " << e.what() << "\n" << kUsage;
-    return 2;
-  }
-  try {
-    a.repo = krr::findRepositoryRoot(a.repo);
+    // Given, the options file must exist; by default, it may be absent.
+    const bool givenOptions = !a.files.options.empty();
+    a.files.resolveRoot();
     krr::kb::NavTransferOptions o;
-    const std::string default_options = a.repo + "/config/nav_transfer.yaml";
-    if (!a.options.empty()) o = krr::kb::loadNavTransferOptions(a.options);
-    else if (std::ifstream(default_options).good()) o = krr::kb::loadNavTransferOptions(default_options);
+    if (givenOptions || std::ifstream(a.files.options).good())
+      o = krr::kb::loadNavTransferOptions(a.files.options);
     for (const auto& [f, v] : a.overrides) applyOverride(o, f, v);
     o.validate();
-    if (a.config.empty()) a.config = a.repo + "/config/navigation.yaml";
-    if (a.geometry.empty()) a.geometry = a.repo + "/maps/" + a.domain + "_geometry.plog";
-    if (a.knowledge.empty()) a.knowledge = a.repo + "/config/navigation.plog";
+    a.files.resolveInputs(a.domain);
 
     std::cerr << "nav_transfer: seed " << a.seed << ", trials [" << a.begin << ", "
               << a.begin + a.trials << "), " << a.threads << " threads, domain " << a.domain
               << ", M " << o.rmax.known_threshold << ", Rmax " << o.rmax.rmax << ", step cost "
               << o.rmax.step_cost << ", " << o.target_episodes << " target episodes\n";
     krr::Stopwatch clock;
-    auto dom = krr::kb::NavDomain::load(a.config, a.domain, a.geometry, a.knowledge);
+    auto dom =
+        krr::kb::NavDomain::load(a.files.config, a.domain, a.files.geometry, a.files.knowledge);
     const auto trials = krr::kb::runNavTransferTrials(dom, o, a.seed, a.begin, a.trials, a.threads);
     const auto s = krr::kb::summarizeNavTransfer(trials);
     if (!a.out.empty()) {

@@ -6,11 +6,8 @@
 // every setting's own controller. Learning runs are shared by the trials (config:
 // learning_runs). Writes one CSV row per trial (trial i depends only on (seed, i), so ranges
 // can be run in separate processes and concatenated) and prints a summary.
-#include <sys/stat.h>
-
 #include <algorithm>
 #include <cstdio>
-#include <cstdlib>
 #include <iostream>
 #include <set>
 #include <sstream>
@@ -22,101 +19,81 @@
 #include "krr_core/common/files.h"
 #include "krr_core/common/main_guard.h"
 #include "krr_core/common/resources.h"
+#include "krr_core/experiments/experiment_cli.h"
 #include "krr_core/experiments/new_circumstances.h"
 
 namespace {
 
-const char* kUsage =
-    "usage: new_circumstances --trials N --seed S [--threads T] [--trial-begin K]\n"
-    "         [--out trials.csv] [--no-header] [--repo DIR]\n"
-    "         [--options config/new_circumstances.yaml] [--config config/navigation.yaml]\n"
-    "         [--domain office_30x30] [--geometry maps/<domain>_geometry.plog]\n"
-    "         [--knowledge config/navigation.plog] [--goal room2] [--br 0.1]\n"
-    "         [--learn-episodes N] [--selector fixed|least_known] [--learning-runs K]\n"
-    "         [--extraction pairs|areas]\n"
-    "Paths default to DIR (default: $KRR_ROOT, else the checkout holding the working directory\n"
-    "or this program). Flags override the options file. --learning-runs K: trial i uses\n"
-    "learning run i mod K (0: a fresh run per trial; the CSV does not depend on it for i < K).\n";
-
-double toNumber(const std::string& flag, const std::string& v) {
-  return krr::parseNumberOption(flag, v);
-}
-
-std::size_t toCount(const std::string& flag, const std::string& v) {
-  return krr::parseCountOption(flag, v);
-}
+const char* kSummary =
+    "The paper's \"controllers for new circumstances\" experiment: one CSV row per trial and a\n"
+    "summary. Flags override the options file; default paths are under ROOT (see --repo).";
 
 }  // namespace
 
 /// @brief The program; main() runs it under guardedMain so that no exception aborts it.
 static int mainBody(int argc, char** argv) {
-  std::string repo, options_file, config, domain, geometry, knowledge, out;
+  krr::kb::NavExperimentFiles files;
+  std::string domain, out;
   std::size_t trials = 0, threads = std::max(1u, std::thread::hardware_concurrency()), begin = 0;
   std::uint64_t seed = 1;
-  bool have_trials = false, header = true;
+  bool no_header = false;
   std::vector<std::pair<std::string, std::string>> overrides;
-  try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string f = argv[i];
-      if (f == "-h" || f == "--help") {
-        std::cout << kUsage;
-        return 0;
-      }
-      if (f == "--no-header") {
-        header = false;
-        continue;
-      }
-      if (i + 1 >= argc) throw krr::ConfigError("option " + f + " needs a value");
-      const std::string v = argv[++i];
-      if (f == "--trials") {
-        trials = toCount(f, v);
-        have_trials = true;
-      } else if (f == "--seed") seed = toCount(f, v);
-      else if (f == "--threads") threads = std::max<std::size_t>(1, toCount(f, v));
-      else if (f == "--trial-begin") begin = toCount(f, v);
-      else if (f == "--out") out = v;
-      else if (f == "--repo") repo = v;
-      else if (f == "--options") options_file = v;
-      else if (f == "--config") config = v;
-      else if (f == "--domain") domain = v;
-      else if (f == "--geometry") geometry = v;
-      else if (f == "--knowledge") knowledge = v;
-      else if (f == "--goal" || f == "--br" || f == "--learn-episodes" || f == "--selector" ||
-               f == "--learning-runs" || f == "--extraction")
-        overrides.emplace_back(f, v);
-      else throw krr::ConfigError("unknown option " + f);
-    }
-    if (!have_trials || trials == 0) throw krr::ConfigError("--trials N (N >= 1) is required");
-  } catch (const krr::Error& e) {
-    std::cerr << "new_circumstances: " << e.what() << "\n" << kUsage;
-    return 2;
+  krr::OptionParser parser("new_circumstances", kSummary);
+  parser.add("--trials", "N", "trials to run (at least 1)", &trials).required();
+  parser.add("--seed", "S", "root seed", &seed).required();
+  parser.add("--threads", "T", "worker threads", &threads).defaultText("the number of cores");
+  parser.add("--trial-begin", "K", "index of the first trial (trial i depends only on seed and i)",
+             &begin);
+  parser.add("--out", "FILE", "trials as CSV", &out);
+  parser.flag("--no-header", "write the CSV without its header line", &no_header);
+  files.declare(parser, "config/experiments/new_circumstances.yaml");
+  parser.add("--domain", "NAME", "navigation domain (default: the options file's)", &domain);
+  // Overrides of the options file, applied after it is read.
+  const std::pair<const char*, const char*> experiment[] = {
+      {"--goal", "PLACE"}, {"--br", "B"}, {"--learn-episodes", "N"},
+      {"--selector", "fixed|least_known"}, {"--extraction", "pairs|areas"},
+      {"--learning-runs", "K"}};
+  for (const auto& [flag, value] : experiment) {
+    const std::string f = flag;
+    parser.add(f, value, "override of the options file",
+               [&overrides, f](const std::string& v) {
+                 if (f == "--br") krr::parseNumberOption(f, v);  // a bad number fails now
+                 if (f == "--learn-episodes" || f == "--learning-runs") krr::parseCountOption(f, v);
+                 overrides.emplace_back(f, v);
+               });
   }
+  parser.epilog(
+      "--learning-runs K: trial i uses learning run i mod K (0: a fresh run per trial; the CSV\n"
+      "does not depend on it for i < K).");
+  const auto check = [&] {
+    if (trials == 0) throw krr::ConfigError("--trials N (N >= 1) is required");
+    threads = std::max<std::size_t>(1, threads);
+  };
+  if (const auto status = parser.parse(argc, argv, check)) return *status;
   try {
-    repo = krr::findRepositoryRoot(repo);
-    if (options_file.empty()) options_file = repo + "/config/new_circumstances.yaml";
-    krr::kb::NewCircumstancesOptions o = krr::kb::loadNewCircumstancesOptions(options_file);
+    files.resolveRoot();
+    krr::kb::NewCircumstancesOptions o = krr::kb::loadNewCircumstancesOptions(files.options);
     for (const auto& [f, v] : overrides) {
       if (f == "--goal") o.goal = v;
-      else if (f == "--br") o.blocking_rate = toNumber(f, v);
-      else if (f == "--learn-episodes") o.learn_episodes = toCount(f, v);
+      else if (f == "--br") o.blocking_rate = krr::parseNumberOption(f, v);
+      else if (f == "--learn-episodes") o.learn_episodes = krr::parseCountOption(f, v);
       else if (f == "--selector") o.selector = v;
-      else if (f == "--learning-runs") o.learning_runs = toCount(f, v);
+      else if (f == "--learning-runs") o.learning_runs = krr::parseCountOption(f, v);
       else if (f == "--extraction") o.extraction = v;
     }
     if (!domain.empty()) o.domain = domain;
     o.validate();
-    if (config.empty()) config = repo + "/config/navigation.yaml";
-    if (geometry.empty()) geometry = repo + "/maps/" + o.domain + "_geometry.plog";
-    if (knowledge.empty()) knowledge = repo + "/config/navigation.plog";
+    files.resolveInputs(o.domain);
 
     std::cerr << "new_circumstances: seed " << seed << ", trials [" << begin << ", "
               << begin + trials << "), " << threads << " threads, domain " << o.domain << ", "
               << o.start << " -> " << o.goal << "\n";
     krr::Stopwatch clock;
-    const auto dom = krr::kb::NavDomain::load(config, o.domain, geometry, knowledge);
+    const auto dom =
+        krr::kb::NavDomain::load(files.config, o.domain, files.geometry, files.knowledge);
     const auto res = krr::kb::runNewCircumstances(dom, o, seed, begin, trials, threads);
     std::ostringstream csv;
-    if (header) csv << krr::kb::newCircumstancesCsvHeader(o) << "\n";
+    if (!no_header) csv << krr::kb::newCircumstancesCsvHeader(o) << "\n";
     for (const auto& t : res) csv << krr::kb::newCircumstancesCsvRow(t) << "\n";
     if (!out.empty()) krr::writeFileAtomic(out, csv.str());
 

@@ -13,10 +13,10 @@
 // once it is spent (there is no model to bound yet). The solver's set-up gets at most half of
 // what is left and each of its phases stops at that deadline, keeping valid bounds (at worst the blind-policy
 // lower bound and Rmax / (1 - gamma)); the search gets the rest; the last line then says
-// "timeout" and which set-up phase was cut short. Building the dense Model from the parsed
-// tables is not interruptible: it is bounded by the memory budget (--memory-budget, default
-// $KRR_MEMORY_BUDGET_MIB or 1 GiB), which the reader checks against the declared sizes before
-// allocating. A model too large for the budget is a FILE:line:col error naming the declaration.
+// "timeout" and which set-up phase was cut short. The model is stored sparsely (dense only when
+// small or dense): the memory budget (--memory-budget, default $KRR_MEMORY_BUDGET_MIB or 1 GiB)
+// is checked against the declared sizes and then against the T and O entries as they are read.
+// A model too large for the budget is a FILE:line:col error naming the declaration or statement.
 //
 // Probability rows of the file that sum to 1 within 1e-4 (six-decimal benchmark files) are
 // renormalised; the header reports how many and the largest deviation.
@@ -111,9 +111,9 @@ static int mainBody(int argc, char** argv) {
     limits.memory_budget =
         budgetMiB > 0.0 ? static_cast<std::size_t>(budgetMiB * 1048576.0) : krr::memoryBudget();
     limits.timeout = timeout;
-    // The solver's set-up factorises one S x S matrix per action (two dense S x S work
-    // matrices at a time): the reader counts them too, so such a file fails at its declaration.
-    limits.extra_bytes_per_state_pair = 2 * sizeof(double);
+    // No S x S work matrices to reserve: the set-up factorises dense matrices only up to
+    // PointBasedSolver::kDenseSetupStates (500) states, 4 MB at most; above, it sweeps the
+    // sparse successor lists.
     krr::pomdp::CassandraStats stats;
     krr::pomdp::Model model = krr::pomdp::loadCassandra(file, limits, &stats);
     const double readSeconds = wall.seconds();

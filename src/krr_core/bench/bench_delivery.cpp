@@ -4,10 +4,11 @@
 // to build the dialog POMDP (T^D + serve costs), to solve it, and per delivery trial.
 // usage: bench_delivery [--root DIR] [--br 0.3] [--trials 2000] [--solver-trials N]
 #include <cstdio>
-#include <cstdlib>
 #include <string>
 
+#include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
+#include "krr_core/common/resource_locator.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/experiments/delivery_experiment.h"
 #include "krr_core/experiments/experiment_paths.h"
@@ -18,17 +19,16 @@ int main(int argc, char** argv) {
   std::string root;
   double br = 0.3;
   std::size_t trials = 2000, solverTrials = 0;  // 0: the config's budget
-  for (int i = 1; i + 1 < argc; i += 2) {
-    const std::string f = argv[i], v = argv[i + 1];
-    if (f == "--root") root = v;
-    else if (f == "--br") br = std::atof(v.c_str());
-    else if (f == "--trials") trials = static_cast<std::size_t>(std::atol(v.c_str()));
-    else if (f == "--solver-trials") solverTrials = static_cast<std::size_t>(std::atol(v.c_str()));
-    else {
-      std::fprintf(stderr, "bench_delivery: unknown option %s\n", f.c_str());
-      return 2;
-    }
-  }
+  OptionParser cli("bench_delivery",
+                   "Timings of the delivery pipeline on the office domain: dialog knowledge by\n"
+                   "reasoning, the navigation model (Procedure 2), the dialog POMDP, its solution\n"
+                   "and one delivery trial.");
+  cli.add("--root", "DIR", kRepositoryRootHelp, &root);
+  cli.add("--br", "B", "blocking rate of the trials", &br);
+  cli.add("--trials", "N", "delivery trials timed", &trials);
+  cli.add("--solver-trials", "N", "solver trial budget", &solverTrials)
+      .defaultText("config/dialog.yaml's");
+  if (const auto status = cli.parse(argc, argv)) return *status;
   try {
     const ExperimentPaths paths = ExperimentPaths::find(root, "office_30x30");
     DialogConfig cfg = loadDialogConfig(paths.dialog_yaml);

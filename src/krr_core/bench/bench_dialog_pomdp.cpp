@@ -13,8 +13,6 @@
 // state (pomdp::withTurnCounter), for comparisons with SARSOP.
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
-#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -23,6 +21,7 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/format.h"
+#include "krr_core/common/resource_locator.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/experiments/delivery_experiment.h"
 #include "krr_core/experiments/experiment_paths.h"
@@ -40,40 +39,30 @@ int main(int argc, char** argv) {
   std::string root, cache, exportDir;
   bool haveCache = false;
   std::vector<std::pair<double, KnowledgeCondition>> models;
-  try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string f = argv[i];
-      if (f == "-h" || f == "--help") {
-        std::printf("usage: bench_dialog_pomdp [--timeout 8] [--trials 2000] [--seed 1] "
-                    "[--root DIR] [--learned-cache DIR|none] [--models 0.1:learned,...] "
-                    "[--export DIR]\n");
-        return 0;
-      }
-      if (i + 1 >= argc) throw ConfigError("option " + f + " needs a value");
-      const std::string v = argv[++i];
-      if (f == "--timeout") timeout = parseNumberOption(f, v);
-      else if (f == "--trials") trials = parseCountOption(f, v);
-      else if (f == "--seed") seed = parseCountOption(f, v);
-      else if (f == "--root") root = v;
-      else if (f == "--learned-cache") cache = v, haveCache = true;
-      else if (f == "--export") exportDir = v;
-      else if (f == "--models") {
-        std::stringstream ss(v);
-        std::string item;
-        while (std::getline(ss, item, ',')) {
-          const auto colon = item.find(':');
-          if (colon == std::string::npos) throw ConfigError("--models: '" + item + "' is not br:condition");
-          models.push_back({parseNumberOption(f, item.substr(0, colon)),
-                            conditionFromString(item.substr(colon + 1))});
-        }
-      } else {
-        throw ConfigError("unknown option " + f);
-      }
-    }
-  } catch (const Error& e) {
-    std::fprintf(stderr, "bench_dialog_pomdp: %s\n", e.what());
-    return 2;
-  }
+  OptionParser cli("bench_dialog_pomdp",
+                   "The turn-limited point-based solver on the dialog models of Table I: bounds\n"
+                   "at the prior over solver time, the configured policy in delivery trials.");
+  cli.add("--timeout", "S", "solver seconds per model", &timeout);
+  cli.add("--trials", "N", "delivery trials per model", &trials);
+  cli.add("--seed", "S", "seed of learning and trials", &seed);
+  cli.add("--root", "DIR", kRepositoryRootHelp, &root);
+  cli.add("--learned-cache", "DIR|none", "learned knowledge; none: learn every run",
+          [&](const std::string& v) { cache = v, haveCache = true; },
+          "$KRR_CACHE_DIR or ~/.cache/krr_rl/delivery");
+  cli.add("--models", "br:condition,...", "models to solve",
+          [&](const std::string& v) {
+            for (const std::string& item : splitOption(v)) {
+              const auto colon = item.find(':');
+              if (colon == std::string::npos)
+                throw ConfigError("option --models: '" + item + "' is not br:condition");
+              models.push_back({parseNumberOption("--models", item.substr(0, colon)),
+                                conditionFromString(item.substr(colon + 1))});
+            }
+          },
+          "0.1,0.5,0.7 x learned,outdated");
+  cli.add("--export", "DIR", "write each model as Cassandra .pomdp (plain and with turns)",
+          &exportDir);
+  if (const auto status = cli.parse(argc, argv)) return *status;
   if (models.empty())
     for (double br : {0.1, 0.5, 0.7})
       for (auto c : {KnowledgeCondition::kLearned, KnowledgeCondition::kOutdated}) models.push_back({br, c});

@@ -3,7 +3,7 @@
  * @brief Speed of grid A* and OMPL planning on the office domains, simulator throughput, and
  * the calibration table of navigation success rates (shortest-path policy) per blocking rate.
  *
- *   bench_planning [--config config/navigation.yaml] [--seed N] [--episodes N]
+ *   bench_planning [--config ROOT/config/navigation.yaml] [--seed N] [--episodes N]
  *
  * Targets: A* and OMPL queries well under a millisecond each.
  */
@@ -13,8 +13,10 @@
 #include <string>
 #include <vector>
 
+#include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/random.h"
+#include "krr_core/common/resource_locator.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/nav/blockage_simulator.h"
 #include "krr_core/nav/grid_astar.h"
@@ -25,17 +27,20 @@ using namespace krr;
 using namespace krr::nav;
 
 int main(int argc, char** argv) {
-  std::string config_path = "config/navigation.yaml";
+  std::string config_path;
   std::uint64_t seed = 1;
-  long episodes = 10000;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    std::string a = argv[i];
-    if (a == "--config") config_path = argv[i + 1];
-    if (a == "--seed") seed = std::stoull(argv[i + 1]);
-    if (a == "--episodes") episodes = std::stol(argv[i + 1]);
-  }
+  std::size_t episodes = 10000;
+  OptionParser cli("bench_planning",
+                   "Speed of grid A* and OMPL planning on the office domains, simulator\n"
+                   "throughput, and the success rates of the shortest-path policy per blocking\n"
+                   "rate.");
+  cli.add("--config", "FILE", "navigation config", &config_path)
+      .defaultText("ROOT/config/navigation.yaml");
+  cli.add("--seed", "N", "seed of the planner and the simulator", &seed);
+  cli.add("--episodes", "N", "episodes per success rate", &episodes);
+  if (const auto status = cli.parse(argc, argv)) return *status;
   try {
-    NavigationConfig cfg = loadNavigationConfig(config_path);
+    NavigationConfig cfg = loadNavigationConfig(resourcePath(config_path, "config/navigation.yaml"));
     OccupancyGrid map = loadMap(cfg.map);
     PlacesFile places = loadPlaces(cfg.places);
     OmplPlanner planner(map, cfg.planner, seed);
@@ -105,7 +110,7 @@ int main(int argc, char** argv) {
         std::printf("simulator: %.1f M steps/s (%ld of %ld steps moved)\n", steps / t / 1e6,
                     moved, steps);
         // Success rates of the shortest-path policy per blocking rate.
-        std::printf("shortest-path policy success (%ld episodes each, seed %llu, %s blocking, "
+        std::printf("shortest-path policy success (%zu episodes each, seed %llu, %s blocking, "
                     "trap %.4f per blocked step):\n", episodes,
                     static_cast<unsigned long long>(seed),
                     cfg.simulator.blocking_mode == BlockingMode::kOnEntry ? "on_entry" : "per_cell",
@@ -121,7 +126,7 @@ int main(int argc, char** argv) {
             ctx.blocking_rate = br;
             Rng r2 = makeRng(seed, "bench_success", static_cast<std::uint64_t>(goal));
             EpisodeStats st = runPolicy(sim, astar.policyTo(goal), shop, goal, d.step_limit, ctx,
-                                        episodes, r2);
+                                        static_cast<long>(episodes), r2);
             std::printf("  %6.3f", st.successRate());
           }
           std::printf("\n");

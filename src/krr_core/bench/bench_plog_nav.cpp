@@ -7,10 +7,10 @@
  * Usage: bench_plog_nav [SIZE...]   (default sizes 30 and 50: SIZExSIZE grids)
  */
 #include <cstdio>
-#include <cstdlib>
 #include <string>
 #include <vector>
 
+#include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/plog/grid_program.h"
@@ -35,14 +35,19 @@ krr::plog::GridNavigationSpec spec(int n) {
 
 int main(int argc, char** argv) {
   std::vector<int> sizes;
-  for (int i = 1; i < argc; ++i) sizes.push_back(std::atoi(argv[i]));
+  krr::OptionParser cli("bench_plog_nav",
+                        "The native P-log reasoner on the paper's grid-navigation program: the full\n"
+                        "transition table and one single query, on SIZE x SIZE grids.");
+  cli.positional("SIZE", "grid sides, at least 20 (default 30 50)", [&](const std::string& v) {
+    const std::size_t n = krr::parseCountOption("SIZE", v);
+    // Smaller grids put the learned batch (cells 0..100) inside a blocking area.
+    if (n < 20 || n > 100000) throw krr::ConfigError("SIZE " + v + ": must be 20 to 100000");
+    sizes.push_back(static_cast<int>(n));
+  }, true);
+  if (const auto status = cli.parse(argc, argv)) return *status;
   if (sizes.empty()) sizes = {30, 50};
   try {
     for (int n : sizes) {
-      if (n < 8) {
-        std::fprintf(stderr, "bench_plog_nav: size must be >= 8\n");
-        return 2;
-      }
       krr::plog::GridNavigationSpec s = spec(n);
       std::string text = krr::plog::makeGridNavigationProgram(s);
       krr::Stopwatch sw;

@@ -12,12 +12,11 @@
  *  - a second extraction + rebuild (re-learning replaces pairs), and a "morning or noon" build;
  *  - peak RSS of the child.
  *
- * Usage: bench_procedure2 [--repo DIR] [--time morning] [--repeat 3] [DOMAIN...]
- *        (default domains office_30x30 office_50x50; DIR defaults to the source tree)
+ * Usage: bench_procedure2 [--repo ROOT] [--time morning] [--repeat 3] [DOMAIN...]
+ *        (default domains office_30x30 office_50x50)
  */
 #include <sys/resource.h>
 #include <sys/wait.h>
-#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -26,21 +25,17 @@
 #include <string>
 #include <vector>
 
+#include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/random.h"
+#include "krr_core/common/resource_locator.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/experiments/nav_transfer.h"
 
 namespace {
 
 double best(const std::vector<double>& v) { return *std::min_element(v.begin(), v.end()); }
-
-double threadCpuSeconds() {
-  timespec ts;
-  ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
 
 /// Wall-clock and CPU time of this thread (the machine may be shared: CPU time is the figure
 /// that does not depend on the load).
@@ -49,10 +44,10 @@ class Timer {
   Timer() { reset(); }
   void reset() {
     wall_.reset();
-    cpu0_ = threadCpuSeconds();
+    cpu0_ = krr::threadCpuSeconds();
   }
   double wall() const { return wall_.seconds(); }
-  double cpu() const { return threadCpuSeconds() - cpu0_; }
+  double cpu() const { return krr::threadCpuSeconds() - cpu0_; }
 
  private:
   krr::Stopwatch wall_;
@@ -150,26 +145,20 @@ int runDomain(const std::string& repo, const std::string& name, const std::strin
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string repo = "", time = "morning";
+  std::string repo, time = "morning";
   int repeat = 3;
   std::vector<std::string> domains;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if ((a == "--repo" || a == "--time" || a == "--repeat") && i + 1 < argc) {
-      const std::string v = argv[++i];
-      if (a == "--repo") repo = v;
-      else if (a == "--time") time = v;
-      else repeat = std::max(1, std::atoi(v.c_str()));
-    } else if (a == "-h" || a == "--help") {
-      std::printf("usage: bench_procedure2 [--repo DIR] [--time morning] [--repeat 3] [DOMAIN...]\n");
-      return 0;
-    } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "bench_procedure2: unknown option %s\n", a.c_str());
-      return 2;
-    } else {
-      domains.push_back(a);
-    }
-  }
+  krr::OptionParser cli("bench_procedure2",
+                        "Procedure 2 on the real knowledge base (office geometry +\n"
+                        "config/navigation.plog), before and after knowledge extraction; one child\n"
+                        "process per domain, so the peak memory is the domain's own.");
+  cli.add("--repo", "ROOT", krr::kRepositoryRootHelp, &repo);
+  cli.add("--time", "TIME", "time of day of the builds", &time);
+  cli.add("--repeat", "N", "runs per figure (the best is printed)", &repeat);
+  cli.positional("DOMAIN", "domains (default office_30x30 office_50x50)",
+                 [&](const std::string& v) { domains.push_back(v); }, true);
+  if (const auto status = cli.parse(argc, argv)) return *status;
+  repeat = std::max(1, repeat);
   if (domains.empty()) domains = {"office_30x30", "office_50x50"};
   int status_all = 0;
   for (const std::string& d : domains) {

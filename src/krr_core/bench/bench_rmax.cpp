@@ -5,13 +5,12 @@
  * Target: < 0.2 s for the 200 episodes. Also prints the full-sweep (non-local) warm replanning
  * variant and the "with extraction" variant (all pairs pre-loaded as known priors).
  *
- * Usage: bench_rmax [episodes=200] [seed=1] [M=5]
+ * Usage: bench_rmax [EPISODES=200] [SEED=1] [M=5]
  */
 #include <cstdio>
-#include <cstdlib>
-#include <ctime>
 #include <string>
 
+#include "krr_core/common/cli.h"
 #include "krr_core/common/random.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/mdp/environment.h"
@@ -22,12 +21,6 @@ using namespace krr;
 using namespace krr::mdp;
 
 namespace {
-
-double cpuSeconds() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
 
 void run(const char* name, const GridDynamics& dyn, StateId start, StateId goal,
          const RMaxParams& p, std::size_t episodes, std::uint64_t seed, bool priors) {
@@ -49,10 +42,10 @@ void run(const char* name, const GridDynamics& dyn, StateId start, StateId goal,
     }
   }
   Rng rng = makeRng(seed, "bench_rmax");
-  const double c0 = cpuSeconds();
+  const double c0 = threadCpuSeconds();
   Stopwatch sw;
   std::vector<EpisodeResult> res = runEpisodes(env, agent, episodes, p.step_limit, p.rmax, rng);
-  const double t = sw.seconds(), cpu = cpuSeconds() - c0;
+  const double t = sw.seconds(), cpu = threadCpuSeconds() - c0;
   std::size_t steps = 0, late_success = 0, late = 0;
   double late_reward = 0.0;
   for (std::size_t e = 0; e < res.size(); ++e) {
@@ -75,9 +68,19 @@ void run(const char* name, const GridDynamics& dyn, StateId start, StateId goal,
 }  // namespace
 
 int main(int argc, char** argv) {
-  const std::size_t episodes = argc > 1 ? std::strtoul(argv[1], nullptr, 10) : 200;
-  std::uint64_t seed = argc > 2 ? std::strtoull(argv[2], nullptr, 10) : 1;
-  const std::uint32_t m = argc > 3 ? static_cast<std::uint32_t>(std::atoi(argv[3])) : 5;
+  std::size_t episodes = 200;
+  std::uint64_t seed = 1;
+  std::uint32_t m = 5;
+  OptionParser cli("bench_rmax", "R-Max on a 50x50 navigation grid (step limit 300), with and\n"
+                                 "without extraction; target: < 0.2 s for 200 episodes.");
+  cli.positional("EPISODES", "episodes (default 200)",
+                 [&](const std::string& v) { episodes = parseCountOption("EPISODES", v); });
+  cli.positional("SEED", "seed (default 1)",
+                 [&](const std::string& v) { seed = parseCountOption("SEED", v); });
+  cli.positional("M", "known threshold (default 5)", [&](const std::string& v) {
+    m = static_cast<std::uint32_t>(parseCountOption("M", v));
+  });
+  if (const auto status = cli.parse(argc, argv)) return *status;
   const std::uint32_t side = 50;
   const StateId start = 2 * side + 2, goal = (side - 3) * side + side - 3;
   RandomGridOptions o;

@@ -18,11 +18,10 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
-#include <ctime>
-#include <sstream>
 #include <string>
 #include <vector>
 
+#include "krr_core/common/cli.h"
 #include "krr_core/common/random.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/mdp/navigation_task.h"
@@ -33,13 +32,6 @@ using namespace krr::mdp;
 
 namespace {
 
-/// CPU seconds of this thread: the machine is shared, so wall time over-states the cost.
-double cpuSeconds() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
-
 struct Stats {
   double best = 0.0, median = 0.0;
 };
@@ -48,16 +40,6 @@ struct Stats {
 Stats stats(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return Stats{v.front(), v[v.size() / 2]};
-}
-
-std::vector<std::uint32_t> parseList(const std::string& text) {
-  std::vector<std::uint32_t> out;
-  std::stringstream ss(text);
-  std::string item;
-  while (std::getline(ss, item, ',')) {
-    if (!item.empty()) out.push_back(static_cast<std::uint32_t>(std::stoul(item)));
-  }
-  return out;
 }
 
 struct Instance {
@@ -83,14 +65,14 @@ template <class M>
 std::pair<double, double> timeSweeps(const M& m, std::size_t sweeps) {
   SolverOptions o;
   o.epsilon = 1e-300;
-  const double c0 = cpuSeconds();
+  const double c0 = threadCpuSeconds();
   Stopwatch sw;
   for (std::size_t done = 0; done < sweeps; done += o.max_iterations) {
     o.max_iterations = std::min<std::size_t>(100, sweeps - done);
     Solution s = valueIteration(m, o);
     if (s.iterations != o.max_iterations) std::printf("# warning: stopped early\n");
   }
-  return {cpuSeconds() - c0, sw.seconds()};
+  return {threadCpuSeconds() - c0, sw.seconds()};
 }
 
 template <class M>
@@ -121,10 +103,10 @@ void reportConvergence(const char* layout, std::uint32_t side, const M& m, int r
   const int inner = side <= 100 ? 20 : 1;
   std::vector<double> cpu, wall;
   for (int r = 0; r < repeats; ++r) {
-    const double c0 = cpuSeconds();
+    const double c0 = threadCpuSeconds();
     Stopwatch sw;
     for (int i = 0; i < inner; ++i) sol = valueIteration(m, o);
-    cpu.push_back((cpuSeconds() - c0) / inner);
+    cpu.push_back((threadCpuSeconds() - c0) / inner);
     wall.push_back(sw.seconds() / inner);
   }
   const Stats c = stats(cpu), w = stats(wall);
@@ -142,24 +124,25 @@ int main(int argc, char** argv) {
   std::uint64_t seed = 1;
   int repeats = 3;
   std::vector<std::uint32_t> sizes = {30, 50, 200, 500, 1000}, converge = {50, 500};
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (i + 1 >= argc) {
-      std::fprintf(stderr, "usage: bench_value_iteration [--max-side N] [--seed S] "
-                           "[--repeats R] [--sizes a,b,..] [--converge a,b,..]\n");
-      return 2;
-    }
-    const std::string v = argv[++i];
-    if (a == "--max-side") max_side = static_cast<std::uint32_t>(std::stoul(v));
-    else if (a == "--seed") seed = std::stoull(v);
-    else if (a == "--repeats") repeats = std::max(1, std::stoi(v));
-    else if (a == "--sizes") sizes = parseList(v);
-    else if (a == "--converge") converge = parseList(v);
-    else {
-      std::fprintf(stderr, "bench_value_iteration: unknown option %s\n", a.c_str());
-      return 2;
-    }
-  }
+  const auto sideList = [](std::vector<std::uint32_t>* target, const char* option) {
+    return [target, option](const std::string& v) {
+      target->clear();
+      for (std::size_t n : parseCountListOption(option, v))
+        target->push_back(static_cast<std::uint32_t>(n));
+    };
+  };
+  OptionParser cli("bench_value_iteration",
+                   "State-action updates per second of value iteration on random navigation\n"
+                   "grids, and time to converge, for every model layout. KRR_MDP_ISA=generic in\n"
+                   "the environment selects the portable kernels.");
+  cli.add("--max-side", "N", "skip grids with a larger side", &max_side);
+  cli.add("--seed", "S", "seed of the random grids", &seed);
+  cli.add("--repeats", "R", "measurements per figure (best and median printed)", &repeats);
+  cli.add("--sizes", "a,b,..", "grid sides", sideList(&sizes, "--sizes"), "30,50,200,500,1000");
+  cli.add("--converge", "a,b,..", "sides whose convergence is timed",
+          sideList(&converge, "--converge"), "50,500");
+  if (const auto status = cli.parse(argc, argv)) return *status;
+  repeats = std::max(1, repeats);
   const NavigationReward reward;
   const char* isa = std::getenv("KRR_MDP_ISA");
   std::printf("# value iteration, one thread; 4 actions, <= 6 outcomes per action; kernels: %s\n",

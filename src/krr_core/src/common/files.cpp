@@ -133,54 +133,6 @@ void writeFileAtomic(const std::string& path, const std::string& data) {
 }
 
 
-namespace {
-
-bool isRegularFile(const std::string& p) {
-  struct stat st;
-  return ::stat(p.c_str(), &st) == 0 && S_ISREG(st.st_mode);
-}
-
-std::string parentDir(const std::string& dir) {
-  const auto pos = dir.find_last_of('/');
-  if (pos == std::string::npos || pos == 0) return "/";
-  return dir.substr(0, pos);
-}
-
-std::string searchUp(std::string dir, const std::string& marker) {
-  while (!dir.empty()) {
-    if (isRegularFile(dir + "/" + marker)) return dir;
-    if (dir == "/") break;
-    dir = parentDir(dir);
-  }
-  return "";
-}
-
-}  // namespace
-
-std::string findRepositoryRoot(const std::string& hint, const std::string& marker) {
-  if (!hint.empty()) return hint;
-  if (const char* env = std::getenv("KRR_ROOT")) {
-    if (*env) return env;
-  }
-  std::string searched;
-  std::vector<char> buf(4096, 0);
-  if (::getcwd(buf.data(), buf.size() - 1)) {
-    const std::string root = searchUp(buf.data(), marker);
-    if (!root.empty()) return root;
-    searched += std::string(buf.data()) + " and its parents";
-  }
-  const ssize_t n = ::readlink("/proc/self/exe", buf.data(), buf.size() - 1);
-  if (n > 0) {
-    buf[static_cast<std::size_t>(n)] = 0;
-    const std::string exe_dir = parentDir(buf.data());
-    const std::string root = searchUp(exe_dir, marker);
-    if (!root.empty()) return root;
-    searched += ", " + exe_dir + " and its parents";
-  }
-  throw ConfigError("cannot find the repository (a directory with " + marker + ") in " +
-                    searched + "; pass its path or set KRR_ROOT");
-}
-
 void makeDirectories(const std::string& dir) {
   if (dir.empty()) return;
   std::string path;

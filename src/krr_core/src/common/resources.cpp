@@ -1,8 +1,15 @@
 #include "krr_core/common/resources.h"
 
 #include <sys/resource.h>
+#include <time.h>
 
 namespace krr {
+
+double threadCpuSeconds() {
+  timespec ts;
+  ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
 
 double peakRssMiB() {
   struct rusage ru {};

@@ -11,6 +11,7 @@
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
+#include "krr_core/nav/navigation_config.h"
 
 namespace krr {
 namespace dialog {
@@ -128,6 +129,9 @@ mdp::RMaxParams DialogConfig::rmaxParams() const {
   p.rmax = rmax;
   p.known_threshold = known_threshold;
   p.refine_known = refine_known;
+  p.discount = rmax_discount;
+  p.replan_every = rmax_replan_every;
+  p.optimism = rmax_optimism;
   return p;
 }
 
@@ -217,16 +221,11 @@ DialogConfig loadDialogConfig(const std::string& path) {
   }
   if (top.has("navigation")) {
     Section s(top.get("navigation"), path, "navigation",
-              {"shop", "time", "step_cost", "rmax", "failure_penalty", "discount"});
+              {"shop", "time", "failure_penalty", "discount"});
     c.shop = s.string("shop", c.shop);
     c.time = s.string("time", c.time);
-    c.step_cost = s.number("step_cost", c.step_cost, 0, kInf);
-    c.rmax = s.number("rmax", c.rmax, 0, kInf, true);
     c.failure_penalty = s.number("failure_penalty", c.failure_penalty, 0, kInf);
     c.nav_discount = s.number("discount", c.nav_discount, 0, 1, true);
-    if (!(c.step_cost < c.rmax))
-      throw ConfigError(path + ": field 'navigation.step_cost': value " + num(c.step_cost) +
-                        " must be below navigation.rmax (" + num(c.rmax) + ")");
   }
   if (top.has("solver")) {
     Section s(top.get("solver"), path, "solver", {"precision", "timeout", "max_trials"});
@@ -252,12 +251,29 @@ DialogConfig loadDialogConfig(const std::string& path) {
                         "' must be areas or pairs");
   }
   if (top.has("knowledge")) {
-    Section s(top.get("knowledge"), path, "knowledge", {"office", "speech"});
+    Section s(top.get("knowledge"), path, "knowledge", {"office", "speech", "navigation"});
     c.office_plog = s.string("office", c.office_plog);
     c.speech_plog = s.string("speech", c.speech_plog);
+    c.navigation_config = s.string("navigation", c.navigation_config);
   }
   c.office_plog = resolve(dir, c.office_plog);
   c.speech_plog = resolve(dir, c.speech_plog);
+  if (!c.navigation_config.empty()) {
+    // The navigation task's reward and R-Max live in the navigation config (one home).
+    c.navigation_config = resolve(dir, c.navigation_config);
+    nav::NavigationConfig n;
+    try {
+      n = nav::loadNavigationConfig(c.navigation_config);
+    } catch (const ConfigError& e) {
+      throw ConfigError(path + ": field 'knowledge.navigation': " + e.what());
+    }
+    c.step_cost = n.planning.step_cost;
+    c.rmax = n.planning.rmax;
+    c.rmax_discount = n.rmax_learning.discount;
+    c.rmax_replan_every = static_cast<std::uint32_t>(n.rmax_learning.replan_every);
+    c.rmax_optimism = n.rmax_learning.optimism == "self_loop" ? mdp::Optimism::kSelfLoop
+                                                              : mdp::Optimism::kTerminalBonus;
+  }
   c.validate();
   return c;
 }

@@ -102,6 +102,12 @@ std::string learnedCacheName(const kb::NavDomain& domain, const DialogConfig& c,
   key << "v2|" << c.learning_mode << "|" << c.time << "|" << c.shop << "|" << c.known_threshold << "|" << c.refine_known
       << "|" << c.max_episodes_per_task << "|" << c.convergence_episodes << "|"
       << c.learning_rounds << "|" << c.step_cost << "|" << c.rmax;
+  // R-Max settings read from navigation.yaml since they became configurable: keyed only when
+  // they differ from the values they had before, so existing caches stay valid.
+  if (c.rmax_discount != 0.95 || c.rmax_replan_every != 10 ||
+      c.rmax_optimism != mdp::Optimism::kTerminalBonus)
+    key << "|rmax:" << c.rmax_discount << "|" << c.rmax_replan_every << "|"
+        << (c.rmax_optimism == mdp::Optimism::kSelfLoop ? "self_loop" : "terminal_bonus");
   for (const auto& r : rooms) key << "|" << r;
   key << "|" << simulatorKey(domain);
   char buf[160];

@@ -2,40 +2,45 @@
 
 #include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
+#include "krr_core/common/resource_locator.h"
 
 namespace krr {
 namespace dialog {
 
-const char* const kExperimentCliUsage =
-    "  --br B --condition learned|outdated --seed S [--trial-begin K] [--threads T]\n"
-    "  [--domain office_30x30] [--learned-cache DIR|none] [--out FILE] [--root DIR]\n"
-    "  [--outdated-br 0.3] [--serve-cost none|expected] [--serve-cost-weight W]\n"
-    "  [--wrong-delivery-penalty P] [--solver-trials N] [--solver-timeout S]\n";
-
-bool ExperimentCli::take(const std::string& f, const std::string& v) {
-  if (f == "--br") experiment.blocking_rate = parseNumberOption(f, v), haveBr_ = true;
-  else if (f == "--condition") experiment.condition = conditionFromString(v), haveCondition_ = true;
-  else if (f == "--seed") experiment.seed = parseCountOption(f, v), haveSeed_ = true;
-  else if (f == "--outdated-br") experiment.outdated_rate = parseNumberOption(f, v);
-  else if (f == "--domain") experiment.domain_name = v;
-  else if (f == "--learned-cache") cache_ = v, haveCache_ = true;
-  else if (f == "--trial-begin") begin = parseCountOption(f, v);
-  else if (f == "--threads") threads = parseCountOption(f, v);
-  else if (f == "--out") out = v;
-  else if (f == "--root") root = v;
-  else if (f == "--serve-cost") serve_cost = v;
-  else if (f == "--serve-cost-weight") serve_cost_weight = parseNumberOption(f, v);
-  else if (f == "--wrong-delivery-penalty") wrong_delivery_penalty = parseNumberOption(f, v);
-  else if (f == "--solver-trials") solver_trials = static_cast<long>(parseCountOption(f, v));
-  else if (f == "--solver-timeout") solver_timeout = parseNumberOption(f, v);
-  else return false;
-  return true;
+void ExperimentCli::declare(OptionParser& p) {
+  p.add("--br", "B", "blocking rate of the simulated world", &experiment.blocking_rate).required();
+  p.add("--condition", "learned|outdated",
+        "knowledge learned at --br (learned) or at --outdated-br (outdated)",
+        [this](const std::string& v) { experiment.condition = conditionFromString(v); })
+      .required();
+  p.add("--seed", "S", "root seed of learning and of every trial", &experiment.seed).required();
+  p.add("--trial-begin", "K", "index of the first trial (trial i depends only on seed and i)",
+        &begin);
+  p.add("--threads", "T", "worker threads", &threads);
+  p.add("--domain", "NAME", "navigation domain (maps/NAME_geometry.plog)", &experiment.domain_name);
+  p.add("--learned-cache", "DIR|none",
+        "learned knowledge and solved policies; none: learn and solve every run",
+        [this](const std::string& v) { cache_ = v, haveCache_ = true; },
+        "$KRR_CACHE_DIR or ~/.cache/krr_rl/delivery");
+  p.add("--out", "FILE", "CSV output", &out);
+  p.add("--root", "DIR", kRepositoryRootHelp, &root);
+  p.add("--outdated-br", "B", "blocking rate the outdated knowledge was learned at",
+        &experiment.outdated_rate);
+  p.add("--serve-cost", "none|expected", "override of config/dialog.yaml serve_cost", &serve_cost);
+  p.add("--serve-cost-weight", "W", "override of serve_cost_weight", &serve_cost_weight)
+      .defaultText("");
+  p.add("--wrong-delivery-penalty", "P", "override of wrong_delivery_penalty",
+        &wrong_delivery_penalty)
+      .defaultText("");
+  p.add("--solver-trials", "N", "override of the solver's trial budget",
+        [this](const std::string& v) {
+          solver_trials = static_cast<long>(parseCountOption("--solver-trials", v));
+        });
+  p.add("--solver-timeout", "S", "override of the solver's timeout (seconds)", &solver_timeout)
+      .defaultText("");
 }
 
 void ExperimentCli::finish() {
-  if (!haveBr_) throw ConfigError("--br is required");
-  if (!haveCondition_) throw ConfigError("--condition is required");
-  if (!haveSeed_) throw ConfigError("--seed is required");
   if (threads == 0) throw ConfigError("option --threads: must be at least 1");
   experiment.cache_dir = haveCache_ ? (cache_ == "none" ? "" : cache_) : defaultCacheDir();
   experiment.validate();
@@ -53,4 +58,32 @@ DialogConfig ExperimentCli::config(const ExperimentPaths& paths) const {
 }
 
 }  // namespace dialog
+
+namespace kb {
+
+void NavExperimentFiles::declare(OptionParser& p, const std::string& options_file,
+                                 const std::string& options_note) {
+  options_file_ = options_file;
+  p.add("--repo", "ROOT", kRepositoryRootHelp, &repo);
+  p.add("--options", "FILE", "experiment options", &options)
+      .defaultText("ROOT/" + options_file + options_note);
+  p.add("--config", "FILE", "navigation config", &config).defaultText("ROOT/config/navigation.yaml");
+  p.add("--geometry", "FILE", "domain geometry", &geometry)
+      .defaultText("ROOT/maps/<domain>_geometry.plog");
+  p.add("--knowledge", "FILE", "human navigation knowledge", &knowledge)
+      .defaultText("ROOT/config/navigation.plog");
+}
+
+void NavExperimentFiles::resolveRoot() {
+  repo = findRepositoryRoot(repo);
+  if (options.empty()) options = repo + "/" + options_file_;
+}
+
+void NavExperimentFiles::resolveInputs(const std::string& domain) {
+  if (config.empty()) config = repo + "/config/navigation.yaml";
+  if (geometry.empty()) geometry = repo + "/maps/" + domain + "_geometry.plog";
+  if (knowledge.empty()) knowledge = repo + "/config/navigation.plog";
+}
+
+}  // namespace kb
 }  // namespace krr

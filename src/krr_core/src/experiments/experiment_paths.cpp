@@ -4,6 +4,7 @@
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
+#include "krr_core/common/resource_locator.h"
 
 namespace krr {
 namespace dialog {

@@ -5,6 +5,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
+#include <fstream>
 #include <set>
 #include <sstream>
 #include <string>
@@ -13,6 +14,7 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/mdp/rmax_agent.h"
+#include "krr_core/nav/navigation_config.h"
 
 namespace krr {
 namespace kb {
@@ -101,32 +103,6 @@ class YamlSection {
   std::string file_, prefix_;
 };
 
-/// @brief R-Max parameters from the mapping `key` of `parent` (fields known_threshold, rmax,
-/// replan_every, discount, step_cost, optimism: terminal_bonus | self_loop, refine_known).
-inline void readRMax(const YamlSection& parent, const std::string& key, mdp::RMaxParams& p) {
-  if (!parent.has(key)) return;
-  YamlSection r(parent.get(key), parent.file(), parent.field(key),
-                {"known_threshold", "rmax", "replan_every", "discount", "step_cost", "optimism",
-                 "refine_known"});
-  p.known_threshold = static_cast<std::uint32_t>(r.count("known_threshold", p.known_threshold, 1, 1000000));
-  p.rmax = r.number("rmax", p.rmax, 1e-9, 1e12);
-  p.replan_every = static_cast<std::uint32_t>(r.count("replan_every", p.replan_every, 0, 1000000));
-  p.discount = r.number("discount", p.discount, 0.0, 1.0);
-  p.step_cost = r.number("step_cost", p.step_cost, 0.0, 1e12);
-  const std::string refine = r.string("refine_known", p.refine_known ? "true" : "false");
-  if (refine != "true" && refine != "false")
-    throw ConfigError(r.file() + ": field '" + r.field("refine_known") + "': value '" + refine +
-                      "' is not true or false");
-  p.refine_known = refine == "true";
-  const std::string opt =
-      r.string("optimism", p.optimism == mdp::Optimism::kSelfLoop ? "self_loop" : "terminal_bonus");
-  if (opt == "self_loop") p.optimism = mdp::Optimism::kSelfLoop;
-  else if (opt == "terminal_bonus") p.optimism = mdp::Optimism::kTerminalBonus;
-  else
-    throw ConfigError(r.file() + ": field '" + r.field("optimism") + "': unknown value '" + opt +
-                      "' (expected terminal_bonus or self_loop)");
-}
-
 /// @brief Parse a YAML file; ConfigError naming the file (and line) when it is not YAML.
 inline YAML::Node loadYamlFile(const std::string& path) {
   const std::string text = readFile(path);  // IoError when unreadable
@@ -134,6 +110,109 @@ inline YAML::Node loadYamlFile(const std::string& path) {
     return YAML::Load(text);
   } catch (const YAML::Exception& e) {
     throw ConfigError(path + ":" + std::to_string(e.mark.line + 1) + ": not valid YAML: " + e.msg);
+  }
+}
+
+/// @brief R-Max parameters of the navigation task: the reward of `planning` (step_cost, rmax)
+/// and the learning settings of `rmax_learning` (navigation.yaml).
+inline mdp::RMaxParams rmaxParamsOf(const nav::PlanningConfig& planning,
+                                    const nav::RMaxLearningConfig& learning) {
+  mdp::RMaxParams p;
+  p.step_cost = planning.step_cost;
+  p.rmax = planning.rmax;
+  p.known_threshold = static_cast<std::uint32_t>(learning.known_threshold);
+  p.discount = learning.discount;
+  p.replan_every = static_cast<std::uint32_t>(learning.replan_every);
+  p.optimism = learning.optimism == "self_loop" ? mdp::Optimism::kSelfLoop
+                                                : mdp::Optimism::kTerminalBonus;
+  p.refine_known = learning.refine_known;
+  return p;
+}
+
+/// @brief The base settings an experiment file overrides. An experiment file lives in
+/// config/experiments/ and names only what it changes; its base is config/navigation.yaml (the
+/// navigation task and R-Max). Found as ../navigation.yaml from the experiment file; a file
+/// elsewhere (e.g. a test's) has the compiled-in defaults as its base.
+struct ExperimentBase {
+  nav::PlanningConfig planning;
+  nav::RMaxLearningConfig rmax_learning;
+  double blocking_rate = 0.3;
+  bool found = false;
+};
+
+inline ExperimentBase experimentBase(const std::string& experiment_file) {
+  ExperimentBase b;
+  const std::string dir = dirName(experiment_file);
+  const std::string base = (dir.empty() ? std::string(".") : dir) + "/../navigation.yaml";
+  if (dir.size() < 11 || dir.compare(dir.size() - 11, 11, "experiments") != 0 ||
+      !std::ifstream(base).good())
+    return b;
+  const nav::NavigationConfig c = nav::loadNavigationConfig(base);
+  b.planning = c.planning;
+  b.rmax_learning = c.rmax_learning;
+  b.blocking_rate = c.simulator.blocking_rate;
+  b.found = true;
+  return b;
+}
+
+/// @brief A base made of settings given in code (for experiment files outside config/experiments/).
+inline ExperimentBase experimentBaseOf(const mdp::RMaxParams& p, double blocking_rate,
+                                       double plan_discount) {
+  ExperimentBase b;
+  b.planning.step_cost = p.step_cost;
+  b.planning.rmax = p.rmax;
+  b.planning.discount = plan_discount;
+  b.rmax_learning.known_threshold = static_cast<int>(p.known_threshold);
+  b.rmax_learning.discount = p.discount;
+  b.rmax_learning.replan_every = static_cast<int>(p.replan_every);
+  b.rmax_learning.optimism = p.optimism == mdp::Optimism::kSelfLoop ? "self_loop" : "terminal_bonus";
+  b.rmax_learning.refine_known = p.refine_known;
+  b.blocking_rate = blocking_rate;
+  return b;
+}
+
+/// @brief `p` with the base's reward and R-Max settings (its other fields kept).
+inline void applyRMax(const ExperimentBase& b, mdp::RMaxParams& p) {
+  const mdp::RMaxParams q = rmaxParamsOf(b.planning, b.rmax_learning);
+  p.step_cost = q.step_cost;
+  p.rmax = q.rmax;
+  p.known_threshold = q.known_threshold;
+  p.discount = q.discount;
+  p.replan_every = q.replan_every;
+  p.optimism = q.optimism;
+  p.refine_known = q.refine_known;
+}
+
+/// @brief The overrides of base settings in an experiment file's top level: `planning`
+/// {step_cost, rmax, discount}, `rmax_learning` {known_threshold, discount, replan_every,
+/// optimism, refine_known} and `simulator` {blocking_rate} (blocking_rate_lo: its lower bound).
+inline void readBaseOverrides(const YamlSection& top, ExperimentBase& b, double blocking_rate_lo) {
+  if (top.has("planning")) {
+    YamlSection p(top.get("planning"), top.file(), "planning", {"step_cost", "rmax", "discount"});
+    b.planning.step_cost = p.number("step_cost", b.planning.step_cost, 0.0, 1e12);
+    b.planning.rmax = p.number("rmax", b.planning.rmax, 1e-9, 1e12);
+    b.planning.discount = p.number("discount", b.planning.discount, 1e-9, 1.0);
+  }
+  if (top.has("rmax_learning")) {
+    YamlSection r(top.get("rmax_learning"), top.file(), "rmax_learning",
+                  {"known_threshold", "discount", "replan_every", "optimism", "refine_known"});
+    nav::RMaxLearningConfig& l = b.rmax_learning;
+    l.known_threshold = static_cast<int>(r.count("known_threshold", l.known_threshold, 1, 1000000));
+    l.discount = r.number("discount", l.discount, 0.0, 1.0);
+    l.replan_every = static_cast<int>(r.count("replan_every", l.replan_every, 0, 1000000));
+    const std::string refine = r.string("refine_known", l.refine_known ? "true" : "false");
+    if (refine != "true" && refine != "false")
+      throw ConfigError(r.file() + ": field '" + r.field("refine_known") + "': value '" + refine +
+                        "' is not true or false");
+    l.refine_known = refine == "true";
+    l.optimism = r.string("optimism", l.optimism);
+    if (l.optimism != "self_loop" && l.optimism != "terminal_bonus")
+      throw ConfigError(r.file() + ": field '" + r.field("optimism") + "': unknown value '" +
+                        l.optimism + "' (expected terminal_bonus or self_loop)");
+  }
+  if (top.has("simulator")) {
+    YamlSection s(top.get("simulator"), top.file(), "simulator", {"blocking_rate"});
+    b.blocking_rate = s.number("blocking_rate", b.blocking_rate, blocking_rate_lo, 1.0);
   }
 }
 

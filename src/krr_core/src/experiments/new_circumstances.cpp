@@ -56,34 +56,39 @@ NewCircumstancesOptions loadNewCircumstancesOptions(const std::string& path,
                                                     const NewCircumstancesOptions& defaults) {
   using detail::YamlSection;
   const YAML::Node root = detail::loadYamlFile(path);
-  if (root.IsMap() && root["unknown_times"])
-    throw ConfigError(path + ": field 'unknown_times' is no longer read: the settings the robot "
+  if (root.IsMap() && root["new_circumstances"] && root["new_circumstances"].IsMap() &&
+      root["new_circumstances"]["unknown_times"])
+    throw ConfigError(path + ": field 'new_circumstances.unknown_times' is no longer read: the settings the robot "
                              "may be in are drawn per trial (use unknown_count)");
-  YamlSection s(root, path, "",
-                {"domain", "start", "goal", "learn_times", "unknown_count", "learning_runs",
-                 "blocking_rate", "selector", "places", "extraction", "learn_tasks", "learn_episodes",
-                 "convergence_episodes", "rmax", "plan"});
+  // Base settings (navigation.yaml: reward and planning discount of the controllers, R-Max,
+  // blocking rate), then the file's overrides of them, then the experiment's own section.
+  YamlSection top(root, path, "", {"new_circumstances", "planning", "rmax_learning", "simulator"});
+  detail::ExperimentBase b = detail::experimentBase(path);
+  if (!b.found) b = detail::experimentBaseOf(defaults.rmax, defaults.blocking_rate, defaults.plan_discount);
+  if (!b.found) b.planning.rmax = defaults.plan_rmax;
+  detail::readBaseOverrides(top, b, -1.0);
   NewCircumstancesOptions o = defaults;
+  detail::applyRMax(b, o.rmax);
+  o.blocking_rate = b.blocking_rate;
+  o.plan_discount = b.planning.discount;
+  o.plan_rmax = b.planning.rmax;
+  YamlSection s(top.has("new_circumstances") ? top.get("new_circumstances") : YAML::Node(), path, "new_circumstances",
+                {"domain", "start", "goal", "learn_times", "unknown_count", "learning_runs",
+                 "selector", "places", "extraction", "learn_tasks", "learn_episodes",
+                 "convergence_episodes", "controller_step_cost"});
   o.domain = s.string("domain", o.domain);
   o.start = s.string("start", o.start);
   o.goal = s.string("goal", o.goal);
   o.learn_times = s.strings("learn_times", o.learn_times);
   o.unknown_count = s.count("unknown_count", o.unknown_count, 2, 1000);
   o.learning_runs = s.count("learning_runs", o.learning_runs, 0, 1000000);
-  o.blocking_rate = s.number("blocking_rate", o.blocking_rate, -1.0, 1.0);
   o.selector = s.string("selector", o.selector);
   o.places = s.strings("places", o.places);
   o.extraction = s.string("extraction", o.extraction);
   o.learn_tasks = s.count("learn_tasks", o.learn_tasks, 1, 1000000);
   o.learn_episodes = s.count("learn_episodes", o.learn_episodes, 1, 100000000);
   o.convergence_episodes = s.count("convergence_episodes", o.convergence_episodes, 1, 100000000);
-  detail::readRMax(s, "rmax", o.rmax);
-  if (s.has("plan")) {
-    YamlSection p(s.get("plan"), path, "plan", {"discount", "step_cost", "rmax"});
-    o.plan_discount = p.number("discount", o.plan_discount, 1e-9, 1.0);
-    o.plan_step_cost = p.number("step_cost", o.plan_step_cost, 0.0, 1e12);
-    o.plan_rmax = p.number("rmax", o.plan_rmax, 1e-9, 1e12);
-  }
+  o.plan_step_cost = s.number("controller_step_cost", o.plan_step_cost, 0.0, 1e12);
   try {
     o.validate();
   } catch (const ConfigError& e) {

@@ -208,7 +208,8 @@ NavigationConfig loadNavigationConfig(const std::string& path) {
   }
   NavigationConfig cfg;
   const std::string dir = dirName(path);
-  Section top(root, path, "", {"map", "places", "grid", "domains", "simulator", "planner"});
+  Section top(root, path, "", {"map", "places", "grid", "domains", "simulator", "planner", "planning",
+                             "rmax_learning"});
   cfg.map = resolve(dir, top.string("map", "", true));
   cfg.places = resolve(dir, top.string("places", "", true));
   if (top.has("grid")) {
@@ -351,6 +352,32 @@ NavigationConfig loadNavigationConfig(const std::string& path) {
     p.range = s.number("range", p.range, 0.0, 1e6);
     p.interpolation_step = s.number("interpolation_step", p.interpolation_step, 0.0, 1e6, false, true);
     p.simplify = s.boolean("simplify", p.simplify);
+  }
+  if (top.has("planning")) {
+    Section s(top.get("planning"), path, "planning", {"step_cost", "rmax", "discount", "model_discount"});
+    PlanningConfig& p = cfg.planning;
+    p.step_cost = s.number("step_cost", p.step_cost, 0.0, 1e12);
+    p.rmax = s.number("rmax", p.rmax, 0.0, 1e12, false, true);
+    p.discount = s.number("discount", p.discount, 0.0, 1.0, false, true);
+    p.model_discount = s.number("model_discount", p.model_discount, 0.0, 1.0, false, true);
+    if (!(p.step_cost < p.rmax)) {
+      throw ConfigError(path + ": field 'planning.step_cost': value " + num(p.step_cost) +
+                        " must be below planning.rmax (" + num(p.rmax) + ")");
+    }
+  }
+  if (top.has("rmax_learning")) {
+    Section s(top.get("rmax_learning"), path, "rmax_learning",
+              {"known_threshold", "discount", "replan_every", "optimism", "refine_known"});
+    RMaxLearningConfig& r = cfg.rmax_learning;
+    r.known_threshold = s.integer("known_threshold", r.known_threshold, 1, 1000000);
+    r.discount = s.number("discount", r.discount, 0.0, 1.0, false, true);
+    r.replan_every = s.integer("replan_every", r.replan_every, 0, 1000000);
+    r.optimism = s.string("optimism", r.optimism);
+    if (r.optimism != "terminal_bonus" && r.optimism != "self_loop") {
+      throw ConfigError(path + ": field 'rmax_learning.optimism': unknown value '" + r.optimism +
+                        "' (expected terminal_bonus or self_loop)");
+    }
+    r.refine_known = s.boolean("refine_known", r.refine_known);
   }
   return cfg;
 }

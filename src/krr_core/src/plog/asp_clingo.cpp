@@ -274,6 +274,14 @@ ClingoResult runClingo(const std::string& program, const AspOptions& options,
     throw Error("AspBackend: clingo on " + subject + " exceeded the time limit of " +
                 std::to_string(options.timeout_s) + " s and was killed");
   };
+  auto cancelled = [&]() { return options.cancel && options.cancel->load(); };
+  auto abandon = [&]() {
+    kill(pid, SIGKILL);
+    int st = 0;
+    while (waitpid(pid, &st, 0) < 0 && errno == EINTR) {
+    }
+    throw CancelledError("AspBackend: clingo abandoned: another back end answered first");
+  };
   int status = 0;
   // Wait for the end of clingo without polling latency: a pidfd becomes readable when the
   // process exits. Where pidfds are unavailable, fall back to polling waitpid.
@@ -292,8 +300,14 @@ ClingoResult runClingo(const std::string& program, const AspOptions& options,
         close(pidfd);
         timedOut();
       }
+      if (cancelled()) {
+        close(pidfd);
+        abandon();
+      }
       struct pollfd pfd = {pidfd, POLLIN, 0};
-      const int r = poll(&pfd, 1, static_cast<int>(std::min<long>(ms, 1000000L)));
+      // With a cancel flag, look at it every 10 ms.
+      const long slice = options.cancel ? std::min<long>(ms, 10L) : std::min<long>(ms, 1000000L);
+      const int r = poll(&pfd, 1, static_cast<int>(slice));
       if (r > 0) break;
       if (r < 0 && errno != EINTR) {
         close(pidfd);
@@ -318,6 +332,7 @@ ClingoResult runClingo(const std::string& program, const AspOptions& options,
                     std::strerror(errno));
       }
       if (std::chrono::steady_clock::now() - start > limit) timedOut();
+      if (cancelled()) abandon();
       std::this_thread::sleep_for(pause);
       if (pause < std::chrono::milliseconds(2)) pause *= 2;
     }

@@ -119,7 +119,10 @@ void ExactEngine::setTimeBudget(double seconds) {
 }
 
 void ExactEngine::checkTime(unsigned mask) {
-  if (budget_seconds_ <= 0 || (++budget_ticks_ & mask) != 0) return;
+  if ((++budget_ticks_ & mask) != 0) return;
+  if (cancel_ && cancel_->load(std::memory_order_relaxed))
+    throw CancelledError("inference abandoned: another back end answered first");
+  if (budget_seconds_ <= 0) return;
   if (std::chrono::duration<double>(std::chrono::steady_clock::now() - budget_start_).count() >
       budget_seconds_)
     throw BudgetExceededError("inference time budget of " + std::to_string(budget_seconds_) +
@@ -984,6 +987,7 @@ void ExactEngine::buildFactors(const std::vector<const std::vector<GCondition>*>
     f.t.assign(total, 0.0);
     std::vector<int> cur(scope.size(), 0);
     for (size_t row = 0; row < total; ++row) {
+      checkTime(63);
       for (size_t k = 0; k < scope.size(); ++k)
         assign_[static_cast<size_t>(scope[k])] =
             states_[static_cast<size_t>(scope[k])][static_cast<size_t>(cur[k])];

@@ -556,6 +556,9 @@ class Grounder {
                                 std::to_string(limits_.max_ground_statements) +
                                 " ground statements (GroundingLimits::max_ground_statements) "
                                 "while grounding this statement");
+    if ((ticks_ & 4095u) == 4095u && limits_.cancel &&
+        limits_.cancel->load(std::memory_order_relaxed))
+      throw CancelledError("grounding abandoned: another back end answered first");
     if ((++ticks_ & 4095u) == 0 && limits_.max_ground_seconds > 0 &&
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count() >
             limits_.max_ground_seconds)

@@ -1,6 +1,12 @@
 #include "krr_core/plog/reasoner.h"
 
 #include <algorithm>
+#include <chrono>
+#include <condition_variable>
+#include <exception>
+#include <mutex>
+#include <optional>
+#include <thread>
 #include <cstdio>
 #include <cstdlib>
 #include <iterator>
@@ -138,6 +144,7 @@ void forBodyAttrs(const std::vector<Literal>& body, F f) {
 }  // namespace
 
 Reasoner::Reasoner() {
+  limits_.cancel = &asp_won_;
   program_ = parseProgram("", "<empty>");
   structuralChange();
 }
@@ -672,7 +679,8 @@ AspBackend& Reasoner::asp() {
 }
 
 template <typename T, typename Native, typename Asp>
-T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_answer) {
+T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_answer,
+                     bool race) {
   auto viaAsp = [&]() {
     T r = asp_answer();
     stats_.last_backend = Backend::Asp;
@@ -685,26 +693,112 @@ T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_
     auto it = outside_fragment_.find(key);
     if (it != outside_fragment_.end() && it->second == structure_version_) return viaAsp();
   }
-  std::string why;
+  auto combined = [](const std::string& why, const std::exception& e) {
+    // Neither engine could answer: say why for both (e.g. a factor too large natively, too
+    // many possible worlds for clingo within the time budget).
+    return Error(why + "; the ASP back end could not answer either: " + e.what());
+  };
+  if (backend_ == Backend::Native || !race) {
+    std::string why;
+    try {
+      T r = native();
+      stats_.last_backend = Backend::Native;
+      return r;
+    } catch (const OutsideFragmentError& e) {
+      if (backend_ != Backend::Auto) throw;
+      outside_fragment_[key] = structure_version_;
+      why = e.what();
+    }
+    try {
+      return viaAsp();
+    } catch (const IncoherentError&) {
+      throw;  // an answer about the program, not a failure of the back end
+    } catch (const UnknownSymbolError&) {
+      throw;
+    } catch (const Error& e) {
+      throw combined(why, e);
+    }
+  }
+
+  // Auto: the native engine first; clingo joins after race_delay_ seconds (at once when the
+  // native engine refuses the program) and the first answer wins.
+  AspBackend& backend = asp();  // made here: the helper thread must not create it
+  std::atomic<bool> native_done{false};
+  backend.setCancelFlag(&native_done);
+  asp_won_ = false;
+  std::mutex m;
+  std::condition_variable cv;
+  bool start_now = false, stop = false, asp_ran = false;
+  std::optional<T> asp_result;
+  std::exception_ptr asp_error;
+  std::thread helper([&]() {
+    {
+      std::unique_lock<std::mutex> lock(m);
+      cv.wait_for(lock, std::chrono::duration<double>(race_delay_),
+                  [&]() { return start_now || stop; });
+      if (stop) return;
+      asp_ran = true;
+    }
+    try {
+      asp_result.emplace(asp_answer());
+      asp_won_ = true;
+    } catch (const IncoherentError&) {
+      asp_error = std::current_exception();
+      asp_won_ = true;  // a definite answer too
+    } catch (...) {
+      asp_error = std::current_exception();
+    }
+  });
+  auto finish = [&](bool cancel_asp) {
+    if (cancel_asp) native_done = true;
+    {
+      std::lock_guard<std::mutex> lock(m);
+      if (cancel_asp) stop = true; else start_now = true;
+    }
+    cv.notify_all();
+    helper.join();
+    backend.setCancelFlag(nullptr);
+  };
+  auto useAsp = [&](const std::string& why) -> T {
+    if (asp_result) {
+      stats_.last_backend = Backend::Asp;
+      ++stats_.asp_answers;
+      return *asp_result;
+    }
+    try {
+      std::rethrow_exception(asp_error);
+    } catch (const IncoherentError&) {
+      throw;
+    } catch (const UnknownSymbolError&) {
+      throw;
+    } catch (const CancelledError&) {
+      throw Error(why + "; the ASP back end was abandoned");
+    } catch (const Error& e) {
+      throw combined(why, e);
+    }
+  };
   try {
     T r = native();
+    finish(true);
+    asp_won_ = false;
     stats_.last_backend = Backend::Native;
     return r;
   } catch (const OutsideFragmentError& e) {
-    if (backend_ != Backend::Auto) throw;
+    finish(false);
+    asp_won_ = false;
     outside_fragment_[key] = structure_version_;
-    why = e.what();
-  }
-  try {
-    return viaAsp();
-  } catch (const IncoherentError&) {
-    throw;  // an answer about the program, not a failure of the back end
-  } catch (const UnknownSymbolError&) {
+    return useAsp(e.what());
+  } catch (const CancelledError&) {
+    finish(false);  // clingo has answered (or failed): wait for its thread
+    asp_won_ = false;
+    if (asp_result) outside_fragment_[key] = structure_version_;  // clingo is faster here
+    if (asp_result || asp_error) return useAsp("the native engine was abandoned");
     throw;
-  } catch (const Error& e) {
-    // Neither engine could answer: say why for both (e.g. a factor too large natively, too
-    // many possible worlds for clingo within the time budget).
-    throw Error(why + "; the ASP back end could not answer either: " + e.what());
+  } catch (...) {
+    finish(true);
+    asp_won_ = false;
+    (void)asp_ran;
+    throw;
   }
 }
 
@@ -726,6 +820,7 @@ double Reasoner::nativeProbability(const Query& q) {
   auto g = groundFor(attrs);
   ExactEngine e(*g);
   e.setTimeBudget(limits_.max_inference_seconds);
+  e.setCancelFlag(&asp_won_);
   for (const auto& d : program_.interventions) applyDo(*g, program_, d, e);
   for (const auto& d : q.interventions) applyDo(*g, program_, d, e);
   std::vector<GCondition> evidence, formula(1);
@@ -782,6 +877,7 @@ std::vector<ValueProb> Reasoner::nativeDistribution(const AttributeTerm& at, con
   if (inst < 0) return out;
   ExactEngine e(*g);
   e.setTimeBudget(limits_.max_inference_seconds);
+  e.setCancelFlag(&asp_won_);
   for (const auto& d : program_.interventions) applyDo(*g, program_, d, e);
   for (const auto& d : ev.interventions) applyDo(*g, program_, d, e);
   std::vector<GCondition> evs;
@@ -865,7 +961,8 @@ Table Reasoner::tableQuery(const std::string& target, const std::vector<std::str
           }
         }
         return t;
-      });
+      },
+      /*race=*/false);
 }
 
 Table Reasoner::nativeTable(const AttributeTerm& tat, const std::vector<AttributeTerm>& cats,
@@ -895,6 +992,7 @@ Table Reasoner::nativeTable(const AttributeTerm& tat, const std::vector<Attribut
   }
   ExactEngine e(*g);
   e.setTimeBudget(limits_.max_inference_seconds);
+  e.setCancelFlag(&asp_won_);
   for (const auto& d : program_.interventions) applyDo(*g, program_, d, e);
   for (const auto& d : ev.interventions) applyDo(*g, program_, d, e);
   std::vector<GCondition> evs;

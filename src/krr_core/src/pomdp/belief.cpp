@@ -23,17 +23,23 @@ void checkArgs(const Model& m, const Belief& b, std::size_t a, std::size_t o) {
 
 double observationProbability(const Model& m, const Belief& b, std::size_t a, std::size_t o) {
   checkArgs(m, b, a, o);
-  if (m.isIdentityTransition(a)) return m.observationMatrix(a).col(o).dot(b);
-  return m.observationMatrix(a).col(o).dot(m.transitionMatrixTransposed(a) * b);
+  if (m.hasDenseObservations() && m.hasDenseTransitions()) {  // the historical dense path
+    if (m.isIdentityTransition(a)) return m.observationMatrix(a).col(o).dot(b);
+    return m.observationMatrix(a).col(o).dot(m.transitionMatrixTransposed(a) * b);
+  }
+  Belief next;
+  m.predict(a, b, next);
+  m.weightByObservation(a, o, next);
+  return next.sum();
 }
 
 bool tryUpdateBelief(const Model& m, const Belief& b, std::size_t a, std::size_t o, Belief& out,
                      double* prob) {
   checkArgs(m, b, a, o);
-  Belief next = m.isIdentityTransition(a)
-                    ? Belief(m.observationMatrix(a).col(o).cwiseProduct(b))
-                    : Belief(m.observationMatrix(a).col(o).cwiseProduct(
-                          m.transitionMatrixTransposed(a) * b));
+  // predict then weight: the same products as O_o .* (T^T b) in either storage.
+  Belief next;
+  m.predict(a, b, next);
+  m.weightByObservation(a, o, next);
   double p = next.sum();
   if (prob) *prob = p;
   if (!(p > 0.0)) return false;

@@ -126,6 +126,9 @@ struct Symbols {
   std::unordered_map<std::string, std::size_t> index;
 };
 
+/// Bytes per stored T or O entry: its place in the reader's row list and in the Model's CSR.
+constexpr std::size_t kBytesPerEntry = 2 * sizeof(Model::Entry);
+
 /// -1 stands for the '*' wildcard.
 using Idx = long;
 
@@ -176,18 +179,41 @@ class Parser {
       fail(t, "reading stopped here: time budget of " + formatNumber(timeout_, 6) +
                   " s exceeded");
   }
+  /// @brief Bytes the model needs with entries_ stored entries (at least one per row before
+  /// the rows are filled): the declarations' part plus the entries seen so far.
+  std::size_t needBytes(std::size_t entries) const {
+    auto count = [](const Symbols& sym) { return std::max<std::size_t>(sym.n, 1); };
+    const std::size_t S = count(states_), A = count(actions_), O = count(obs_);
+    const std::size_t rows = saturatingMul(saturatingMul(A, S), 2);
+    const std::size_t beyond = entries > rows ? entries - rows : 0;  // estimate counts 1 per row
+    return saturatingAdd(saturatingAdd(estimateModelBytes(S, A, O),
+                                       saturatingMul(beyond, kBytesPerEntry)),
+                         saturatingMul(saturatingMul(S, S), extraPerPair_));
+  }
   /// @brief Refuse a declaration (at t) whose model would not fit in the memory budget.
-  /// Undeclared counts are taken as 1, the least they can be.
+  /// Undeclared counts are taken as 1, the least they can be. The number of non-zero T and O
+  /// entries is not declared: this is the least the model can take (one entry per row), and
+  /// reserveEntries() checks the entries as they arrive.
   void checkModelSize(const Token& t, const std::string& decl) const {
     auto count = [](const Symbols& sym) { return std::max<std::size_t>(sym.n, 1); };
     const std::size_t S = count(states_), A = count(actions_), O = count(obs_);
-    const std::size_t need = saturatingAdd(estimateModelBytes(S, A, O),
-                                           saturatingMul(saturatingMul(S, S), extraPerPair_));
+    const std::size_t need = needBytes(0);
     if (need > budget_)
-      fail(t, decl + " needs about " + formatBytes(need) + " for the dense model (" +
+      fail(t, decl + " needs about " + formatBytes(need) + " for the model (" +
                   std::to_string(S) + " states, " + std::to_string(A) + " action(s), " +
-                  std::to_string(O) + " observation(s)), above the memory budget of " +
-                  formatBytes(budget_) + " (KRR_MEMORY_BUDGET_MIB)");
+                  std::to_string(O) + " observation(s), at least one entry per T and O row), "
+                  "above the memory budget of " + formatBytes(budget_) +
+                  " (KRR_MEMORY_BUDGET_MIB)");
+  }
+  /// @brief Refuse (at t) a statement that would store `more` further T or O entries beyond
+  /// the memory budget, before they are stored.
+  void reserveEntries(const Token& t, std::size_t more) const {
+    const std::size_t need = needBytes(saturatingAdd(entries_, more));
+    if (need > budget_)
+      fail(t, "this statement brings the model to " + std::to_string(entries_ + more) +
+                  " non-zero T and O entries, about " + formatBytes(need) +
+                  ", above the memory budget of " + formatBytes(budget_) +
+                  " (KRR_MEMORY_BUDGET_MIB)");
   }
   const Token& peek(std::size_t k = 0) const {
     return pos_ + k < toks_.size() ? toks_[pos_ + k] : eof_;
@@ -285,13 +311,12 @@ class Parser {
   void requireAll(const Token& t) {
     if (!states_.defined || !actions_.defined || !obs_.defined)
       fail(t, "T:, O: and R: need states, actions and observations declared first");
-    if (t_.empty()) {
-      const auto S = static_cast<Eigen::Index>(states_.n), O = static_cast<Eigen::Index>(obs_.n);
-      t_.assign(actions_.n, Eigen::MatrixXd::Zero(S, S));
-      z_.assign(actions_.n, Eigen::MatrixXd::Zero(S, O));
+    if (tRows_.empty()) {
+      tRows_.assign(actions_.n * states_.n, {});
+      zRows_.assign(actions_.n * states_.n, {});
       tLoc_.assign(actions_.n * states_.n, Token{"", 0, 0});
       zLoc_.assign(actions_.n * states_.n, Token{"", 0, 0});
-      checkTime(t);  // zeroing the dense tables can take a while
+      checkTime(t);
     }
   }
   void parseStart();
@@ -337,8 +362,15 @@ class Parser {
   double discount_ = 1.0;
   Symbols states_, actions_, obs_;
   Eigen::VectorXd start_;
-  std::vector<Eigen::MatrixXd> t_, z_;
+  /// T rows (index a * S + s) and O rows (a * S + s1): sorted (column, p), no zeros. Sparse,
+  /// so that a 3201-state RockSample takes megabytes, not the 3.7 GiB of dense tables.
+  std::vector<std::vector<Model::Entry>> tRows_, zRows_;
+  std::size_t entries_ = 0;  ///< entries stored in tRows_ and zRows_
   std::vector<Token> tLoc_, zLoc_;
+  /// @brief row[k] = p (later statements override earlier ones; p = 0 removes the entry).
+  void setEntry(std::vector<Model::Entry>& row, std::size_t k, double p);
+  /// @brief Every entry of row set to p (a '*' column).
+  void setWholeRow(std::vector<Model::Entry>& row, std::size_t n, double p);
   struct REntry {
     Idx a, s, s1, o;
     double v;
@@ -346,36 +378,76 @@ class Parser {
   std::vector<REntry> r_;
 };
 
-/// @brief Fill m(rows, cols) with p in storage order (column by column): "T: * uniform" on
-/// 3000 states wrote 9e6 cells per action in row order, missing the cache on every one.
-void fill(Eigen::MatrixXd& m, const std::vector<std::size_t>& rows,
-          const std::vector<std::size_t>& cols, bool allRows, bool allCols, double p) {
-  if (allRows && allCols) {
-    m.setConstant(p);
+void Parser::setEntry(std::vector<Model::Entry>& row, std::size_t k, double p) {
+  if (row.empty() || row.back().first < k) {  // the common case: columns in order
+    if (p != 0.0) {
+      row.emplace_back(k, p);
+      ++entries_;
+    }
     return;
   }
-  for (std::size_t c : cols) {
-    if (allRows) {
-      m.col(static_cast<Eigen::Index>(c)).setConstant(p);
-      continue;
+  auto it = std::lower_bound(row.begin(), row.end(), k,
+                             [](const Model::Entry& e, std::size_t c) { return e.first < c; });
+  if (it != row.end() && it->first == k) {
+    if (p != 0.0) {
+      it->second = p;
+    } else {
+      row.erase(it);
+      --entries_;
     }
-    for (std::size_t r : rows) m(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(c)) = p;
+  } else if (p != 0.0) {
+    row.insert(it, Model::Entry(k, p));
+    ++entries_;
   }
 }
 
+void Parser::setWholeRow(std::vector<Model::Entry>& row, std::size_t n, double p) {
+  entries_ -= row.size();
+  row.clear();
+  if (p == 0.0) {
+    row.shrink_to_fit();
+    return;
+  }
+  row.reserve(n);
+  for (std::size_t k = 0; k < n; ++k) row.emplace_back(k, p);
+  entries_ += n;
+}
+
 void Parser::setT(Idx a, Idx s, Idx s1, double p, const Token& where) {
-  const auto ss = range(s, states_.n), ks = range(s1, states_.n);
-  for (std::size_t ai : range(a, actions_.n)) {
-    fill(t_[ai], ss, ks, s < 0, s1 < 0, p);
-    for (std::size_t si : ss) tLoc_[ai * states_.n + si] = where;
+  const auto ss = range(s, states_.n), as = range(a, actions_.n);
+  const std::size_t S = states_.n;
+  if (p != 0.0)  // refused before it is stored
+    reserveEntries(where, saturatingMul(as.size() * ss.size(), s1 < 0 ? S : 1));
+  for (std::size_t ai : as) {
+    for (std::size_t si : ss) {
+      auto& row = tRows_[ai * S + si];
+      if (s1 < 0) {
+        setWholeRow(row, S, p);
+      } else {
+        setEntry(row, static_cast<std::size_t>(s1), p);
+      }
+      tLoc_[ai * S + si] = where;
+    }
+    if (ss.size() > 1) checkTime(where);
   }
 }
 
 void Parser::setZ(Idx a, Idx s1, Idx o, double p, const Token& where) {
-  const auto ss = range(s1, states_.n), os = range(o, obs_.n);
-  for (std::size_t ai : range(a, actions_.n)) {
-    fill(z_[ai], ss, os, s1 < 0, o < 0, p);
-    for (std::size_t si : ss) zLoc_[ai * states_.n + si] = where;
+  const auto ss = range(s1, states_.n), as = range(a, actions_.n);
+  const std::size_t S = states_.n;
+  if (p != 0.0)
+    reserveEntries(where, saturatingMul(as.size() * ss.size(), o < 0 ? obs_.n : 1));
+  for (std::size_t ai : as) {
+    for (std::size_t si : ss) {
+      auto& row = zRows_[ai * S + si];
+      if (o < 0) {
+        setWholeRow(row, obs_.n, p);
+      } else {
+        setEntry(row, static_cast<std::size_t>(o), p);
+      }
+      zLoc_[ai * S + si] = where;
+    }
+    if (ss.size() > 1) checkTime(where);
   }
 }
 
@@ -431,13 +503,14 @@ void Parser::parseT() {
     const Token& t = peek();
     if (t.text == "identity" || t.text == "uniform") {
       ++pos_;
-      for (std::size_t ai : range(a, actions_.n)) {
-        if (t.text == "identity") {
-          t_[ai].setIdentity();
-        } else {
-          t_[ai].setConstant(1.0 / states_.n);
+      if (t.text == "identity") {
+        for (std::size_t s = 0; s < states_.n; ++s) {
+          const auto si = static_cast<Idx>(s);
+          setT(a, si, -1, 0.0, kw);
+          setT(a, si, si, 1.0, kw);
         }
-        for (std::size_t s = 0; s < states_.n; ++s) tLoc_[ai * states_.n + s] = kw;
+      } else {
+        setT(a, -1, -1, 1.0 / states_.n, kw);
       }
       return;
     }
@@ -565,15 +638,24 @@ Model Parser::parse() {
   if (!obs_.defined) fail(eof_, "missing 'observations:'");
   requireAll(eof_);
   // Validate rows here so that errors point at the entry that last wrote the row.
+  auto rowSum = [](const std::vector<Model::Entry>& row) {
+    double sum = 0.0;
+    for (const auto& e : row) sum += e.second;
+    return sum;
+  };
+  auto scale = [this](std::vector<Model::Entry>& row, double sum) {
+    if (std::abs(sum - 1.0) <= kExact) return;
+    for (auto& e : row) e.second /= sum;
+    ++stats_->renormalised_rows;
+  };
   for (std::size_t a = 0; a < actions_.n; ++a) {
-    // Row sums in storage order (column by column): a row-order scan is cache-hostile.
-    const Eigen::VectorXd tSums = t_[a].rowwise().sum(), zSums = z_[a].rowwise().sum();
     for (std::size_t s = 0; s < states_.n; ++s) {
       if ((s & 255) == 0) checkTime(eof_);
       auto name = [&](const Symbols& sym, std::size_t i) {
         return sym.names.empty() ? std::to_string(i) : sym.names[i];
       };
-      const double ts = tSums(static_cast<Eigen::Index>(s));
+      auto& trow = tRows_[a * states_.n + s];
+      const double ts = rowSum(trow);
       if (ts != 1.0 && !acceptSum(ts, [&] {
             return "T row of action '" + name(actions_, a) + "' from state '" +
                    name(states_, s) + "'";
@@ -582,8 +664,9 @@ Model Parser::parse() {
              "transition probabilities of action '" + name(actions_, a) + "' from state '" +
                  name(states_, s) + "' sum to " + formatNumber(ts, 10) +
                  " (expected 1 within " + formatNumber(sumTolerance_, 3) + ")");
-      renormalise(t_[a].row(s), ts);
-      const double zs = zSums(static_cast<Eigen::Index>(s));
+      scale(trow, ts);
+      auto& zrow = zRows_[a * states_.n + s];
+      const double zs = rowSum(zrow);
       if (zs != 1.0 && !acceptSum(zs, [&] {
             return "O row of action '" + name(actions_, a) + "' in state '" + name(states_, s) +
                    "'";
@@ -592,7 +675,7 @@ Model Parser::parse() {
              "observation probabilities of action '" + name(actions_, a) + "' in state '" +
                  name(states_, s) + "' sum to " + formatNumber(zs, 10) +
                  " (expected 1 within " + formatNumber(sumTolerance_, 3) + ")");
-      renormalise(z_[a].row(s), zs);
+      scale(zrow, zs);
     }
   }
   const std::size_t S = states_.n, A = actions_.n, O = obs_.n;
@@ -623,11 +706,10 @@ Model Parser::parse() {
       for (std::size_t s = 0; s < S; ++s) {
         if ((s & 63) == 0) checkTime(eof_);
         double v = 0.0;
-        for (std::size_t s1 = 0; s1 < S; ++s1) {
-          if (t_[a](s, s1) == 0.0) continue;
+        for (const auto& t : tRows_[a * S + s]) {
           double w = 0.0;
-          for (std::size_t o = 0; o < O; ++o) w += z_[a](s1, o) * at(a, s, s1, o);
-          v += t_[a](s, s1) * w;
+          for (const auto& z : zRows_[a * S + t.first]) w += z.second * at(a, s, t.first, z.first);
+          v += t.second * w;
         }
         r(s, a) = v;
       }
@@ -639,11 +721,44 @@ Model Parser::parse() {
     for (std::size_t i = 0; i < sym.n; ++i) out.push_back(prefix + std::to_string(i));
     return out;
   };
+  // kAuto keeps a dense copy of T (and O) when that is cheap and faster; that copy is counted
+  // here, where the number of entries is known, and skipped if it would break the budget.
+  std::size_t nnzT = 0;
+  for (const auto& row : tRows_) nnzT += row.size();
+  const double cells = static_cast<double>(A) * S * S;
+  const bool denseT = (S <= Model::kDenseStates || nnzT >= Model::kDenseDensity * cells) &&
+                      2.0 * cells * sizeof(double) <= static_cast<double>(Model::kDenseBytes);
+  ModelStorage storage = ModelStorage::kAuto;
+  if (denseT && S > Model::kDenseStates &&
+      saturatingAdd(needBytes(entries_),
+                    static_cast<std::size_t>(2.0 * cells * sizeof(double))) > budget_)
+    storage = ModelStorage::kSparse;
+  // CSR per action, built row by row while the row lists are released (one copy at a time).
+  std::vector<SparseRows> tCsr(A), zCsr(A);
+  for (std::size_t a = 0; a < A; ++a) {
+    checkTime(eof_);
+    tCsr[a].cols = S;
+    zCsr[a].cols = O;
+    std::size_t nt = 0, nz = 0;
+    for (std::size_t s = 0; s < S; ++s) {
+      nt += tRows_[a * S + s].size();
+      nz += zRows_[a * S + s].size();
+    }
+    tCsr[a].entries.reserve(nt);
+    tCsr[a].start.reserve(S + 1);
+    zCsr[a].entries.reserve(nz);
+    zCsr[a].start.reserve(S + 1);
+    for (std::size_t s = 0; s < S; ++s) {
+      tCsr[a].pushRow(tRows_[a * S + s]);
+      std::vector<Model::Entry>().swap(tRows_[a * S + s]);
+      zCsr[a].pushRow(zRows_[a * S + s]);
+      std::vector<Model::Entry>().swap(zRows_[a * S + s]);
+    }
+  }
   try {
-    // Moved, not copied: the budget counts one copy of the dense matrices.
     // What is left of the time budget bounds the construction too.
     const double left = timeout_ > 0.0 ? std::max(1e-9, timeout_ - clock_.seconds()) : 0.0;
-    Model m(std::move(t_), std::move(z_), std::move(r), discount_, left);
+    Model m(std::move(tCsr), std::move(zCsr), std::move(r), discount_, left, storage);
     m.setNames(names(states_, "s"), names(actions_, "a"), names(obs_, "o"));
     if (haveStart_) m.setInitialBelief(start_);
     return m;
@@ -675,9 +790,18 @@ std::string fmt(double v) {
 
 std::size_t estimateModelBytes(std::size_t states, std::size_t actions, std::size_t observations) {
   const std::size_t as = saturatingMul(actions, states);
-  std::size_t b = saturatingMul(saturatingMul(as, states), 32);
-  b = saturatingAdd(b, saturatingMul(saturatingMul(as, observations), 24));
-  b = saturatingAdd(b, saturatingMul(as, 2 * sizeof(Token) + 2 * sizeof(double) + 64));
+  // Per (state, action): the reader's T and O row lists and locations, the CSR offsets, the
+  // reward, flags, and one entry in each of the T and O rows (each sums to 1).
+  constexpr std::size_t kPerStateAction = 2 * sizeof(std::vector<Model::Entry>) +
+                                          2 * sizeof(Token) + 2 * sizeof(std::size_t) +
+                                          sizeof(double) + 2 * kBytesPerEntry + 16;
+  std::size_t b = saturatingMul(as, kPerStateAction);
+  // Dense forms Model keeps whatever the density: T and its transpose up to kDenseStates
+  // states, O whenever it is small.
+  if (states <= Model::kDenseStates)
+    b = saturatingAdd(b, saturatingMul(saturatingMul(as, states), 2 * sizeof(double)));
+  const std::size_t zBytes = saturatingMul(saturatingMul(as, observations), sizeof(double));
+  if (zBytes <= Model::kDenseBytes) b = saturatingAdd(b, zBytes);
   const std::size_t symbols = saturatingAdd(saturatingAdd(states, actions), observations);
   return saturatingAdd(b, saturatingMul(symbols, 64));
 }

@@ -96,7 +96,7 @@ PointBasedSolver::PointBasedSolver(const Model& model, const Belief& b0, SolverO
   obsOffset_.assign(1, 0);
   for (std::size_t a = 0; a < a_; ++a) {
     for (std::size_t o : m_.possibleObservations(a))
-      obsCol_[a].push_back(m_.observationMatrix(a).col(static_cast<Eigen::Index>(o)));
+      obsCol_[a].push_back(m_.observationColumn(a, o));
     obsOffset_.push_back(obsOffset_.back() + obsCol_[a].size());
     // Does a always lead to terminal (absorbing, zero-reward) states, like serve?
     bool allTerminal = true;
@@ -141,7 +141,7 @@ void PointBasedSolver::initLower(double deadline) {
     const auto ac = static_cast<Eigen::Index>(a);
     Eigen::VectorXd alpha;
     if (s_ <= kDenseSetupStates) {
-      Eigen::MatrixXd lhs = Eigen::MatrixXd::Identity(S, S) - gamma_ * m_.transitionMatrix(a);
+      Eigen::MatrixXd lhs = Eigen::MatrixXd::Identity(S, S) - gamma_ * m_.denseTransition(a);
       alpha = lhs.partialPivLu().solve(r.col(ac));
     } else {
       // This action's share of the time left.
@@ -206,15 +206,18 @@ void PointBasedSolver::initUpper(double mdpDeadline, double setupEnd) {
       Eigen::MatrixXd lhs = Eigen::MatrixXd::Identity(S, S);
       Eigen::VectorXd rhs(S);
       for (std::size_t s = 0; s < s_; ++s) {
-        lhs.row(static_cast<Eigen::Index>(s)) -=
-            gamma_ * m_.transitionMatrix(pol[s]).row(static_cast<Eigen::Index>(s));
+        for (const auto& e : m_.successors(s, pol[s]))
+          lhs(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(e.first)) -=
+              gamma_ * e.second;
         rhs(s) = r(s, pol[s]);
       }
       v = lhs.partialPivLu().solve(rhs);
       bool changed = false;
-      for (std::size_t a = 0; a < a_; ++a)
-        q.col(static_cast<Eigen::Index>(a)) =
-            r.col(static_cast<Eigen::Index>(a)) + gamma_ * (m_.transitionMatrix(a) * v);
+      Eigen::VectorXd tv;
+      for (std::size_t a = 0; a < a_; ++a) {
+        m_.expectNext(a, v, tv);
+        q.col(static_cast<Eigen::Index>(a)) = r.col(static_cast<Eigen::Index>(a)) + gamma_ * tv;
+      }
       for (std::size_t s = 0; s < s_; ++s) {
         Eigen::Index best = 0;
         const double bv = q.row(static_cast<Eigen::Index>(s)).maxCoeff(&best);
@@ -278,10 +281,18 @@ void PointBasedSolver::initUpper(double mdpDeadline, double setupEnd) {
   Eigen::MatrixXd next = q;
   const double fibDeadline = std::min(setupEnd, offset + sw.seconds() + options_.initTimeLimit);
   bool fibDone = false, cut = false;
+  // slotOf[a][o]: index of o among the possible observations of a. The sums over successors
+  // run over the sparse O rows (so O need not be dense), accumulating per (slot, a2) in the
+  // same order as sum_s' T O Q.
+  std::vector<std::vector<std::size_t>> slotOf(a_, std::vector<std::size_t>(m_.getO(), 0));
+  for (std::size_t a = 0; a < a_; ++a)
+    for (std::size_t k = 0; k < m_.possibleObservations(a).size(); ++k)
+      slotOf[a][m_.possibleObservations(a)[k]] = k;
+  std::vector<double> acc;
   for (std::size_t it = 0; it < options_.initIterations && !fibDone && !cut; ++it) {
     double delta = 0.0;
     for (std::size_t a = 0; a < a_ && !cut; ++a) {
-      const auto& z = m_.observationMatrix(a);
+      const std::size_t slots = m_.possibleObservations(a).size();
       for (std::size_t s = 0; s < s_; ++s) {
         // An unfinished iteration is dropped (q stays the last complete one).
         if ((s & 63) == 0 && late(fibDeadline)) {
@@ -289,14 +300,19 @@ void PointBasedSolver::initUpper(double mdpDeadline, double setupEnd) {
           break;
         }
         double val = r(s, a);
-        const auto& succ = m_.successors(s, a);
-        for (std::size_t o : m_.possibleObservations(a)) {
-          double best = -kInf;
-          for (std::size_t a2 = 0; a2 < a_; ++a2) {
-            double sum = 0.0;
-            for (const auto& e : succ) sum += e.second * z(e.first, o) * q(e.first, a2);
-            best = std::max(best, sum);
+        acc.assign(slots * a_, 0.0);
+        for (const auto& e : m_.successors(s, a)) {
+          const auto s1 = static_cast<Eigen::Index>(e.first);
+          for (const auto& z : m_.observationRow(e.first, a)) {
+            const double w = e.second * z.second;
+            double* row = &acc[slotOf[a][z.first] * a_];
+            for (std::size_t a2 = 0; a2 < a_; ++a2)
+              row[a2] += w * q(s1, static_cast<Eigen::Index>(a2));
           }
+        }
+        for (std::size_t k = 0; k < slots; ++k) {
+          double best = -kInf;
+          for (std::size_t a2 = 0; a2 < a_; ++a2) best = std::max(best, acc[k * a_ + a2]);
           val += gamma_ * best;
         }
         next(s, a) = std::min(val, q(s, a));  // keep the sequence monotone under rounding
@@ -538,12 +554,8 @@ void PointBasedSolver::pruneAlphas() {
 
 double PointBasedSolver::successor(const Eigen::VectorXd& b, std::size_t a, std::size_t k,
                                    Eigen::VectorXd& out) const {
-  if (m_.isIdentityTransition(a)) {
-    out = obsCol_[a][k].cwiseProduct(b);
-  } else {
-    out.noalias() = m_.transitionMatrixTransposed(a) * b;
-    out = out.cwiseProduct(obsCol_[a][k]);
-  }
+  m_.predict(a, b, out);
+  out = out.cwiseProduct(obsCol_[a][k]);
   return out.sum();
 }
 
@@ -556,11 +568,7 @@ void PointBasedSolver::upperBackup(const Eigen::VectorXd& b, NodeCache& c) {
   c.p.resize(obsOffset_.back());
   c.u.resize(obsOffset_.back());
   for (std::size_t a = 0; a < a_; ++a) {
-    if (m_.isIdentityTransition(a)) {
-      pred_ = b;
-    } else {
-      pred_.noalias() = m_.transitionMatrixTransposed(a) * b;
-    }
+    m_.predict(a, b, pred_);
     double qU = r.col(static_cast<Eigen::Index>(a)).dot(b);
     for (std::size_t k = 0; k < obsCol_[a].size(); ++k) {
       child_ = obsCol_[a][k].cwiseProduct(pred_);
@@ -612,11 +620,7 @@ void PointBasedSolver::lowerBackup(const Eigen::VectorXd& b) {
   const std::size_t slots = obsOffset_.back();
   children_.resize(S, static_cast<Eigen::Index>(slots));
   for (std::size_t a = 0; a < a_; ++a) {
-    if (m_.isIdentityTransition(a)) {
-      pred_ = b;
-    } else {
-      pred_.noalias() = m_.transitionMatrixTransposed(a) * b;
-    }
+    m_.predict(a, b, pred_);
     for (std::size_t k = 0; k < obsCol_[a].size(); ++k)
       children_.col(static_cast<Eigen::Index>(obsOffset_[a] + k)) =
           obsCol_[a][k].cwiseProduct(pred_);
@@ -643,7 +647,12 @@ void PointBasedSolver::lowerBackup(const Eigen::VectorXd& b) {
       candidate_ = r.col(static_cast<Eigen::Index>(a)) + gamma_ * acc_;
     } else {
       candidate_ = r.col(static_cast<Eigen::Index>(a));
-      candidate_.noalias() += gamma_ * (m_.transitionMatrix(a) * acc_);
+      if (m_.hasDenseTransitions()) {
+        candidate_.noalias() += gamma_ * (m_.transitionMatrix(a) * acc_);
+      } else {
+        m_.expectNext(a, acc_, child_);
+        candidate_ += gamma_ * child_;
+      }
     }
     const double qL = candidate_.dot(b);
     if (qL > bestLower) {
@@ -720,15 +729,25 @@ void PointBasedSolver::trial() {
     lowerBackup(path_[d]);
   }
   ++trials_;
+  const double lowerBefore = rootLower_;
   rootLower_ = std::max(rootLower_, lowerRaw(b0_.data()));
   rootUpper_ = std::min(rootUpper_, upperRaw(b0_.data()));
   // Trials that stop at the weight cutoff may stop improving the root (its gap then sits in
-  // many light nodes): after kStallTrials trials without progress, halve the cutoff.
+  // many light nodes): after kStallTrials trials without progress, halve the cutoff. The lower
+  // bound is watched on its own too: on RockSample the upper bound kept shrinking (so the gap
+  // "progressed") while the lower bound sat at its 0.6 s value for the rest of a 10 s run, the
+  // light nodes where its plans improve never being reached.
   constexpr std::size_t kStallTrials = 16;
   if (rootUpper_ - rootLower_ < rootGap * (1.0 - 1e-9)) {
     stalled_ = 0;
   } else if (++stalled_ >= kStallTrials) {
     stalled_ = 0;
+    cutoffScale_ *= 0.5;
+  }
+  if (rootLower_ > lowerBefore + 1e-9 * (1.0 + std::abs(lowerBefore))) {
+    lowerStalled_ = 0;
+  } else if (++lowerStalled_ >= 4 * kStallTrials) {
+    lowerStalled_ = 0;
     cutoffScale_ *= 0.5;
   }
 }

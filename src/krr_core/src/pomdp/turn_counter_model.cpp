@@ -35,11 +35,11 @@ Model withTurnCounter(const Model& m, const Belief& b0, int turnLimit) {
   std::vector<Eigen::MatrixXd> tr(A, Eigen::MatrixXd::Zero(n, n)), z(A);
   Eigen::MatrixXd r(n, static_cast<Eigen::Index>(A));
   for (std::size_t a = 0; a < A; ++a) {
-    z[a].resize(n, static_cast<Eigen::Index>(O));
+    z[a].setZero(n, static_cast<Eigen::Index>(O));
     for (std::size_t t = 0; t <= L; ++t)
       for (std::size_t s = 0; s < S; ++s) {
         const auto row = idx(s, t);
-        z[a].row(row) = m.observationMatrix(a).row(static_cast<Eigen::Index>(s));
+        for (const auto& e : m.observationRow(s, a)) z[a](row, static_cast<Eigen::Index>(e.first)) = e.second;
         r(row, static_cast<Eigen::Index>(a)) = m.getExpectedReward(s, a);
         if (m.isTerminal(s)) {
           tr[a](row, row) = 1.0;  // absorbing at its turn, zero reward

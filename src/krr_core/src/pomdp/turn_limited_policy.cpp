@@ -123,10 +123,11 @@ std::vector<double> TurnLimitedPolicy::lookahead(const Model& m, const Belief& b
       throw ConfigError("turn-limited policy: lookahead of action " + std::to_string(a) +
                         " on a model with " + std::to_string(m.getA()) + " actions");
     q[k] = m.rewardMatrix().col(static_cast<Eigen::Index>(a)).dot(b);
-    const Belief pred =
-        m.isIdentityTransition(a) ? b : Belief(m.transitionMatrixTransposed(a) * b);
+    Belief pred;
+    m.predict(a, b, pred);
     for (std::size_t o : m.possibleObservations(a)) {
-      Belief child = m.observationMatrix(a).col(static_cast<Eigen::Index>(o)).cwiseProduct(pred);
+      Belief child = pred;
+      m.weightByObservation(a, o, child);
       const double p = child.sum();
       if (!(p > 0.0)) continue;
       child /= p;

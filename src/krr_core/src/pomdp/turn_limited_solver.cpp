@@ -13,6 +13,7 @@ namespace pomdp {
 namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kImprove = 1e-12;  // smallest bound change worth recording
+
 }  // namespace
 
 TurnLimitedSolver::TurnLimitedSolver(const Model& model, const Belief& b0, int turnLimit,
@@ -45,7 +46,7 @@ TurnLimitedSolver::TurnLimitedSolver(const Model& model, const Belief& b0, int t
     if (!ends) {
       continuing_.push_back(a);
       for (std::size_t o : m_.possibleObservations(a))
-        obsCol_[a].push_back(m_.observationMatrix(a).col(static_cast<Eigen::Index>(o)));
+        obsCol_[a].push_back(m_.observationColumn(a, o));
     }
     slotOffset_[a + 1] = slotOffset_[a] + obsCol_[a].size();
   }
@@ -87,7 +88,7 @@ void TurnLimitedSolver::initBounds() {
         q.col(ai) = r.col(ai);
         continue;
       }
-      const auto& z = m_.observationMatrix(a);
+      const Eigen::MatrixXd z = m_.denseObservation(a);  // dialog-size models only
       for (std::size_t s = 0; s < s_; ++s) {
         double val = r(static_cast<Eigen::Index>(s), ai);
         for (std::size_t o : m_.possibleObservations(a)) {
@@ -261,7 +262,7 @@ void TurnLimitedSolver::addPoint(int t, const Eigen::VectorXd& b, double v) {
 
 void TurnLimitedSolver::predict(const Eigen::VectorXd& b, std::size_t a, Eigen::VectorXd& out) const {
   if (m_.isIdentityTransition(a)) out = b;
-  else out.noalias() = m_.transitionMatrixTransposed(a) * b;
+  else m_.predict(a, b, out);
 }
 
 void TurnLimitedSolver::upperBackup(const Eigen::VectorXd& b, int t, NodeCache& c) {
@@ -358,7 +359,12 @@ void TurnLimitedSolver::lowerBackup(const Eigen::VectorXd& b, int t) {
           Eigen::Map<const Eigen::VectorXd>(bestVec[slotOffset_[a] + k], S));
     candidate_ = r.col(static_cast<Eigen::Index>(a));
     if (m_.isIdentityTransition(a)) candidate_ += gamma_ * acc_;
-    else candidate_.noalias() += gamma_ * (m_.transitionMatrix(a) * acc_);
+    else if (m_.hasDenseTransitions())
+      candidate_.noalias() += gamma_ * (m_.transitionMatrix(a) * acc_);
+    else {
+      m_.expectNext(a, acc_, child_);
+      candidate_ += gamma_ * child_;
+    }
     const double v = candidate_.dot(b);
     if (v > bestValue) {
       bestValue = v;

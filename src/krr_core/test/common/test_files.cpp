@@ -17,6 +17,7 @@
 #include "krr_core/common/limits.h"
 #include "krr_core/common/main_guard.h"
 #include "krr_core/common/random.h"
+#include "krr_core/common/resource_locator.h"
 
 namespace {
 

@@ -6,24 +6,17 @@
 #include <memory>
 #include <string>
 
-#include "krr_core/common/files.h"
-#include "krr_core/kb/nav_domain.h"
+#include "../support/nav_fixtures.h"
 #include "krr_core/mdp/sparse_model.h"
-#include "krr_core/nav/occupancy_grid.h"
 
 namespace delivery_test {
 
-inline std::string repo(const std::string& rel) {
-  return std::string(KRR_TEST_DATA_DIR) + "/../../../../" + rel;
-}
+inline std::string repo(const std::string& rel) { return krr_test::repoPath(rel); }
 inline std::string data(const std::string& rel) {
   return std::string(KRR_TEST_DATA_DIR) + "/dialog/" + rel;
 }
 
-inline std::string tempDir(const char* tag) {
-  std::string t = std::string("/tmp/krr_") + tag + "_XXXXXX";
-  return ::mkdtemp(&t[0]);
-}
+inline std::string tempDir(const char* tag) { return krr_test::tempDir(tag); }
 
 /**
  * A 7 x 3 corridor of 1 m cells:
@@ -34,30 +27,12 @@ inline std::string tempDir(const char* tag) {
  */
 inline krr::kb::NavDomain corridor(int step_limit = 40,
                                    const krr::nav::SimulatorConfig& sim = krr::nav::SimulatorConfig()) {
-  krr::nav::OccupancyGrid map;
-  map.width = 7;
-  map.height = 3;
-  map.resolution = 1.0;
-  map.data.assign(21, krr::nav::kFree);
-  krr::nav::PlacesFile places;
-  places.places.push_back({"shop", {0.5, 1.5}, false, {}});
-  places.places.push_back({"room1", {0.5, 2.5}, false, {}});
-  places.places.push_back({"room2", {6.5, 1.5}, false, {}});
-  places.areas.push_back({"ba1", {3.0, 0.0, 4.0, 3.0}});
-  krr::nav::NavGridOptions opt;
-  opt.cols = 7;
-  opt.rows = 3;
-  krr::kb::NavDomain d;
-  d.domain.name = "corridor";
-  d.domain.step_limit = step_limit;
-  d.config.simulator = sim;
-  d.grid = std::make_shared<krr::nav::NavGrid>(krr::nav::NavGrid::fromMap(map, places, opt));
-  d.space = std::make_shared<krr::kb::NavStateSpace>(*d.grid);
-  d.simulator = std::make_shared<krr::nav::BlockageSimulator>(*d.grid, d.config.simulator);
-  const std::string geometry = tempDir("delivery_geo") + "/geometry.plog";
-  krr::writeFileAtomic(geometry, d.grid->toPlog("corridor"));
-  d.knowledge_files = {geometry, repo("config/navigation.plog")};
-  return d;
+  using krr_test::place;
+  return krr_test::makeNavDomain(
+      krr_test::makeGrid(7, 3, krr_test::places({place("shop", 0, 1), place("room1", 0, 2),
+                                                 place("room2", 6, 1)},
+                                                {{"ba1", {3.0, 0.0, 4.0, 3.0}}})),
+      "corridor", step_limit, sim);
 }
 
 /// Moves always succeed, nothing slips: navigation outcomes depend only on blocking.
@@ -71,19 +46,9 @@ inline krr::nav::SimulatorConfig exactMoves() {
 
 /// 4 x 1 chain of 1 m cells: shop (cell 0), room1 (cell 1), room2 (cell 3).
 inline krr::nav::NavGrid chain() {
-  krr::nav::OccupancyGrid map;
-  map.width = 4;
-  map.height = 1;
-  map.resolution = 1.0;
-  map.data.assign(4, krr::nav::kFree);
-  krr::nav::PlacesFile places;
-  places.places.push_back({"shop", {0.5, 0.5}, false, {}});
-  places.places.push_back({"room1", {1.5, 0.5}, false, {}});
-  places.places.push_back({"room2", {3.5, 0.5}, false, {}});
-  krr::nav::NavGridOptions opt;
-  opt.cols = 4;
-  opt.rows = 1;
-  return krr::nav::NavGrid::fromMap(map, places, opt);
+  using krr_test::place;
+  return krr_test::makeGrid(
+      4, 1, krr_test::places({place("shop", 0, 0), place("room1", 1, 0), place("room2", 3, 0)}));
 }
 
 /// Every move along the chain arrives with probability p and traps the robot otherwise;

@@ -1,11 +1,9 @@
-// The navigation transfer experiment (learn shop->room1, extract, apply to shop->room2) on an
-// 8 x 3 corridor built in code:
-//   row 2:  . . . . . . . room1
-//   row 1:  shop . . . . . . .
-//   row 0:  . . . B B . . room2        B = blocking area ba1
+// The navigation transfer experiment (learn shop->room1, extract, apply to shop->room2) on the
+// 8 x 3 corridor of krr_test::corridor8x3 (room2's route crosses blocking area ba1).
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include "../support/nav_fixtures.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/experiments/nav_transfer.h"
@@ -15,36 +13,7 @@ namespace {
 using krr::kb::NavDomain;
 using krr::kb::NavTransferOptions;
 
-const std::string kNavPlog = std::string(KRR_TEST_DATA_DIR) + "/../../../../config/navigation.plog";
-
-NavDomain tinyDomain() {
-  krr::nav::OccupancyGrid map;
-  map.width = 8;
-  map.height = 3;
-  map.resolution = 1.0;
-  map.data.assign(24, krr::nav::kFree);
-  krr::nav::PlacesFile places;
-  places.places.push_back({"shop", {0.5, 1.5}, false, {}});
-  places.places.push_back({"room1", {7.5, 2.5}, false, {}});
-  places.places.push_back({"room2", {7.5, 0.5}, false, {}});
-  places.areas.push_back({"ba1", {3.0, 0.0, 5.0, 1.0}});
-  krr::nav::NavGridOptions opt;
-  opt.cols = 8;
-  opt.rows = 3;
-  NavDomain d;
-  d.domain.name = "tiny";
-  d.domain.cols = 8;
-  d.domain.rows = 3;
-  d.domain.step_limit = 60;
-  d.grid = std::make_shared<krr::nav::NavGrid>(krr::nav::NavGrid::fromMap(map, places, opt));
-  d.space = std::make_shared<krr::kb::NavStateSpace>(*d.grid);
-  d.simulator = std::make_shared<krr::nav::BlockageSimulator>(*d.grid, d.config.simulator);
-  char tmpl[] = "/tmp/krr_transfer_XXXXXX";
-  const std::string geometry = std::string(::mkdtemp(tmpl)) + "/tiny_geometry.plog";
-  krr::writeFileAtomic(geometry, d.grid->toPlog("tiny"));
-  d.knowledge_files = {geometry, kNavPlog};
-  return d;
-}
+NavDomain tinyDomain() { return krr_test::corridor8x3("tiny"); }
 
 NavTransferOptions tinyOptions() {
   NavTransferOptions o;
@@ -130,20 +99,22 @@ TEST(NavTransfer, OptionsFileIsReadAndValidated) {
     krr::writeFileAtomic(dir + "/o.yaml", text);
     return krr::kb::loadNavTransferOptions(dir + "/o.yaml");
   };
-  const auto o = load("target: room5\ntarget_episodes: 40\nrmax: {known_threshold: 3, step_cost: 0.5}\n");
+  const auto o = load("nav_transfer: {target: room5, target_episodes: 40}\n"
+                      "rmax_learning: {known_threshold: 3}\nplanning: {step_cost: 0.5}\n");
   EXPECT_EQ(o.target, "room5");
   EXPECT_EQ(o.target_episodes, 40u);
   EXPECT_EQ(o.rmax.known_threshold, 3u);
   EXPECT_EQ(o.rmax.step_cost, 0.5);
   EXPECT_EQ(o.rmax.rmax, 40.0);  // untouched default
   for (const auto& [text, what] : std::vector<std::pair<std::string, std::string>>{
+           {"nav_transfer: {targt: room5}\n", "unknown field 'nav_transfer.targt'"},
            {"targt: room5\n", "unknown field 'targt'"},
-           {"target_episodes: 0\n", "target_episodes"},
-           {"blocking_rate: 1.5\n", "blocking_rate"},
-           {"rmax: {known_threshold: 0}\n", "rmax.known_threshold"},
-           {"rmax: {speed: 1}\n", "unknown field 'rmax.speed'"},
-           {"target: room1\n", "same as source"},
-           {"rmax: [1, 2\n", "not valid YAML"}}) {
+           {"nav_transfer: {target_episodes: 0}\n", "target_episodes"},
+           {"simulator: {blocking_rate: 1.5}\n", "blocking_rate"},
+           {"rmax_learning: {known_threshold: 0}\n", "rmax_learning.known_threshold"},
+           {"rmax_learning: {speed: 1}\n", "unknown field 'rmax_learning.speed'"},
+           {"nav_transfer: {target: room1}\n", "same as source"},
+           {"rmax_learning: [1, 2\n", "not valid YAML"}}) {
     try {
       load(text);
       ADD_FAILURE() << "no ConfigError for " << text;
@@ -152,10 +123,16 @@ TEST(NavTransfer, OptionsFileIsReadAndValidated) {
       EXPECT_NE(std::string(e.what()).find("o.yaml"), std::string::npos) << e.what();
     }
   }
-  // The shipped defaults load.
+  // The shipped experiment loads over its base, config/navigation.yaml (reward, R-Max, br),
+  // changing only M.
   const auto shipped = krr::kb::loadNavTransferOptions(
-      std::string(KRR_TEST_DATA_DIR) + "/../../../../config/nav_transfer.yaml");
+      std::string(KRR_TEST_DATA_DIR) + "/../../../../config/experiments/nav_transfer.yaml");
   EXPECT_EQ(shipped.rmax.rmax, 40.0);  // the paper's Rmax
+  EXPECT_EQ(shipped.rmax.step_cost, 1.0);
+  EXPECT_EQ(shipped.rmax.known_threshold, 3u);
+  EXPECT_EQ(shipped.rmax.discount, 0.95);
+  EXPECT_EQ(shipped.rmax.replan_every, 10u);
+  EXPECT_EQ(shipped.blocking_rate, 0.3);
 }
 
 TEST(NavTransfer, InvalidOptionsAreRefused) {

@@ -17,6 +17,7 @@
 #include <map>
 #include <set>
 
+#include "../support/nav_fixtures.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/experiments/new_circumstances.h"
@@ -28,25 +29,11 @@ using krr::kb::NavigationKnowledge;
 using krr::mdp::StateId;
 
 const std::string kData = KRR_TEST_DATA_DIR;
-const std::string kNavPlog = kData + "/../../../../config/navigation.plog";
+const std::string kNavPlog = krr_test::repoPath("config/navigation.plog");
 const std::string kGeometry = kData + "/kb/tiny_geometry.plog";
 constexpr int kUp = 0, kRight = 3;
 
-krr::nav::NavGrid tinyGrid() {
-  krr::nav::OccupancyGrid map;
-  map.width = 3;
-  map.height = 2;
-  map.resolution = 1.0;
-  map.data.assign(6, krr::nav::kFree);
-  krr::nav::PlacesFile places;
-  places.places.push_back({"shop", {0.5, 0.5}, false, {}});
-  places.places.push_back({"room1", {2.5, 1.5}, false, {}});
-  places.areas.push_back({"ba1", {1.0, 1.0, 2.0, 2.0}});
-  krr::nav::NavGridOptions opt;
-  opt.cols = 3;
-  opt.rows = 2;
-  return krr::nav::NavGrid::fromMap(map, places, opt);
-}
+using krr_test::tinyGrid;
 
 /// Known pair (cell, move) learned from outcome cells (-1 = trapped), one sample each.
 krr::mdp::KnownPair pairOf(const NavigationKnowledge& kb, int cell, int move,
@@ -118,41 +105,21 @@ TEST(NewCircumstances, MergedModelIsTheMixtureWeightedByThePriorOverTime) {
 //   row 1: . # # # # # # # .
 //   row 0: . . . D D D . . .      D: ba2 / ba3, busier in the morning (x3) than at noon
 NavDomain corridors() {
-  krr::nav::OccupancyGrid map;
-  map.width = 9;
-  map.height = 5;
-  map.resolution = 1.0;
-  map.data.assign(45, krr::nav::kFree);
-  for (int c = 1; c <= 7; ++c) {
-    map.data[static_cast<size_t>(map.index(c, 1))] = krr::nav::kOccupied;
-    map.data[static_cast<size_t>(map.index(c, 3))] = krr::nav::kOccupied;
-  }
-  krr::nav::PlacesFile places;
-  places.places.push_back({"shop", {0.5, 2.5}, false, {}});
-  places.places.push_back({"room1", {8.5, 2.5}, false, {}});
-  places.areas.push_back({"ba1", {3.0, 2.0, 6.0, 3.0}});
-  places.areas.push_back({"ba2", {3.0, 4.0, 6.0, 5.0}});
-  places.areas.push_back({"ba3", {3.0, 0.0, 6.0, 1.0}});
-  krr::nav::NavGridOptions opt;
-  opt.cols = 9;
-  opt.rows = 5;
-  NavDomain d;
-  d.domain.name = "corridors";
-  d.domain.step_limit = 60;
-  d.config.simulator.trap_reference_cell_size = 0;  // trap probability per blocked step as is
-  d.config.simulator.trap_probability = 0.3;
+  std::vector<std::pair<int, int>> walls;
+  for (int c = 1; c <= 7; ++c) walls.insert(walls.end(), {{c, 1}, {c, 3}});
+  krr::nav::SimulatorConfig sim;
+  sim.trap_reference_cell_size = 0;  // trap probability per blocked step as is
+  sim.trap_probability = 0.3;
   // With br 0.1: morning ba1 0.1, ba2/ba3 0.3; noon ba1 0.8, ba2/ba3 0.1.
-  d.config.simulator.areas["ba1"].time_factor = {{"noon", 8.0}, {"afternoon", 8.0}};
+  sim.areas["ba1"].time_factor = {{"noon", 8.0}, {"afternoon", 8.0}};
   for (const char* a : {"ba2", "ba3"})
-    d.config.simulator.areas[a].time_factor = {{"morning", 3.0}, {"afternoon", 3.0}};
-  d.grid = std::make_shared<krr::nav::NavGrid>(krr::nav::NavGrid::fromMap(map, places, opt));
-  d.space = std::make_shared<krr::kb::NavStateSpace>(*d.grid);
-  d.simulator = std::make_shared<krr::nav::BlockageSimulator>(*d.grid, d.config.simulator);
-  char tmpl[] = "/tmp/krr_newcirc_XXXXXX";
-  const std::string geometry = std::string(::mkdtemp(tmpl)) + "/geometry.plog";
-  krr::writeFileAtomic(geometry, d.grid->toPlog("corridors"));
-  d.knowledge_files = {geometry, kNavPlog};
-  return d;
+    sim.areas[a].time_factor = {{"morning", 3.0}, {"afternoon", 3.0}};
+  using krr_test::place;
+  const auto named = krr_test::places({place("shop", 0, 2), place("room1", 8, 2)},
+                                      {{"ba1", {3.0, 2.0, 6.0, 3.0}},
+                                       {"ba2", {3.0, 4.0, 6.0, 5.0}},
+                                       {"ba3", {3.0, 0.0, 6.0, 1.0}}});
+  return krr_test::makeNavDomain(krr_test::makeGrid(9, 5, named, walls), "corridors", 60, sim);
 }
 
 krr::kb::NewCircumstancesOptions smallOptions() {
@@ -402,8 +369,8 @@ TEST(NewCircumstances, OptionsFileIsValidated) {
     krr::writeFileAtomic(dir + "/o.yaml", text);
     return krr::kb::loadNewCircumstancesOptions(dir + "/o.yaml");
   };
-  auto o = load("goal: room5\nunknown_count: 3\nlearning_runs: 0\nrmax: {known_threshold: 7}\n"
-                "plan: {discount: 1}\nextraction: areas\n");
+  auto o = load("new_circumstances: {goal: room5, unknown_count: 3, learning_runs: 0, extraction: areas}\n"
+                "rmax_learning: {known_threshold: 7}\nplanning: {discount: 1}\n");
   EXPECT_EQ(o.goal, "room5");
   EXPECT_EQ(o.unknown_count, 3u);
   EXPECT_EQ(o.learning_runs, 0u);
@@ -420,24 +387,41 @@ TEST(NewCircumstances, OptionsFileIsValidated) {
     }
   };
   expectError("gaol: room5\n", "unknown field 'gaol'");
-  expectError("unknown_times: [morning, noon]\n", "use unknown_count");
-  expectError("unknown_count: 1\n", "unknown_count");
-  expectError("unknown_count: 4\n", "unknown_count");
-  expectError("learn_times: [morning, noon]\nunknown_count: 3\n", "unknown_count");
-  expectError("learn_times: [morning]\n", "learn_times");
-  expectError("learn_times: [morning, morning]\n", "listed twice");
-  expectError("learn_times: ['mor,ning', noon]\n", "learn_times");
-  expectError("learning_runs: -1\n", "learning_runs");
-  expectError("learning_runs: 2.5\n", "learning_runs");
-  expectError("learning_runs: many\n", "learning_runs");
-  expectError("extraction: both\n", "extraction");
-  expectError("learn_episodes: -3\n", "learn_episodes");
-  expectError("rmax: {optimism: maybe}\n", "rmax.optimism");
-  expectError("plan: {discount: 2}\n", "plan.discount");
-  expectError("goal: shop\n", "same as start");
-  expectError("selector: [a]\n", "selector");
-  expectError("blocking_rate: 1.5\n", "blocking_rate");
+  expectError("new_circumstances: {gaol: room5}\n", "unknown field 'new_circumstances.gaol'");
+  expectError("new_circumstances: {unknown_times: [morning, noon]}\n", "use unknown_count");
+  expectError("new_circumstances: {unknown_count: 1}\n", "unknown_count");
+  expectError("new_circumstances: {unknown_count: 4}\n", "unknown_count");
+  expectError("new_circumstances: {learn_times: [morning, noon], unknown_count: 3}\n", "unknown_count");
+  expectError("new_circumstances: {learn_times: [morning]}\n", "learn_times");
+  expectError("new_circumstances: {learn_times: [morning, morning]}\n", "listed twice");
+  expectError("new_circumstances: {learn_times: ['mor,ning', noon]}\n", "learn_times");
+  expectError("new_circumstances: {learning_runs: -1}\n", "learning_runs");
+  expectError("new_circumstances: {learning_runs: 2.5}\n", "learning_runs");
+  expectError("new_circumstances: {learning_runs: many}\n", "learning_runs");
+  expectError("new_circumstances: {extraction: both}\n", "extraction");
+  expectError("new_circumstances: {learn_episodes: -3}\n", "learn_episodes");
+  expectError("rmax_learning: {optimism: maybe}\n", "rmax_learning.optimism");
+  expectError("planning: {discount: 2}\n", "planning.discount");
+  expectError("new_circumstances: {goal: shop}\n", "same as start");
+  expectError("new_circumstances: {selector: [a]}\n", "selector");
+  expectError("simulator: {blocking_rate: 1.5}\n", "blocking_rate");
   EXPECT_THROW(krr::kb::loadNewCircumstancesOptions(dir + "/missing.yaml"), krr::IoError);
+  // The shipped experiment loads over its base, config/navigation.yaml, changing only what the
+  // experiment changes (br, R-Max optimism / refinement, the controllers' step cost).
+  const auto shipped = krr::kb::loadNewCircumstancesOptions(
+      kData + "/../../../../config/experiments/new_circumstances.yaml");
+  EXPECT_EQ(shipped.blocking_rate, 0.1);
+  EXPECT_EQ(shipped.rmax.known_threshold, 5u);
+  EXPECT_EQ(shipped.rmax.rmax, 40.0);
+  EXPECT_EQ(shipped.rmax.step_cost, 1.0);
+  EXPECT_EQ(shipped.rmax.discount, 0.95);
+  EXPECT_EQ(shipped.rmax.replan_every, 10u);
+  EXPECT_EQ(shipped.rmax.optimism, krr::mdp::Optimism::kSelfLoop);
+  EXPECT_TRUE(shipped.rmax.refine_known);
+  EXPECT_EQ(shipped.plan_discount, 0.99);
+  EXPECT_EQ(shipped.plan_step_cost, 0.2);
+  EXPECT_EQ(shipped.plan_rmax, 40.0);
+  EXPECT_EQ(shipped.learning_runs, 5u);
 }
 
 TEST(NewCircumstances, BadValuesAtRunTimeAreTypedErrors) {

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <string>
 
+#include "../support/nav_fixtures.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/kb/area_knowledge.h"
@@ -20,7 +21,7 @@ using namespace krr;
 using namespace krr::kb;
 
 const std::string kData = KRR_TEST_DATA_DIR;
-const std::string kNavPlog = kData + "/../../../../config/navigation.plog";
+const std::string kNavPlog = krr_test::repoPath("config/navigation.plog");
 
 /// 5 x 3 grid of 1 m cells; blocking area ba1 = column 2 (all rows), ba2 = cell (4, 0).
 struct World {
@@ -28,22 +29,11 @@ struct World {
   std::string geometry;
   nav::SimulatorConfig sim;
   World() {
-    nav::OccupancyGrid map;
-    map.width = 5;
-    map.height = 3;
-    map.resolution = 1.0;
-    map.data.assign(15, nav::kFree);
-    nav::PlacesFile places;
-    places.places.push_back({"shop", {0.5, 1.5}, false, {}});
-    places.places.push_back({"room1", {4.5, 1.5}, false, {}});
-    places.areas.push_back({"ba1", {2.0, 0.0, 3.0, 3.0}});
-    places.areas.push_back({"ba2", {4.0, 0.0, 5.0, 1.0}});
-    nav::NavGridOptions opt;
-    opt.cols = 5;
-    opt.rows = 3;
-    grid = nav::NavGrid::fromMap(map, places, opt);
-    std::string dir = "/tmp/krr_area_XXXXXX";
-    geometry = std::string(::mkdtemp(&dir[0])) + "/geometry.plog";
+    using krr_test::place;
+    grid = krr_test::makeGrid(5, 3, krr_test::places({place("shop", 0, 1), place("room1", 4, 1)},
+                                                     {{"ba1", {2.0, 0.0, 3.0, 3.0}},
+                                                      {"ba2", {4.0, 0.0, 5.0, 1.0}}}));
+    geometry = krr_test::tempDir("area") + "/geometry.plog";
     writeFileAtomic(geometry, grid.toPlog("area_test"));
     sim.move_success = 0.9;
     sim.slip_stay = 0.06;

@@ -1,7 +1,8 @@
-// Procedure 1 on an 8 x 3 corridor with three places (see test_nav_transfer.cpp for the map).
+// Procedure 1 on an 8 x 3 corridor with three places (krr_test::corridor8x3).
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include "../support/nav_fixtures.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/kb/free_time_learner.h"
@@ -11,33 +12,7 @@ namespace {
 
 using namespace krr::kb;
 
-const std::string kNavPlog = std::string(KRR_TEST_DATA_DIR) + "/../../../../config/navigation.plog";
-
-NavDomain corridor() {
-  krr::nav::OccupancyGrid map;
-  map.width = 8;
-  map.height = 3;
-  map.resolution = 1.0;
-  map.data.assign(24, krr::nav::kFree);
-  krr::nav::PlacesFile places;
-  places.places.push_back({"shop", {0.5, 1.5}, false, {}});
-  places.places.push_back({"room1", {7.5, 2.5}, false, {}});
-  places.places.push_back({"room2", {7.5, 0.5}, false, {}});
-  places.areas.push_back({"ba1", {3.0, 0.0, 5.0, 1.0}});
-  krr::nav::NavGridOptions opt;
-  opt.cols = 8;
-  opt.rows = 3;
-  NavDomain d;
-  d.domain.step_limit = 60;
-  d.grid = std::make_shared<krr::nav::NavGrid>(krr::nav::NavGrid::fromMap(map, places, opt));
-  d.space = std::make_shared<NavStateSpace>(*d.grid);
-  d.simulator = std::make_shared<krr::nav::BlockageSimulator>(*d.grid, d.config.simulator);
-  char tmpl[] = "/tmp/krr_ftl_XXXXXX";
-  const std::string geometry = std::string(::mkdtemp(tmpl)) + "/geometry.plog";
-  krr::writeFileAtomic(geometry, d.grid->toPlog("corridor"));
-  d.knowledge_files = {geometry, kNavPlog};
-  return d;
-}
+NavDomain corridor() { return krr_test::corridor8x3("corridor"); }
 
 FreeTimeOptions options() {
   FreeTimeOptions o;

@@ -12,6 +12,7 @@
 #include <tuple>
 #include <vector>
 
+#include "../support/nav_fixtures.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/kb/navigation_knowledge.h"
@@ -22,24 +23,10 @@ using krr::kb::NavigationKnowledge;
 using krr::mdp::StateId;
 
 const std::string kData = KRR_TEST_DATA_DIR;
-const std::string kNavPlog = kData + "/../../../../config/navigation.plog";
+const std::string kNavPlog = krr_test::repoPath("config/navigation.plog");
 const std::string kGeometry = kData + "/kb/tiny_geometry.plog";
 
-krr::nav::NavGrid tinyGrid() {
-  krr::nav::OccupancyGrid map;
-  map.width = 3;
-  map.height = 2;
-  map.resolution = 1.0;
-  map.data.assign(6, krr::nav::kFree);
-  krr::nav::PlacesFile places;
-  places.places.push_back({"shop", {0.5, 0.5}, false, {}});
-  places.places.push_back({"room1", {2.5, 1.5}, false, {}});
-  places.areas.push_back({"ba1", {1.0, 1.0, 2.0, 2.0}});
-  krr::nav::NavGridOptions opt;
-  opt.cols = 3;
-  opt.rows = 2;
-  return krr::nav::NavGrid::fromMap(map, places, opt);
-}
+using krr_test::tinyGrid;
 
 double row(const krr::kb::NavModel& m, const NavigationKnowledge& kb, int cell, int move, int to) {
   const StateId s1 = to < 0 ? kb.space().trappedState() : kb.space().stateOf(to);
@@ -291,17 +278,8 @@ TEST(NavigationKnowledge, MalformedLearnedFileIsRejectedAndNothingIsLost) {
 }
 
 TEST(NavigationKnowledge, GeometryForAnotherGridIsRejected) {
-  krr::nav::OccupancyGrid map;
-  map.width = 4;
-  map.height = 2;
-  map.resolution = 1.0;
-  map.data.assign(8, krr::nav::kFree);
-  krr::nav::PlacesFile places;
-  places.areas.push_back({"ba1", {1.0, 1.0, 2.0, 2.0}});
-  krr::nav::NavGridOptions opt;
-  opt.cols = 4;
-  opt.rows = 2;
-  auto grid = krr::nav::NavGrid::fromMap(map, places, opt);
+  const auto grid =
+      krr_test::makeGrid(4, 2, krr_test::places({}, {{"ba1", {1.0, 1.0, 2.0, 2.0}}}));
   EXPECT_THROW(NavigationKnowledge(grid, {kGeometry, kNavPlog}), krr::ConfigError);
 }
 

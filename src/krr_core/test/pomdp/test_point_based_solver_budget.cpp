@@ -142,7 +142,7 @@ TEST(PointBasedSolverBudget, SweptBlindPoliciesMatchTheExactSolve) {
   double exact = -1e300;
   const auto n = static_cast<Eigen::Index>(S);
   for (std::size_t a = 0; a < 2; ++a) {
-    Eigen::MatrixXd lhs = Eigen::MatrixXd::Identity(n, n) - 0.95 * m.transitionMatrix(a);
+    Eigen::MatrixXd lhs = Eigen::MatrixXd::Identity(n, n) - 0.95 * m.denseTransition(a);
     const Eigen::VectorXd alpha =
         lhs.partialPivLu().solve(m.rewardMatrix().col(static_cast<Eigen::Index>(a)));
     exact = std::max(exact, alpha.dot(b0));
@@ -154,8 +154,8 @@ TEST(PointBasedSolverBudget, SweptBlindPoliciesMatchTheExactSolve) {
 // Building the dense model is bounded too (pomdp_solve passes what is left of --timeout).
 TEST(PointBasedSolverBudget, ModelConstructionStopsAtItsTimeLimit) {
   const Model m = randomModel(11, 300, 2, 2, 300);
-  std::vector<Eigen::MatrixXd> t{m.transitionMatrix(0), m.transitionMatrix(1)};
-  std::vector<Eigen::MatrixXd> z{m.observationMatrix(0), m.observationMatrix(1)};
+  std::vector<Eigen::MatrixXd> t{m.denseTransition(0), m.denseTransition(1)};
+  std::vector<Eigen::MatrixXd> z{m.denseObservation(0), m.denseObservation(1)};
   try {
     Model late(t, z, m.rewardMatrix(), 0.95, 1e-12);
     ADD_FAILURE() << "no time limit";

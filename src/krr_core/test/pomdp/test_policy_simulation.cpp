@@ -52,6 +52,11 @@ SimResult simulate(const Model& m, const AlphaVectorPolicy& policy, const Belief
   const double gamma = m.getDiscount();
   double sum = 0.0, sum2 = 0.0;
   Belief b(S), next(S);
+  std::vector<Eigen::MatrixXd> tm, zm;  // dense copies, whatever the model's own storage
+  for (std::size_t a = 0; a < m.getA(); ++a) {
+    tm.push_back(m.denseTransition(a));
+    zm.push_back(m.denseObservation(a));
+  }
   for (std::size_t e = 0; e < episodes; ++e) {
     Eigen::Index s = draw(b0, rng);
     b = b0;
@@ -71,8 +76,8 @@ SimResult simulate(const Model& m, const AlphaVectorPolicy& policy, const Belief
           a = policy.action(k);
         }
       }
-      const auto& T = m.transitionMatrix(a);
-      const auto& Z = m.observationMatrix(a);
+      const auto& T = tm[a];
+      const auto& Z = zm[a];
       ret += disc * m.rewardMatrix()(s, static_cast<Eigen::Index>(a));
       disc *= gamma;
       const Eigen::Index s1 = draw(T.row(s), rng);
@@ -80,7 +85,7 @@ SimResult simulate(const Model& m, const AlphaVectorPolicy& policy, const Belief
       if (T(s1, s1) == 1.0 && m.rewardMatrix().row(s1).isZero(0.0)) {
         bool absorbing = true;  // zero reward and absorbing under every action: episode over
         for (std::size_t a2 = 0; a2 < m.getA() && absorbing; ++a2)
-          absorbing = m.transitionMatrix(a2)(s1, s1) == 1.0;
+          absorbing = tm[a2](s1, s1) == 1.0;
         if (absorbing) break;
       }
       next.setZero();

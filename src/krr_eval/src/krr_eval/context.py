@@ -16,7 +16,7 @@ CONDITION_LABEL = {"outdated": "without extraction (outdated, learned at br 0.3)
 # ---------------------------------------------------------------------------------------------
 # Settings: defaults (paper), --quick, and how they are resolved
 DEFAULTS = {
-    # target_episodes None: the CLI's config/nav_transfer.yaml decides (100)
+    # target_episodes None: the CLI's config/experiments/nav_transfer.yaml decides (100)
     "exp1": {"trials": 1000, "target_episodes": None, "window": 10, "early_episodes": 30,
              "domains": ["small", "large"]},
     "exp2": {"trials": 40000, "brs": [0.1, 0.5, 0.7], "paper_subsample": 100,
@@ -28,7 +28,7 @@ DEFAULTS = {
     "exp4": {"trials": 10000, "brs": [0.1, 0.5, 0.7], "rooms": ["room1", "room2", "room5"],
              "condition": "learned"},
     # Not stated in the paper either: 1000 trials. learning_runs None: the CLI's
-    # config/new_circumstances.yaml decides (20 learning runs, trial i uses run i mod 20).
+    # config/experiments/new_circumstances.yaml decides (20 learning runs, trial i uses run i mod 20).
     "exp5": {"trials": 1000, "learning_runs": None},
     # The paper's script: the request, then the answers to the robot's questions, which are
     # scripted as in the paper's Figure 4 (a second run lets the policy choose them).

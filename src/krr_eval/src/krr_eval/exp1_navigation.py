@@ -21,7 +21,7 @@ NAV_TRIAL_COST = {"office_30x30": 1.0, "office_50x50": 3.0}
 
 def nav_spec(ctx, domain, trials, episodes=None):
     """nav_transfer for one domain; everything else (M, Rmax, episodes, br, ...) comes from
-    config/nav_transfer.yaml unless `episodes` is given."""
+    config/experiments/nav_transfer.yaml unless `episodes` is given."""
     grid, _ = navigation.DOMAINS[domain]
     args = ["--domain", grid]
     if episodes:
@@ -103,5 +103,5 @@ def exp1_nav_transfer(ctx):
     res.figures.append(png)
     res.notes.append("Each point: mean over %d trials; curves smoothed over %d episodes; step "
                      "limits 200 (30x30) and 300 (50x50) as in the paper; R-Max and experiment "
-                     "settings from config/nav_transfer.yaml." % (n, window))
+                     "settings from config/experiments/nav_transfer.yaml." % (n, window))
     return res

@@ -393,7 +393,7 @@ def exp5_notes(ev):
             parts.append("%s %.3f (sd %.3f, %.3f..%.3f)" % (s, np.mean(x), stats.std(x),
                                                             min(x), max(x)))
         notes.append("Learned knowledge: %d learning run(s), trial i uses run i mod R (R from "
-                     "config/new_circumstances.yaml learning_runs or --learning-runs); each "
+                     "config/experiments/new_circumstances.yaml learning_runs or --learning-runs); each "
                      "setting's own controller in its own setting, exact success over the runs: "
                      "%s." % (len(per_run), "; ".join(parts)))
     return notes

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "krr_core/kb/nav_domain.h"
+#include "krr_core/nav/navigation_config.h"
 #include "krr_ros/params.h"
 
 namespace krr_ros {
@@ -31,6 +32,10 @@ struct NavKbParams {
   /// @brief Load the map, derive the domain's grid, state space and simulator; knowledge_files
   /// are the geometry followed by navigation_files. @throws krr::Error naming file and field.
   krr::kb::NavDomain loadDomain() const;
+  /// @brief The navigation config alone (navigation_config): the navigation task's reward and
+  /// planning discount (`planning`) and R-Max (`rmax_learning`) live there, not in node YAMLs.
+  /// @throws krr::ConfigError naming file and field.
+  krr::nav::NavigationConfig loadConfig() const;
 };
 
 }  // namespace krr_ros

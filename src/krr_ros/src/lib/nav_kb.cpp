@@ -21,6 +21,10 @@ NavKbParams NavKbParams::read(ParamReader& params) {
   return p;
 }
 
+krr::nav::NavigationConfig NavKbParams::loadConfig() const {
+  return krr::nav::loadNavigationConfig(navigation_config);
+}
+
 krr::kb::NavDomain NavKbParams::loadDomain() const {
   krr::kb::NavDomain d =
       krr::kb::NavDomain::load(navigation_config, domain, geometry, navigation_files.front());

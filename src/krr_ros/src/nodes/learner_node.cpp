@@ -57,9 +57,9 @@ struct LearnerParams {
                                       ///< than this taught (almost) nothing;
   long rest_after = 10;               ///< ~rest_after: after so many such tasks in a row ...
   double rest_period = 60;            ///< ~rest_period: ... before resting this long (s)
-  krr::kb::FreeTimeOptions options;   ///< ~time, ~blocking_rate, ~max_*, ~convergence_episodes,
-                                      ///< ~known_threshold, ~rmax, ~discount, ~step_cost,
-                                      ///< ~replan_every
+  krr::kb::FreeTimeOptions options;   ///< ~time, ~blocking_rate, ~max_*, ~convergence_episodes;
+                                      ///< R-Max from navigation.yaml (~known_threshold, ~rmax,
+                                      ///< ~discount, ~step_cost, ~replan_every override it)
   std::uint64_t seed = 1;             ///< ~seed: task selection, simulator, R-Max
 
   static LearnerParams read(krr_ros::ParamReader& r) {
@@ -89,11 +89,19 @@ struct LearnerParams {
     o.max_episodes_per_task = static_cast<std::size_t>(r.integer("max_episodes_per_task", 300, 1, 1000000));
     o.convergence_episodes = static_cast<std::size_t>(r.integer("convergence_episodes", 20, 1, 1000000));
     o.max_tasks = static_cast<std::size_t>(r.integer("max_tasks", 0, 0, 1000000));
-    o.rmax.known_threshold = static_cast<std::uint32_t>(r.integer("known_threshold", 5, 1, 1000000));
-    o.rmax.rmax = r.number("rmax", 40, 1e-6, 1e9);
-    o.rmax.discount = r.number("discount", 0.95, 0.01, 1.0);
-    o.rmax.step_cost = r.number("step_cost", 1, 0, 1e6);
-    o.rmax.replan_every = static_cast<std::uint32_t>(r.integer("replan_every", 10, 0, 1000000));
+    // R-Max: the navigation task's reward (navigation.yaml planning) and learning settings
+    // (rmax_learning); the parameters below only override them (learner_node.yaml sets none).
+    const krr::nav::NavigationConfig nav = p.kb.loadConfig();
+    o.rmax.known_threshold = static_cast<std::uint32_t>(
+        r.integer("known_threshold", nav.rmax_learning.known_threshold, 1, 1000000));
+    o.rmax.rmax = r.number("rmax", nav.planning.rmax, 1e-6, 1e9);
+    o.rmax.discount = r.number("discount", nav.rmax_learning.discount, 0.01, 1.0);
+    o.rmax.step_cost = r.number("step_cost", nav.planning.step_cost, 0, 1e6);
+    o.rmax.replan_every = static_cast<std::uint32_t>(
+        r.integer("replan_every", nav.rmax_learning.replan_every, 0, 1000000));
+    o.rmax.optimism = nav.rmax_learning.optimism == "self_loop" ? krr::mdp::Optimism::kSelfLoop
+                                                                : krr::mdp::Optimism::kTerminalBonus;
+    o.rmax.refine_known = nav.rmax_learning.refine_known;
     if (o.rmax.step_cost >= o.rmax.rmax)
       r.refuse("step_cost", std::to_string(o.rmax.step_cost),
                "must be below rmax = " + std::to_string(o.rmax.rmax));

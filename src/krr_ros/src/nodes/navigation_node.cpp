@@ -51,7 +51,9 @@ struct NavigationParams {
   double blocking_rate = -1;           ///< ~blocking_rate: br of the world (< 0: navigation.yaml)
   double sim_rate = 0;                 ///< ~sim_rate: simulated moves per second (0: no wait)
   long step_limit = 0;                 ///< ~step_limit: moves per goal (0: the domain's)
-  double discount = 0.99, step_cost = 1, rmax = 40;  ///< ~discount, ~step_cost, ~rmax
+  /// ~discount, ~step_cost, ~rmax: overrides of navigation.yaml's planning (not set in
+  /// navigation_node.yaml: the navigation task's settings have one home)
+  double discount = 0.99, step_cost = 1, rmax = 40;
   bool ompl_paths = true;              ///< ~ompl_paths: plan an OMPL path per executed move
   double pose_rate = 10;               ///< ~pose_rate: tf / pose republish rate (Hz)
   std::string map_frame, base_frame;   ///< ~map_frame, ~base_frame
@@ -70,9 +72,10 @@ struct NavigationParams {
     p.blocking_rate = r.number("blocking_rate", -1, -1, 1);
     p.sim_rate = r.number("sim_rate", 0, 0, 1000);
     p.step_limit = r.integer("step_limit", 0, 0, 1000000);
-    p.discount = r.number("discount", 0.99, 0.01, 1.0);
-    p.step_cost = r.number("step_cost", 1.0, 0.0, 1e6);
-    p.rmax = r.number("rmax", 40.0, 1e-6, 1e9);
+    const krr::nav::PlanningConfig planning = p.kb.loadConfig().planning;
+    p.discount = r.number("discount", planning.discount, 0.01, 1.0);
+    p.step_cost = r.number("step_cost", planning.step_cost, 0.0, 1e6);
+    p.rmax = r.number("rmax", planning.rmax, 1e-6, 1e9);
     p.ompl_paths = r.boolean("ompl_paths", true);
     p.pose_rate = r.number("pose_rate", 10, 0.1, 1000);
     p.map_frame = r.str("map_frame", "map");

@@ -44,6 +44,7 @@ struct ReasonerParams {
   krr_ros::NavKbParams nav;               ///< navigation KB files (see nav_kb.h)
   std::string learned_file;               ///< ~learned_file: learned navigation knowledge
   double discount = 0.95;                 ///< ~discount: default discount of built models
+                                          ///< (default: navigation.yaml planning.model_discount)
   double query_seconds = 10.0;            ///< ~query_seconds: grounding / inference budget
   /// ~backend: auto (native engine inside its fragment, clingo otherwise), native or asp
   krr::plog::Backend backend = krr::plog::Backend::Auto;
@@ -63,7 +64,8 @@ struct ReasonerParams {
         p.learned_file == p.domain_learned_file)
       r.refuse("domain_learned_file", "'" + p.domain_learned_file + "'",
                "must be a non-empty path different from learned_file");
-    p.discount = r.number("discount", 0.95, 1e-6, 1.0);
+    // navigation.yaml's planning.model_discount; ~discount overrides it
+    p.discount = r.number("discount", p.nav.loadConfig().planning.model_discount, 1e-6, 1.0);
     p.query_seconds = r.number("query_seconds", 10.0, 0.01, 3600.0);
     p.backend = krr::plog::parseBackend(r.str("backend", "auto", {"auto", "native", "asp"}));
     r.rejectUnknown();

@@ -51,14 +51,4 @@ class FileLock {
   int fd_;
 };
 
-/**
- * @brief The repository root (the directory holding `marker`, e.g. config/navigation.yaml), so
- * programs find the knowledge base and configs wherever they are started from. Tries, in order:
- * `hint` if not empty, $KRR_ROOT, the working directory and its parents, the executable's
- * directory and its parents (devel/lib/<pkg> lies inside the checkout).
- * @throws ConfigError listing where it looked.
- */
-std::string findRepositoryRoot(const std::string& hint = "",
-                               const std::string& marker = "config/navigation.yaml");
-
 }  // namespace krr

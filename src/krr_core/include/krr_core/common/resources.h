@@ -21,6 +21,10 @@ class Stopwatch {
   std::chrono::steady_clock::time_point start_;
 };
 
+/// @brief CPU seconds of the calling thread: on a shared machine the figure that does not
+/// depend on the load (wall time over-states the cost).
+double threadCpuSeconds();
+
 /// @brief Peak resident set size of this process so far, in MiB (from getrusage).
 double peakRssMiB();
 

@@ -50,16 +50,21 @@ struct DialogConfig {
   // navigation:
   std::string shop = "shop";       ///< place every delivery starts from
   std::string time = "morning";    ///< time of day of the knowledge used and learned
+  // The navigation task (knowledge.navigation: navigation.yaml `planning` and `rmax_learning`;
+  // these defaults when the dialog config names no navigation config):
   double step_cost = 1.0;          ///< navigation reward: cost per move
   double rmax = 40.0;              ///< navigation reward: goal bonus / failure penalty (R-Max)
+  double rmax_discount = 0.95;     ///< R-Max's planning discount
+  std::uint32_t rmax_replan_every = 10;  ///< R-Max replans every E steps
+  mdp::Optimism rmax_optimism = mdp::Optimism::kTerminalBonus;
   double failure_penalty = 40.0;   ///< cost of a failed trip (trapped or step limit)
   double nav_discount = 1.0;       ///< discount of the navigation task the policies solve
   // solver:
   double solver_precision = 0.5;   ///< target bound gap at the initial belief
   double solver_timeout = 600.0;   ///< seconds; a run stopped by it is not reproducible
   std::size_t solver_max_trials = 1000;  ///< trial budget (0: none): a reproducible stop
-  // learning (Procedure 1 for the delivery routes):
-  std::uint32_t known_threshold = 30;  ///< R-Max M
+  // learning (Procedure 1 for the delivery routes; the rest of R-Max from the navigation config):
+  std::uint32_t known_threshold = 30;  ///< R-Max M on the delivery routes
   bool refine_known = true;            ///< keep refining known pairs from all samples
   std::size_t max_episodes_per_task = 300;
   std::size_t convergence_episodes = 20;
@@ -70,6 +75,7 @@ struct DialogConfig {
   // knowledge: (absolute after loading; relative paths are resolved against the YAML's dir)
   std::string office_plog = "office.plog";  ///< people, items, rooms, request prior
   std::string speech_plog = "dialog.plog";  ///< speech understanding model
+  std::string navigation_config;            ///< navigation.yaml of the task ("" = none given)
 
   /// @brief R-Max parameters for learning (step cost and Rmax of the navigation reward).
   mdp::RMaxParams rmaxParams() const;

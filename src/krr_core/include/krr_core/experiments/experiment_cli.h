@@ -2,7 +2,8 @@
  * @file experiment_cli.h
  * @brief The options delivery_trials and dialog_entropy share (one parser, one meaning): the
  * experiment (br, condition, seed, knowledge cache), the trial range and threads, where the
- * inputs are, and the overrides of config/dialog.yaml an experiment may name.
+ * inputs are, and the overrides of config/dialog.yaml an experiment may name; and the input
+ * files of the navigation experiments (nav_transfer, new_circumstances).
  */
 #pragma once
 
@@ -10,15 +11,13 @@
 #include <cstdint>
 #include <string>
 
+#include "krr_core/common/cli.h"
 #include "krr_core/experiments/delivery_experiment.h"
 #include "krr_core/dialog/dialog_config.h"
 #include "krr_core/experiments/experiment_paths.h"
 
 namespace krr {
 namespace dialog {
-
-/// @brief Usage lines of the shared options.
-extern const char* const kExperimentCliUsage;
 
 struct ExperimentCli {
   DeliveryExperimentOptions experiment;  ///< --br --condition --seed --outdated-br --learned-cache
@@ -33,9 +32,9 @@ struct ExperimentCli {
   long solver_trials = -1;               ///< --solver-trials
   double solver_timeout = -1;            ///< --solver-timeout
 
-  /// @brief Consume `flag value` if it is a shared option. @throws ConfigError on a bad value.
-  bool take(const std::string& flag, const std::string& value);
-  /// @brief Check the required options (--br, --condition, --seed) and resolve the cache.
+  /// @brief Declare the shared options on `parser` (this object receives their values).
+  void declare(OptionParser& parser);
+  /// @brief Check the values and resolve the cache (a parse() check). @throws ConfigError.
   void finish();
   /// @brief The input paths of the domain.
   ExperimentPaths paths() const { return ExperimentPaths::find(root, experiment.domain_name); }
@@ -43,9 +42,33 @@ struct ExperimentCli {
   DialogConfig config(const ExperimentPaths& paths) const;
 
  private:
-  bool haveBr_ = false, haveCondition_ = false, haveSeed_ = false, haveCache_ = false;
+  bool haveCache_ = false;
   std::string cache_;
 };
 
 }  // namespace dialog
+
+namespace kb {
+
+/**
+ * @brief The input files the navigation experiments (nav_transfer, new_circumstances) read:
+ * --repo, --options, --config, --geometry, --knowledge; unset ones default to the repository's.
+ */
+struct NavExperimentFiles {
+  std::string repo, options, config, geometry, knowledge;
+
+  /// @brief Declare the options; `options_file` is the default under the root (e.g.
+  /// config/experiments/nav_transfer.yaml), `options_note` said after it in the help.
+  void declare(OptionParser& parser, const std::string& options_file,
+               const std::string& options_note = "");
+  /// @brief Find the repository root and default the options file. @throws ConfigError.
+  void resolveRoot();
+  /// @brief Default the navigation config, `domain`'s geometry and the human knowledge.
+  void resolveInputs(const std::string& domain);
+
+ private:
+  std::string options_file_;
+};
+
+}  // namespace kb
 }  // namespace krr

@@ -44,10 +44,12 @@ struct NavTransferOptions {
 };
 
 /**
- * @brief Load options from YAML (config/nav_transfer.yaml; every field optional, unknown
- * fields are errors): start, source, target, time, blocking_rate, source_episodes,
- * convergence_episodes, target_episodes, rmax {known_threshold, rmax, replan_every, discount,
- * step_cost, optimism, refine_known}. Starts from `defaults`.
+ * @brief Load options from an experiment YAML (config/experiments/nav_transfer.yaml; every
+ * field optional, unknown fields are errors). Its own section nav_transfer {start, source,
+ * target, time, source_episodes, convergence_episodes, target_episodes}; overrides of its base
+ * (../navigation.yaml when the file is in an `experiments` directory, else `defaults`):
+ * planning {step_cost, rmax}, rmax_learning {known_threshold, discount, replan_every, optimism,
+ * refine_known}, simulator {blocking_rate}.
  * @throws ConfigError naming file, field and value; IoError when unreadable.
  */
 NavTransferOptions loadNavTransferOptions(const std::string& path,

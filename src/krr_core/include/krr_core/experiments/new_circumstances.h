@@ -58,7 +58,7 @@
 namespace krr {
 namespace kb {
 
-/// @brief Parameters of the new-circumstances experiment (config/new_circumstances.yaml).
+/// @brief Parameters of the new-circumstances experiment (config/experiments/new_circumstances.yaml).
 struct NewCircumstancesOptions {
   std::string domain = "office_30x30";  ///< navigation domain (used by the CLI to load it)
   std::string start = "shop";
@@ -94,11 +94,14 @@ struct NewCircumstancesOptions {
 };
 
 /**
- * @brief Load options from a YAML file (every field optional, unknown fields are errors):
- * domain, start, goal, learn_times, unknown_count, learning_runs, blocking_rate, selector,
- * places, extraction, learn_tasks, learn_episodes, convergence_episodes, rmax {known_threshold, rmax,
- * replan_every, discount, step_cost, optimism: terminal_bonus | self_loop, refine_known},
- * plan {discount, step_cost, rmax}. Starts from `defaults`.
+ * @brief Load options from an experiment YAML (config/experiments/new_circumstances.yaml;
+ * every field optional, unknown fields are errors). Its own section new_circumstances {domain,
+ * start, goal, learn_times, unknown_count, learning_runs, selector, places, extraction,
+ * learn_tasks, learn_episodes, convergence_episodes, controller_step_cost}; overrides of its base
+ * (../navigation.yaml when the file is in an `experiments` directory, else `defaults`):
+ * planning {step_cost, rmax, discount} (rmax and discount: the controllers'; step_cost: R-Max's),
+ * rmax_learning {known_threshold, discount, replan_every, optimism: terminal_bonus | self_loop,
+ * refine_known}, simulator {blocking_rate}.
  * @throws ConfigError naming file, field and value; IoError when unreadable.
  */
 NewCircumstancesOptions loadNewCircumstancesOptions(const std::string& path,

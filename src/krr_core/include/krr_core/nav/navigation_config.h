@@ -65,6 +65,25 @@ struct DomainConfig {
   int step_limit = 200;  ///< moves allowed per navigation episode
 };
 
+/// @brief The navigation task the robot plans on (navigation.yaml `planning`): the paper's
+/// reward (-step_cost per move, +rmax at the goal, -rmax when trapped) and discounts.
+struct PlanningConfig {
+  double step_cost = 1.0;        ///< cost of a move (>= 0, < rmax)
+  double rmax = 40.0;            ///< goal bonus / failure penalty (R-Max's Rmax, > 0)
+  double discount = 0.99;        ///< value iteration on the navigation task, in (0, 1]
+  double model_discount = 0.95;  ///< of models built for requests naming none, in (0, 1]
+};
+
+/// @brief R-Max (Procedure 1) on the navigation task (navigation.yaml `rmax_learning`); its
+/// reward is the task's (PlanningConfig step_cost, rmax).
+struct RMaxLearningConfig {
+  int known_threshold = 5;                  ///< M: samples before a (cell, move) pair is known
+  double discount = 0.95;                   ///< of R-Max's plans, in (0, 1]
+  int replan_every = 10;                    ///< replan every E steps (0: on newly known pairs)
+  std::string optimism = "terminal_bonus";  ///< terminal_bonus or self_loop
+  bool refine_known = false;                ///< keep refining known pairs from later samples
+};
+
 /// @brief The whole navigation.yaml.
 struct NavigationConfig {
   std::string map;     ///< map_server YAML (absolute, resolved against the config's directory)
@@ -73,6 +92,8 @@ struct NavigationConfig {
   std::vector<DomainConfig> domains;
   SimulatorConfig simulator;
   PlannerConfig planner;
+  PlanningConfig planning;
+  RMaxLearningConfig rmax_learning;
 
   /// @brief The domain called `name`; UnknownSymbolError if absent.
   const DomainConfig& domain(const std::string& name) const;

@@ -41,6 +41,7 @@
  */
 #pragma once
 
+#include <atomic>
 #include <cstddef>
 #include <string>
 #include <utility>
@@ -69,6 +70,9 @@ struct AspOptions {
   bool multi_shot = true;
   /// @brief Appended to clingo's command line (e.g. "--parallel-mode=2").
   std::vector<std::string> extra_args;
+  /// @brief When set and true, a running clingo is killed and CancelledError thrown (another
+  /// back end answered first; checked every 10 ms).
+  const std::atomic<bool>* cancel = nullptr;
 };
 
 /// @brief One answer set as clingo prints it: its shown atoms, in clingo's syntax.
@@ -150,6 +154,8 @@ class AspBackend {
   void resetStats() { stats_ = AspStats(); }
   /// @brief The options in use.
   const AspOptions& options() const { return options_; }
+  /// @brief See AspOptions::cancel (nullptr: never cancelled).
+  void setCancelFlag(const std::atomic<bool>* flag) { options_.cancel = flag; }
 
  private:
   AspOptions options_;

@@ -6,6 +6,7 @@
  */
 #pragma once
 
+#include <atomic>
 #include <cstddef>
 #include <string>
 
@@ -24,6 +25,15 @@ struct GroundingLimits {
   double max_ground_seconds = 60.0;
   /// @brief Wall-clock seconds for one inference (one query, one table row set).
   double max_inference_seconds = 60.0;
+  /// @brief When set and true, grounding and inference stop with CancelledError (another
+  /// back end answered first, see Reasoner's Backend::Auto).
+  const std::atomic<bool>* cancel = nullptr;
+};
+
+/// @brief The computation was abandoned because another back end answered first.
+class CancelledError : public Error {
+ public:
+  using Error::Error;
 };
 
 /// @brief A grounding or inference budget was exhausted; what() names the statement being

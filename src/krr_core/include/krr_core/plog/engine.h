@@ -40,6 +40,8 @@ class ExactEngine {
   /// @brief Wall-clock budget of the inference calls from now on (0: none); exhausting it
   /// throws BudgetExceededError from the next check point (factor rows, elimination steps).
   void setTimeBudget(double seconds);
+  /// @brief Stop with CancelledError as soon as *flag is true (checked with the time budget).
+  void setCancelFlag(const std::atomic<bool>* flag) { cancel_ = flag; }
 
   /// @brief Intervention do(inst = value index); -1 removes it.
   void setFixed(int inst, int value);
@@ -157,6 +159,7 @@ class ExactEngine {
   std::vector<PendingError> pending_errors_;
   size_t pending_factor_ = 0;
   double budget_seconds_ = 0;
+  const std::atomic<bool>* cancel_ = nullptr;
   unsigned budget_ticks_ = 0;
   std::chrono::steady_clock::time_point budget_start_;
 };

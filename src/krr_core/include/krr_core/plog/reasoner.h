@@ -159,11 +159,21 @@ class Reasoner {
 
   /// @brief Budgets of every later grounding and inference (see GroundingLimits); exhausting
   /// one throws BudgetExceededError naming the statement, and the reasoner stays usable.
-  void setLimits(const GroundingLimits& limits) { limits_ = limits; }
+  void setLimits(const GroundingLimits& limits) {
+    limits_ = limits;
+    limits_.cancel = &asp_won_;
+  }
   const GroundingLimits& limits() const { return limits_; }
 
-  /// @brief Engine for later queries (default Backend::Auto).
+  /// @brief Engine for later queries (default Backend::Auto). Under Auto, a query the native
+  /// engine has not answered after autoRaceDelay() seconds is also given to clingo, and the
+  /// first answer wins (the other computation is abandoned): the native engine is much
+  /// faster on most programs, clingo on some (e.g. many derived atoms per world, few worlds).
+  /// Tables are not raced.
   void setBackend(Backend backend) { backend_ = backend; }
+  /// @brief Seconds before clingo joins a query under Backend::Auto (default 0.25).
+  void setAutoRaceDelay(double seconds) { race_delay_ = seconds; }
+  double autoRaceDelay() const { return race_delay_; }
   Backend backend() const { return backend_; }
   /// @brief Options of the clingo back end (binary, timeout; the timeout is also capped by
   /// the inference budget of setLimits).
@@ -185,7 +195,8 @@ class Reasoner {
   /// engine reports the program outside its fragment (remembered per query attributes and
   /// program structure, so the native grounding is not retried for every query).
   template <typename T, typename Native, typename Asp>
-  T dispatch(const std::set<std::string>& attrs, Native native, Asp asp_answer);
+  T dispatch(const std::set<std::string>& attrs, Native native, Asp asp_answer,
+             bool race = true);
   struct GroundEntry;
   struct TableCache;
   struct Change {
@@ -247,9 +258,13 @@ class Reasoner {
   std::pair<std::uint64_t, std::uint64_t> known_version_{0, 0};
   bool known_symbols_valid_ = false;
   Backend backend_ = Backend::Auto;
+  double race_delay_ = 0.25;
+  /// @brief Set while racing once clingo has answered: the native computation stops.
+  std::atomic<bool> asp_won_{false};
   std::unique_ptr<AspOptions> asp_options_;
   std::unique_ptr<AspBackend> asp_;
-  /// @brief Query-attribute keys the native engine refused, with the structure version.
+  /// @brief Query-attribute keys the native engine refused or clingo won a race on, with the
+  /// structure version: later queries on them go to clingo directly.
   std::map<std::string, std::uint64_t> outside_fragment_;
 };
 

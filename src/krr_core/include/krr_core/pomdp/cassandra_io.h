@@ -12,9 +12,12 @@
  * override earlier ones, as in the reference parser. Every error is a krr::ParseError with
  * file:line:col of the offending token.
  *
- * The model is dense, so a few bytes ("states: 50000") can ask for tens of GiB. The reader
- * checks every declared size against a memory budget before it allocates anything, and can
- * stop after a time budget, so a hostile file is a ParseError, never bad_alloc or a hang.
+ * T and O are read into sparse rows (RockSample[5,7]: 3201 states, a few MB instead of the
+ * 3.7 GiB of dense tables), but a few bytes ("states: 5000000", "T: * uniform") can still ask
+ * for GiBs. The reader checks the declared sizes against a memory budget before it allocates
+ * (at least one entry per T and O row), then every statement's new entries before it stores
+ * them, and can stop after a time budget, so a hostile file is a ParseError, never bad_alloc
+ * or a hang.
  */
 #pragma once
 
@@ -32,10 +35,11 @@ struct CassandraLimits {
   /// $KRR_MEMORY_BUDGET_MIB says otherwise).
   std::size_t memory_budget = 0;
   /// Seconds the parse may take (checked between statements and in long loops); 0: no limit.
-  /// Model construction after the parse (O(A S^2)) is not interruptible; the size check bounds it.
+  /// Model construction gets what is left of it.
   double timeout = 0.0;
-  /// Bytes per state pair (S^2) the caller will need on top of the model, e.g. a solver's
-  /// S x S work matrices, so that a model the caller cannot use is refused at its declaration.
+  /// Bytes per state pair (S^2) the caller will need on top of the model, e.g. dense S x S
+  /// work matrices, so that a model the caller cannot use is refused at its declaration
+  /// (pomdp_solve needs none: its solver sweeps sparse rows above 500 states).
   std::size_t extra_bytes_per_state_pair = 0;
   /// Largest |sum - 1| accepted for a T or O row (and the start vector); such rows are
   /// renormalised. The standard benchmark files (TagAvoid, RockSample, Hallway) are written with
@@ -55,11 +59,12 @@ struct CassandraStats {
   std::size_t renormalised_rows = 0;
 };
 
-/// @brief Upper estimate of the bytes a Model with S states, A actions and O observations
-/// needs while it is read and built: per action the dense S x S transition matrix, its
-/// transpose and its sparse successor lists (32 bytes per cell), the S x O observation
-/// matrix and its sparse rows (24 bytes per cell), plus per-(state, action) bookkeeping.
-/// Saturates at SIZE_MAX instead of wrapping.
+/// @brief The least bytes a Model with S states, A actions and O observations needs while it
+/// is read and built, known from the declarations alone: per (state, action) the reader's row
+/// lists and locations, the CSR offsets, the reward and one entry in each T and O row; plus
+/// the dense forms Model always keeps (T and its transpose up to Model::kDenseStates states,
+/// O when it is at most Model::kDenseBytes). Every further T or O entry costs 32 bytes, checked
+/// as it is read. Saturates at SIZE_MAX instead of wrapping.
 std::size_t estimateModelBytes(std::size_t states, std::size_t actions, std::size_t observations);
 
 /// @brief Parse .pomdp text; file is used in error positions. Distributions whose sum is within

@@ -183,6 +183,7 @@ class PointBasedSolver {
   std::size_t trials_ = 0;
   double cutoffScale_ = 1.0;    // multiplies options_.trialWeightCutoff (halved on stalls)
   std::size_t stalled_ = 0;     // consecutive trials without progress at the root
+  std::size_t lowerStalled_ = 0;  // consecutive trials without progress of the root's lower bound
   // Scratch buffers (no per-step allocation in the hot loop).
   Eigen::VectorXd pred_, child_, acc_, bestAlpha_, candidate_;
   Eigen::MatrixXd children_, scores_;  // lowerBackup: S x slots children, N x slots scores
