@@ -814,24 +814,30 @@ double Reasoner::probability(const Query& q) {
                           [&]() { return asp().probability(program_, q); });
 }
 
+std::vector<GCondition> Reasoner::prepareEngine(const GroundProgram& g, const Query& q,
+                                                ExactEngine& e) {
+  e.setTimeBudget(limits_.max_inference_seconds);
+  e.setCancelFlag(&asp_won_);
+  for (const auto& d : program_.interventions) applyDo(g, program_, d, e);
+  for (const auto& d : q.interventions) applyDo(g, program_, d, e);
+  std::vector<GCondition> evidence;
+  const std::vector<Observation>* lists[] = {&program_.observations, &q.observations};
+  for (const std::vector<Observation>* os : lists)
+    for (const auto& o : *os) {
+      GCondition c;
+      c.truth = o.truth;
+      addLiteral(g, program_, o.literal, c);
+      evidence.push_back(c);
+    }
+  return evidence;
+}
+
 double Reasoner::nativeProbability(const Query& q) {
   std::set<std::string> attrs;
   collectAttrs(q, attrs);
   auto g = groundFor(attrs);
   ExactEngine e(*g);
-  e.setTimeBudget(limits_.max_inference_seconds);
-  e.setCancelFlag(&asp_won_);
-  for (const auto& d : program_.interventions) applyDo(*g, program_, d, e);
-  for (const auto& d : q.interventions) applyDo(*g, program_, d, e);
-  std::vector<GCondition> evidence, formula(1);
-  for (const std::vector<Observation>* os :
-       {static_cast<const std::vector<Observation>*>(&program_.observations), &q.observations})
-    for (const auto& o : *os) {
-      GCondition c;
-      c.truth = o.truth;
-      addLiteral(*g, program_, o.literal, c);
-      evidence.push_back(c);
-    }
+  std::vector<GCondition> evidence = prepareEngine(*g, q, e), formula(1);
   for (const auto& l : q.formula) addLiteral(*g, program_, l, formula[0]);
   auto m = e.measure(formula, evidence);
   if (!(m.second > 0))
@@ -876,19 +882,7 @@ std::vector<ValueProb> Reasoner::nativeDistribution(const AttributeTerm& at, con
   int inst = g->findInstance(toString(at));
   if (inst < 0) return out;
   ExactEngine e(*g);
-  e.setTimeBudget(limits_.max_inference_seconds);
-  e.setCancelFlag(&asp_won_);
-  for (const auto& d : program_.interventions) applyDo(*g, program_, d, e);
-  for (const auto& d : ev.interventions) applyDo(*g, program_, d, e);
-  std::vector<GCondition> evs;
-  for (const std::vector<Observation>* os :
-       {static_cast<const std::vector<Observation>*>(&program_.observations), static_cast<const std::vector<Observation>*>(&ev.observations)})
-    for (const auto& o : *os) {
-      GCondition c;
-      c.truth = o.truth;
-      addLiteral(*g, program_, o.literal, c);
-      evs.push_back(c);
-    }
+  std::vector<GCondition> evs = prepareEngine(*g, ev, e);
   std::vector<double> m = e.marginal(inst, evs);
   double z = 0;
   for (double x : m) z += x;
@@ -991,19 +985,7 @@ Table Reasoner::nativeTable(const AttributeTerm& tat, const std::vector<Attribut
     ci.push_back(i);
   }
   ExactEngine e(*g);
-  e.setTimeBudget(limits_.max_inference_seconds);
-  e.setCancelFlag(&asp_won_);
-  for (const auto& d : program_.interventions) applyDo(*g, program_, d, e);
-  for (const auto& d : ev.interventions) applyDo(*g, program_, d, e);
-  std::vector<GCondition> evs;
-  for (const std::vector<Observation>* os :
-       {static_cast<const std::vector<Observation>*>(&program_.observations), static_cast<const std::vector<Observation>*>(&ev.observations)})
-    for (const auto& o : *os) {
-      GCondition c;
-      c.truth = o.truth;
-      addLiteral(*g, program_, o.literal, c);
-      evs.push_back(c);
-    }
+  std::vector<GCondition> evs = prepareEngine(*g, ev, e);
   if (conditioning_as_do) e.indexBy(ci);
   const GInstance& tg = g->instances[static_cast<size_t>(ti)];
   size_t total = 1;

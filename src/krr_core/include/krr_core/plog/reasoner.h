@@ -36,6 +36,8 @@ namespace krr {
 namespace plog {
 
 struct GroundProgram;
+struct GCondition;
+class ExactEngine;
 class AspBackend;
 struct AspOptions;
 
@@ -183,6 +185,10 @@ class Reasoner {
   const ReasonerStats& stats() const { return stats_; }
 
  private:
+  /// @brief Budget, cancel flag and the program's and query's do() on a fresh engine; the
+  /// program's and query's observations as conditions.
+  std::vector<GCondition> prepareEngine(const GroundProgram& g, const Query& query,
+                                        ExactEngine& engine);
   double nativeProbability(const Query& query);
   std::vector<ValueProb> nativeDistribution(const AttributeTerm& at, const Query& evidence,
                                             const std::string& evidence_text);
