@@ -4,6 +4,8 @@
 Layers of krr_core:
   generic      common, plog, mdp, nav, pomdp
   domain       kb, dialog
+  examples     krr_examples: toy problems (Tiger, grid world, grid programs), for tests and
+               benchmarks only
   experiments  krr_experiments: the paper's experiments, for apps, benchmarks and tests only
 
 Rules, checked on every #include of every C/C++ file of the repository (outside catkin_ws/):
@@ -11,7 +13,9 @@ Rules, checked on every #include of every C/C++ file of the repository (outside 
      may include an experiment header, so library and node code never depends on an experiment;
   2. generic: library code of a generic module (src/<m>/, include/krr_core/<m>/) includes no
      domain module and no experiment;
-  3. ros: nothing in src/krr_core includes a ROS header (the core builds without ROS).
+  3. ros: nothing in src/krr_core includes a ROS header (the core builds without ROS);
+  4. examples: only src/krr_core/{src,include/krr_core}/examples, bench/ and test/ may include
+     an examples header, so no library, experiment, app or node code runs on a toy problem.
 Quoted includes are also resolved relative to the including file, so "../experiments/x.h"
 counts as an experiment header.
 
@@ -26,9 +30,13 @@ CORE = "src/krr_core"
 GENERIC = {"common", "plog", "mdp", "nav", "pomdp"}
 DOMAIN = {"kb", "dialog"}
 EXPERIMENTS = "experiments"
+EXAMPLES = "examples"
 # Code that may use the experiments (paths relative to the repository root).
 EXPERIMENT_USERS = (CORE + "/src/experiments/", CORE + "/include/krr_core/experiments/",
                     CORE + "/apps/", CORE + "/bench/", CORE + "/test/")
+# Code that may use the examples.
+EXAMPLE_USERS = (CORE + "/src/examples/", CORE + "/include/krr_core/examples/", CORE + "/bench/",
+                 CORE + "/test/")
 # First path components of ROS headers (roscpp and friends, message packages, our ROS side).
 ROS_PREFIXES = {"ros", "roscpp", "rosbag", "rosconsole", "actionlib", "actionlib_msgs", "tf",
                 "tf2", "tf2_ros", "tf2_geometry_msgs", "nodelet", "pluginlib", "message_filters",
@@ -99,6 +107,9 @@ def check(root):
                 problems.append(where + "generic: generic module '%s' includes %s module "
                                 "header %s" % (own, "the experiments" if m == EXPERIMENTS
                                                else "domain", target))
+            if m == EXAMPLES and not rel.startswith(EXAMPLE_USERS):
+                problems.append(where + "examples: code outside tests and benchmarks includes "
+                                "the toy-problem header %s" % target)
             if rel.startswith(CORE + "/") and is_ros_header(target):
                 problems.append(where + "ros: the core includes the ROS header %s" % target)
     return problems, checked

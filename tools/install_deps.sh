@@ -4,7 +4,7 @@ set -euo pipefail
 PKGS=(build-essential cmake ros-base-dev catkin python3-rospy python3-rostest librostest-dev
       libtf2-ros-dev libnav-msgs-dev python3-nav-msgs libactionlib-dev python3-actionlib
       libvisualization-msgs-dev python3-visualization-msgs libgeometry-msgs-dev
-      libompl-dev libeigen3-dev libgtest-dev libyaml-cpp-dev gringo
+      libompl-dev libeigen3-dev libgtest-dev libyaml-cpp-dev libtinyxml2-dev gringo
       python3-numpy python3-scipy python3-matplotlib python3-yaml python3-distributed
       python3-tf2-ros libroslib-dev rosbash libpng-dev python3-rosbag python3-rospkg
       rviz xvfb python3-pil)

@@ -3,6 +3,8 @@
 
     gen_pomdp.py rocksample N K [-o FILE]     RockSample[N,K] (Smith & Simmons, UAI 2004)
     gen_pomdp.py tag [-o FILE]                Tag (Pineau, Gordon & Thrun, IJCAI 2003)
+    ... --format pomdpx                       the same problem as SARSOP's PomdpX XML, factored
+                                              (flat sizes in rocksample_pomdpx / tag_pomdpx)
 
 Issue 15 compares pomdp_solve with SARSOP on these problems; generating them here keeps large
 files out of git and documents every modelling choice next to the code.
@@ -121,6 +123,30 @@ def rocksample(n, k, d0=20.0, discount=0.95):
 TAG_CELLS = [(x, y) for y in range(2) for x in range(10)] + [(x, y) for y in range(2, 5) for x in range(5, 8)]
 
 
+TAG_MOVES = {"north": (0, 1), "south": (0, -1), "east": (1, 0), "west": (-1, 0)}
+TAG_INDEX = {c: i for i, c in enumerate(TAG_CELLS)}
+
+
+def tag_step(c, d):
+    """The cell reached from c by the move d; a move into a wall stays."""
+    nc = (c[0] + d[0], c[1] + d[1])
+    return nc if nc in TAG_INDEX else c
+
+
+def tag_opponent(rc, oc):
+    """Distribution of the opponent's next cell, moving away from the robot's cell rc."""
+    dist = {oc: 0.2}
+    for axis, (neg, pos) in ((0, ("west", "east")), (1, ("south", "north"))):
+        if rc[axis] == oc[axis]:
+            split = [(neg, 0.2), (pos, 0.2)]
+        else:
+            split = [(pos if oc[axis] > rc[axis] else neg, 0.4)]
+        for m, p in split:
+            nc = tag_step(oc, TAG_MOVES[m])
+            dist[nc] = dist.get(nc, 0.0) + p
+    return dist
+
+
 def tag(discount=0.95):
     cells = TAG_CELLS
     index = {c: i for i, c in enumerate(cells)}
@@ -128,24 +154,9 @@ def tag(discount=0.95):
     names += ["r%dtagged" % i for i in range(len(cells))]
     actions = ["north", "south", "east", "west", "tag"]
     obs_names = ["at%d" % i for i in range(len(cells))] + ["found"]
-    moves = {"north": (0, 1), "south": (0, -1), "east": (1, 0), "west": (-1, 0)}
+    moves = TAG_MOVES
 
-    def step(c, d):
-        nc = (c[0] + d[0], c[1] + d[1])
-        return nc if nc in index else c
-
-    def opponent(rc, oc):
-        """Distribution of the opponent's next cell, moving away from the robot's cell rc."""
-        dist = {oc: 0.2}
-        for axis, (neg, pos) in ((0, ("west", "east")), (1, ("south", "north"))):
-            if rc[axis] == oc[axis]:
-                split = [(neg, 0.2), (pos, 0.2)]
-            else:
-                split = [(pos if oc[axis] > rc[axis] else neg, 0.4)]
-            for m, p in split:
-                nc = step(oc, moves[m])
-                dist[nc] = dist.get(nc, 0.0) + p
-        return dist
+    step, opponent = tag_step, tag_opponent
 
     out = ["# Tag (Pineau, Gordon & Thrun 2003), written by tools/pomdp_bench/gen_pomdp.py",
            "discount: %g" % discount, "values: reward",
@@ -172,6 +183,151 @@ def tag(discount=0.95):
     return "\n".join(out + [""] + t + [""] + o + [""] + r) + "\n", len(names), len(actions), len(obs_names)
 
 
+# ---- PomdpX (SARSOP's XML format), factored where natural --------------------------------------
+
+class PomdpX:
+    """Builds a PomdpX document: variables, then CondProb / Func tables of TBL entries."""
+
+    def __init__(self, comment, discount):
+        self.head = ['<?xml version="1.0" encoding="UTF-8"?>', "<!-- %s -->" % comment,
+                     '<pomdpx version="1.0" id="gen_pomdp">',
+                     "  <Discount>%g</Discount>" % discount, "  <Variable>"]
+        self.sections = {}
+
+    def state(self, name, values, fully_observed=False):
+        self.head.append('    <StateVar vnamePrev="%s_0" vnameCurr="%s_1" fullyObs="%s">'
+                         '<ValueEnum>%s</ValueEnum></StateVar>'
+                         % (name, name, "true" if fully_observed else "false", " ".join(values)))
+
+    def variable(self, tag, name, values=None):
+        if values is None:
+            self.head.append('    <%s vname="%s"/>' % (tag, name))
+        else:
+            self.head.append('    <%s vname="%s"><ValueEnum>%s</ValueEnum></%s>'
+                             % (tag, name, " ".join(values), tag))
+
+    def table(self, section, var, parents, entries, func=False):
+        """entries: (instance tokens, numbers or keyword); later entries override earlier ones."""
+        kind, tab = ("Func", "ValueTable") if func else ("CondProb", "ProbTable")
+        lines = ["    <%s><Var>%s</Var><Parent>%s</Parent>" % (kind, var, " ".join(parents) or "null"),
+                 '    <Parameter type="TBL">']
+        for inst, nums in entries:
+            text = nums if isinstance(nums, str) else " ".join(fmt(x) for x in nums)
+            lines.append("      <Entry><Instance>%s</Instance><%s>%s</%s></Entry>"
+                         % (" ".join(inst), tab, text, tab))
+        lines.append("    </Parameter></%s>" % kind)
+        self.sections.setdefault(section, []).extend(lines)
+
+    def text(self):
+        out = self.head + ["  </Variable>"]
+        for sec in ("InitialStateBelief", "StateTransitionFunction", "ObsFunction", "RewardFunction"):
+            if sec in self.sections:
+                out += ["  <%s>" % sec] + self.sections[sec] + ["  </%s>" % sec]
+        return "\n".join(out + ["</pomdpx>"]) + "\n"
+
+
+def rocksample_pomdpx(n, k, d0=20.0, discount=0.95):
+    """RockSample[n,k] as in rocksample(), factored: the robot's cell (fully observable, with
+    'exit') and one variable per rock. The flat model has (n^2 + 1) 2^k states (the .pomdp file
+    has one exit state, n^2 2^k + 1): the exit states differ only in rocks nobody can sample."""
+    rocks = rock_layout(n, k)
+    start = (0, n // 2)
+    pos = [(x, y) for y in range(n) for x in range(n)]
+    cell = {p: "x%dy%d" % p for p in pos}
+    rock_at = {c: i for i, c in enumerate(rocks)}
+    actions = ["north", "south", "east", "west", "sample"] + ["check%d" % (i + 1) for i in range(k)]
+    rv = ["rock%d" % (i + 1) for i in range(k)]
+    x = PomdpX("RockSample[%d,%d] (Smith & Simmons 2004), factored, written by "
+               "tools/pomdp_bench/gen_pomdp.py; start (%d,%d); rocks %s; half-efficiency distance %g"
+               % (n, k, start[0], start[1], rocks, d0), discount)
+    x.state("robot", [cell[p] for p in pos] + ["exit"], fully_observed=True)
+    for r in rv:
+        x.state(r, ["good", "bad"])
+    x.variable("ObsVar", "obs", ["good", "bad"])
+    x.variable("ActionVar", "action", actions)
+    x.variable("RewardVar", "reward_move")
+    x.variable("RewardVar", "reward_sample")
+    for r in rv:
+        x.variable("RewardVar", "reward_" + r)
+    x.table("InitialStateBelief", "robot_0", [], [([cell[start]], [1])])
+    for r in rv:
+        x.table("InitialStateBelief", r + "_0", [], [(["-"], "uniform")])
+    moves = {"north": (0, 1), "south": (0, -1), "east": (1, 0), "west": (-1, 0)}
+    robot, move_reward = [], []
+    for p in pos:
+        for a, (dx, dy) in moves.items():
+            nx, ny = p[0] + dx, p[1] + dy
+            if nx >= n:
+                robot.append(([a, cell[p], "exit"], [1]))
+                move_reward.append(([a, cell[p]], [10]))
+            else:
+                robot.append(([a, cell[p], cell[(nx, ny)] if 0 <= nx and 0 <= ny < n else cell[p]], [1]))
+    for a in actions[4:]:
+        robot.append(([a, "-", "-"], "identity"))
+    robot.append((["*", "exit", "exit"], [1]))
+    x.table("StateTransitionFunction", "robot_1", ["action", "robot_0"], robot)
+    for i, r in enumerate(rv):
+        x.table("StateTransitionFunction", r + "_1", ["action", "robot_0", r + "_0"],
+                [(["*", "*", "-", "-"], "identity"),
+                 (["sample", cell[rocks[i]], "-", "-"], [0, 1, 0, 1])])
+    # The sensor: checkI reads rock I from the robot's cell; every other action observes 'bad'.
+    obs = [(["*", "*"] + ["*"] * k + ["-"], [0, 1])]
+    for i in range(k):
+        for p in pos:
+            eta = 2.0 ** (-math.hypot(p[0] - rocks[i][0], p[1] - rocks[i][1]) / d0)
+            right = 0.5 * (1.0 + eta)
+            for value, good in (("good", right), ("bad", 1.0 - right)):
+                inst = ["check%d" % (i + 1), cell[p]] + ["*"] * k + ["-"]
+                inst[2 + i] = value
+                obs.append((inst, [good, 1.0 - good]))
+    x.table("ObsFunction", "obs", ["action", "robot_1"] + [r + "_1" for r in rv], obs)
+    x.table("RewardFunction", "reward_move", ["action", "robot_0"], move_reward, func=True)
+    x.table("RewardFunction", "reward_sample", ["action", "robot_0"],
+            [(["sample", cell[p]], [-10]) for p in pos if p not in rock_at], func=True)
+    for i, r in enumerate(rv):
+        x.table("RewardFunction", "reward_" + r, ["action", "robot_0", r + "_0"],
+                [(["sample", cell[rocks[i]], "-"], [10, -10])], func=True)
+    return x.text(), (n * n + 1) * 2 ** k, len(actions), 2 * (n * n + 1)
+
+
+def tag_pomdpx(discount=0.95):
+    """Tag as in tag(), factored: the robot's cell (fully observable) and the opponent's cell or
+    'tagged'; the observation says whether the robot shares the opponent's cell. The same 870
+    states; 58 flat observations (robot cell x found) carry what the .pomdp's 30 carry."""
+    cells = ["c%d" % i for i in range(len(TAG_CELLS))]
+    actions = ["north", "south", "east", "west", "tag"]
+    x = PomdpX("Tag (Pineau, Gordon & Thrun 2003), factored, written by tools/pomdp_bench/gen_pomdp.py",
+               discount)
+    x.state("robot", cells, fully_observed=True)
+    x.state("opponent", cells + ["tagged"])
+    x.variable("ObsVar", "seen", ["found", "notfound"])
+    x.variable("ActionVar", "action", actions)
+    x.variable("RewardVar", "reward")
+    x.table("InitialStateBelief", "robot_0", [], [(["-"], "uniform")])
+    x.table("InitialStateBelief", "opponent_0", [],
+            [(["-"], [1.0 / len(cells)] * len(cells) + [0])])
+    robot = []
+    for a in actions[:4]:
+        for i, c in enumerate(TAG_CELLS):
+            robot.append(([a, cells[i], "*", cells[TAG_INDEX[tag_step(c, TAG_MOVES[a])]]], [1]))
+    robot += [(["tag", "-", "*", "-"], "identity"), (["*", "-", "tagged", "-"], "identity")]
+    x.table("StateTransitionFunction", "robot_1", ["action", "robot_0", "opponent_0"], robot)
+    opp = []
+    for i, rc in enumerate(TAG_CELLS):
+        for j, oc in enumerate(TAG_CELLS):
+            for oc2, p in sorted(tag_opponent(rc, oc).items()):
+                opp.append((["*", cells[i], cells[j], cells[TAG_INDEX[oc2]]], [p]))
+        opp.append((["tag", cells[i], cells[i], "-"], [0] * len(cells) + [1]))
+    opp.append((["*", "*", "tagged", "tagged"], [1]))
+    x.table("StateTransitionFunction", "opponent_1", ["action", "robot_0", "opponent_0"], opp)
+    seen = [(["*", "*", "-"], [0, 1])] + [([c, c, "-"], [1, 0]) for c in cells]
+    x.table("ObsFunction", "seen", ["robot_1", "opponent_1"], seen)
+    rew = [([a, "*", "*"], [-10 if a == "tag" else -1]) for a in actions]
+    rew += [(["*", "*", "tagged"], [0])] + [(["tag", c, c], [10]) for c in cells]
+    x.table("RewardFunction", "reward", ["action", "robot_0", "opponent_0"], rew, func=True)
+    return x.text(), len(cells) * (len(cells) + 1), len(actions), 2 * len(cells)
+
+
 def main(argv):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     sub = ap.add_subparsers(dest="problem", required=True)
@@ -182,13 +338,18 @@ def main(argv):
     rs.add_argument("-o", "--output")
     tg = sub.add_parser("tag", help="Tag (870 states)")
     tg.add_argument("-o", "--output")
+    for p in (rs, tg):
+        p.add_argument("--format", choices=("pomdp", "pomdpx"), default="pomdp",
+                       help="Cassandra .pomdp (flat, the default) or SARSOP's PomdpX, factored "
+                            "(robot cell fully observable, one variable per rock / the opponent)")
     args = ap.parse_args(argv)
     if args.problem == "rocksample":
         if not (1 <= args.n <= 20 and 0 <= args.k <= 12):
             ap.error("need 1 <= N <= 20 and 0 <= K <= 12")
-        text, s, a, o = rocksample(args.n, args.k, args.d0)
+        gen = rocksample_pomdpx if args.format == "pomdpx" else rocksample
+        text, s, a, o = gen(args.n, args.k, args.d0)
     else:
-        text, s, a, o = tag()
+        text, s, a, o = tag_pomdpx() if args.format == "pomdpx" else tag()
     if args.output:
         with open(args.output, "w") as f:
             f.write(text)

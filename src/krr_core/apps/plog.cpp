@@ -7,7 +7,8 @@
  * the fragment, `asp` answers everything through clingo.
  *
  * Output: `QUERY : PROBABILITY` per query, or with --json one object per line
- * {"query": ..., "probability": ..., "backend": ...} (the back end that answered). The files form one program (later files
+ * {"query": ..., "probability": ..., "backend": ...} (the back end that answered; plus
+ * "warnings": [...] when the parser left statements out, see --strict-sorts). The files form one program (later files
  * add statements to the first); their queries are answered first, in order, then the
  * --query ones.
  *
@@ -35,12 +36,16 @@ namespace {
 void usage(std::ostream& os) {
   os << "usage: plog FILE... [--query \"?{a=y} | obs(..), do(..)\"]... [--json]\n"
         "            [--backend auto|native|asp] [--dialect classic|plog2] [--clingo PATH]\n"
+        "            [--strict-sorts]\n"
         "  Answers the queries in the files and on the command line, one line per query.\n"
         "  --backend auto (default): the native exact engine where the program is inside its\n"
         "    fragment (stratified negation, no loops through `not`, no rule defining a random\n"
         "    attribute, factors within limits), clingo otherwise.\n"
         "  --backend native: the native engine only; programs outside it are refused.\n"
-        "  --backend asp: translate to ASP and enumerate the possible worlds with clingo.\n";
+        "  --backend asp: translate to ASP and enumerate the possible worlds with clingo.\n"
+        "  A fact or rule whose head has a value outside its declared sort is left out (P-log's\n"
+        "  sorted grounding, as plog2.0 does) with a warning on stderr (and in the JSON rows,\n"
+        "  \"warnings\"); --strict-sorts makes it an error.\n";
 }
 
 std::string fmt(double p) {
@@ -69,6 +74,7 @@ static int mainBody(int argc, char** argv) {
   krr::plog::Backend backend = krr::plog::Backend::Auto;
   std::string clingo = "clingo";
   krr::plog::Dialect dialect = krr::plog::Dialect::Auto;
+  bool strict_sorts = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&](const char* what) -> const char* {
@@ -81,6 +87,8 @@ static int mainBody(int argc, char** argv) {
     };
     if (a == "--json") {
       json = true;
+    } else if (a == "--strict-sorts") {
+      strict_sorts = true;
     } else if (a == "--query" || a == "-q") {
       cli_queries.push_back(value("a query"));
     } else if (a == "--backend") {
@@ -119,10 +127,15 @@ static int mainBody(int argc, char** argv) {
   }
   try {
     krr::plog::Reasoner r;
+    r.setStrictSorts(strict_sorts);
     // All files form one program; each keeps its name for error locations.
     r.loadFile(files[0], dialect);
     for (size_t i = 1; i < files.size(); ++i)
       r.addStatements(krr::readFile(files[i]), "", files[i]);
+    for (const auto& w : r.warnings()) std::cerr << w << "\n";
+    std::string warnings_json;
+    for (const auto& w : r.warnings())
+      warnings_json += (warnings_json.empty() ? "" : ", ") + krr::jsonString(w);
     std::vector<Job> jobs;
     for (const auto& q : r.program().queries) jobs.push_back({q, q.text});
     int rc = 0;
@@ -143,7 +156,9 @@ static int mainBody(int argc, char** argv) {
       if (json)
         std::cout << "{\"query\": " << krr::jsonString(q)
                   << ", \"probability\": " << krr::jsonNumber(p) << ", \"backend\": \""
-                  << krr::plog::backendName(answered) << "\"}\n";
+                  << krr::plog::backendName(answered) << "\""
+                  << (warnings_json.empty() ? "" : ", \"warnings\": [" + warnings_json + "]")
+                  << "}\n";
       else
         std::cout << q << " : " << fmt(p) << "\n";
     };

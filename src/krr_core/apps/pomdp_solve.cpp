@@ -1,7 +1,8 @@
-// pomdp_solve: solve a Cassandra .pomdp file with the anytime point-based solver.
+// pomdp_solve: solve a Cassandra .pomdp or PomdpX .pomdpx file with the anytime point-based solver.
 //
-//   pomdp_solve FILE.pomdp [--precision e] [--timeout s] [--policy out.policy] [--seed n]
-//               [--memory-budget MiB]
+//   pomdp_solve FILE.pomdp|FILE.pomdpx [--precision e] [--timeout s] [--policy out.policy] [--seed n]
+//               [--memory-budget MiB] [--memory-limit MiB] [--max-trials n]
+//               [--trial-gap-factor f] [--trial-weight-cutoff c] [--verbose]
 //
 // Prints one line per checkpoint (geometric in solver time, and the final state):
 //   time_s lower upper gap alphas
@@ -18,6 +19,15 @@
 // is checked against the declared sizes and then against the T and O entries as they are read.
 // A model too large for the budget is a FILE:line:col error naming the declaration or statement.
 //
+// --memory-limit caps what the run holds: the model plus the solver's bounds (alpha vectors,
+// plans, belief points and the lower-bound cache). A model larger than the limit is an error;
+// otherwise the search stops when its next vector or point would exceed it, keeping valid
+// bounds, and the last line says so. --max-trials is a deterministic work budget: the search
+// is deterministic (there is no random choice; --seed is recorded only), so two runs with the
+// same --max-trials that the timeout does not cut give identical bounds, and more trials never
+// give a lower lower bound. --verbose adds where the search time went (backups, sampling,
+// pruning) and the bounds' memory.
+//
 // Probability rows of the file that sum to 1 within 1e-4 (six-decimal benchmark files) are
 // renormalised; the header reports how many and the largest deviation.
 #include <algorithm>
@@ -31,14 +41,17 @@
 #include "krr_core/common/main_guard.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/pomdp/cassandra_io.h"
+#include "krr_core/pomdp/pomdpx_io.h"
 #include "krr_core/pomdp/point_based_solver.h"
 
 namespace {
 
 void usage() {
   std::fprintf(stderr,
-               "usage: pomdp_solve FILE.pomdp [--precision e] [--timeout s] "
-               "[--policy out.policy] [--seed n] [--memory-budget MiB]\n");
+               "usage: pomdp_solve FILE.pomdp|FILE.pomdpx [--precision e] [--timeout s] "
+               "[--policy out.policy] [--seed n] [--memory-budget MiB]\n"
+               "  FILE: Cassandra .pomdp or SARSOP PomdpX (.pomdpx, flattened: fully observable\n"
+               "  state variables become part of the observation)\n");
 }
 
 bool parseNumber(const std::string& s, double* out) {
@@ -53,7 +66,11 @@ bool parseNumber(const std::string& s, double* out) {
 static int mainBody(int argc, char** argv) {
   const krr::Stopwatch wall;  // --timeout covers reading and set-up too
   std::string file, policyOut;
-  double precision = 1e-3, timeout = 10.0, seed = 0.0, budgetMiB = 0.0;
+  double precision = 1e-3, timeout = 10.0, seed = 0.0, budgetMiB = 0.0, maxTrials = 0.0;
+  double limitMiB = 0.0;
+  bool verbose = false;
+  krr::pomdp::SolverOptions defaults;
+  double gapFactor = defaults.trialGapFactor, weightCutoff = defaults.trialWeightCutoff;
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
     auto value = [&](double* out) {
@@ -64,18 +81,34 @@ static int mainBody(int argc, char** argv) {
       }
       ++i;
     };
+    // A numeric option whose value must satisfy `ok` (exit status 2 naming the rule otherwise).
+    auto bounded = [&](double* out, bool (*ok)(double), const char* rule) {
+      value(out);
+      if (!ok(*out)) {
+        std::fprintf(stderr, "pomdp_solve: %s must be %s\n", a.c_str(), rule);
+        std::exit(2);
+      }
+    };
     if (a == "--precision") {
       value(&precision);
     } else if (a == "--timeout") {
       value(&timeout);
     } else if (a == "--seed") {
       value(&seed);
+    } else if (a == "--max-trials") {
+      bounded(&maxTrials, [](double x) { return x >= 1.0 && x <= 1e15; }, "a positive count");
+    } else if (a == "--memory-limit") {
+      bounded(&limitMiB, [](double x) { return x > 0.0 && x <= 1e9; },
+              "a positive number of MiB");
+    } else if (a == "--trial-gap-factor") {
+      bounded(&gapFactor, [](double x) { return x > 0.0 && x <= 1.0; }, "in (0, 1]");
+    } else if (a == "--trial-weight-cutoff") {
+      bounded(&weightCutoff, [](double x) { return x >= 0.0 && x <= 1.0; }, "in [0, 1]");
+    } else if (a == "--verbose") {
+      verbose = true;
     } else if (a == "--memory-budget") {
-      value(&budgetMiB);
-      if (!(budgetMiB > 0.0 && budgetMiB <= 1e9)) {
-        std::fprintf(stderr, "pomdp_solve: --memory-budget must be a positive number of MiB\n");
-        return 2;
-      }
+      bounded(&budgetMiB, [](double x) { return x > 0.0 && x <= 1e9; },
+              "a positive number of MiB");
     } else if (a == "--policy") {
       if (i + 1 >= argc) {
         usage();
@@ -115,11 +148,25 @@ static int mainBody(int argc, char** argv) {
     // PointBasedSolver::kDenseSetupStates (500) states, 4 MB at most; above, it sweeps the
     // sparse successor lists.
     krr::pomdp::CassandraStats stats;
-    krr::pomdp::Model model = krr::pomdp::loadCassandra(file, limits, &stats);
+    krr::pomdp::Model model = krr::pomdp::loadPomdpFile(file, limits, &stats);
     const double readSeconds = wall.seconds();
     krr::pomdp::SolverOptions opt;
     opt.precision = precision;
     opt.timeout = timeout;
+    opt.maxTrials = static_cast<std::size_t>(maxTrials);
+    opt.trialGapFactor = gapFactor;
+    opt.trialWeightCutoff = weightCutoff;
+    if (limitMiB > 0.0) {
+      // The model is held already; the bounds get the rest of the limit.
+      const double limitBytes = limitMiB * 1048576.0;
+      const double modelBytes = static_cast<double>(model.storageBytes());
+      if (modelBytes >= limitBytes)
+        throw krr::ConfigError(file + ": the model alone takes " +
+                               std::to_string(modelBytes / 1048576.0) +
+                               " MiB, more than --memory-limit " + std::to_string(limitMiB) +
+                               " MiB");
+      opt.memoryLimit = static_cast<std::size_t>(limitBytes - modelBytes);
+    }
     // A little time is kept for the last report and writing the policy.
     const double reserve = std::min(0.05 * timeout, 0.5);
     // Half of what is left for the set-up at most, the rest for the search.
@@ -158,15 +205,31 @@ static int mainBody(int argc, char** argv) {
         continue;
       }
       const double until = ck < solveEnd ? ck : solveEnd;
-      done = solver.runUntil(until) || until >= solveEnd;
+      done = solver.runUntil(until, solveEnd) || until >= solveEnd || solver.memoryLimited() ||
+             (opt.maxTrials > 0 && solver.report().trials >= opt.maxTrials);
       print();
       ck *= 2.0;
     }
-    std::printf("# %s\n", solver.converged()
-                               ? "converged: gap <= precision"
+    std::printf("# %s\n", solver.converged() ? "converged: gap <= precision"
+                           : solver.memoryLimited()
+                               ? "memory limit: NOT converged, search stopped at --memory-limit "
+                                 "(valid bounds)"
+                           : opt.maxTrials > 0 && solver.report().trials >= opt.maxTrials
+                               ? "trial budget: NOT converged, --max-trials reached (valid bounds)"
                                : "timeout: NOT converged, gap above precision (valid bounds)");
     std::printf("# time: search %.3f s, total %.3f s of %g s\n",
                 solver.report().time - su.seconds(), wall.seconds(), timeout);
+    if (verbose) {
+      const krr::pomdp::SearchProfile& pr = solver.profile();
+      const krr::pomdp::BoundsReport rep = solver.report();
+      std::printf("# search profile: %zu trials (mean depth %.1f, max %zu); upper backups %zu "
+                  "(%.3f s); lower backups %zu (%.3f s); sampling %.3f s; prunes %zu (%.3f s); "
+                  "vectors added %zu, kept %zu; points %zu; bounds %.1f MiB\n",
+                  rep.trials, rep.trials ? static_cast<double>(pr.depthSum) / rep.trials : 0.0,
+                  pr.maxDepth, pr.upperBackups, pr.upperBackupSeconds, pr.lowerBackups,
+                  pr.lowerBackupSeconds, pr.sampleSeconds, pr.prunes, pr.pruneSeconds,
+                  pr.alphasAdded, rep.alphas, rep.points, rep.bytes / 1048576.0);
+    }
     if (!policyOut.empty()) {
       solver.policy().writeApplXml(policyOut, file);
       std::printf("# policy (APPL XML) written to %s\n", policyOut.c_str());

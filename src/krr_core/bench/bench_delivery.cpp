@@ -11,6 +11,7 @@
 #include "krr_core/common/resource_locator.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/experiments/delivery_experiment.h"
+#include "krr_core/experiments/experiment_cli.h"
 #include "krr_core/experiments/experiment_paths.h"
 
 int main(int argc, char** argv) {
@@ -31,7 +32,7 @@ int main(int argc, char** argv) {
   if (const auto status = cli.parse(argc, argv)) return *status;
   try {
     const ExperimentPaths paths = ExperimentPaths::find(root, "office_30x30");
-    DialogConfig cfg = loadDialogConfig(paths.dialog_yaml);
+    DialogConfig cfg = loadDeliveryExperimentConfig(paths);
     if (solverTrials > 0) cfg.solver_max_trials = solverTrials;
     const kb::NavDomain dom = kb::NavDomain::load(paths.navigation_yaml, "office_30x30",
                                                   paths.geometry, paths.navigation_plog);

@@ -24,6 +24,7 @@
 #include "krr_core/common/resource_locator.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/experiments/delivery_experiment.h"
+#include "krr_core/experiments/experiment_cli.h"
 #include "krr_core/experiments/experiment_paths.h"
 #include "krr_core/pomdp/cassandra_io.h"
 #include "krr_core/pomdp/turn_counter_model.h"
@@ -68,7 +69,7 @@ int main(int argc, char** argv) {
       for (auto c : {KnowledgeCondition::kLearned, KnowledgeCondition::kOutdated}) models.push_back({br, c});
   try {
     const ExperimentPaths paths = ExperimentPaths::find(root, "office_30x30");
-    const DialogConfig cfg = loadDialogConfig(paths.dialog_yaml);
+    const DialogConfig cfg = loadDeliveryExperimentConfig(paths);
     const kb::NavDomain dom = kb::NavDomain::load(paths.navigation_yaml, "office_30x30",
                                                   paths.geometry, paths.navigation_plog);
     std::printf("# turn limit %d, precision %g, trial budget %zu (config/dialog.yaml); "

@@ -13,7 +13,7 @@
 #include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/resources.h"
-#include "krr_core/plog/grid_program.h"
+#include "krr_core/examples/grid_program.h"
 #include "krr_core/plog/reasoner.h"
 
 namespace {

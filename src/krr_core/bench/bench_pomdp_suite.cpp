@@ -2,7 +2,7 @@
 //
 // Usage: bench_pomdp_suite [--dir DIR] [--budgets 1,10] [--problems tiger,rocksample_4_4,...]
 //                          [--dialog-turns 10]
-// Problems: tiger (built in), rocksample_4_4, rocksample_5_5, rocksample_5_7, tag (read from
+// Problems: tiger (built in), rocksample_4_4, rocksample_5_5, rocksample_5_7, tag, rocksample_7_8 (from
 // DIR/<name>.pomdp; generate them with tools/pomdp_bench/gen_pomdp.py, see --help), dialog (a
 // 30-request dialog POMDP with the turn counter in the state, pomdp::withTurnCounter; not the
 // knowledge-base models of bench_dialog_pomdp, which need the experiment data).
@@ -22,9 +22,9 @@
 #include "krr_core/common/files.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/pomdp/cassandra_io.h"
-#include "krr_core/pomdp/dialog_pomdp.h"
+#include "krr_core/dialog/dialog_pomdp.h"
 #include "krr_core/pomdp/point_based_solver.h"
-#include "krr_core/pomdp/tiger.h"
+#include "krr_core/examples/tiger.h"
 #include "krr_core/pomdp/turn_counter_model.h"
 
 using namespace krr;
@@ -131,7 +131,7 @@ int main(int argc, char** argv) {
   std::string dir = "/tmp/pomdp_bench";
   std::vector<std::string> budgets{"1", "10"};
   std::vector<std::string> problems{"tiger", "rocksample_4_4", "rocksample_5_5", "rocksample_5_7",
-                                    "tag", "dialog"};
+                                    "tag", "rocksample_7_8", "dialog"};
   int turns = 10;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -150,7 +150,7 @@ int main(int argc, char** argv) {
           "[--dialog-turns 10]\n"
           "  generate DIR's files first, e.g. for DIR=/tmp/pomdp_bench:\n"
           "    tools/pomdp_bench/gen_pomdp.py rocksample 4 4 -o /tmp/pomdp_bench/rocksample_4_4.pomdp\n"
-          "    (likewise 5 5, 5 7) and tools/pomdp_bench/gen_pomdp.py tag -o /tmp/pomdp_bench/tag.pomdp\n");
+          "    (likewise 5 5, 5 7, 7 8) and tools/pomdp_bench/gen_pomdp.py tag -o /tmp/pomdp_bench/tag.pomdp\n");
       return a == "--help" || a == "-h" ? 0 : 2;
     }
   }

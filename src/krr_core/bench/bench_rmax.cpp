@@ -13,6 +13,7 @@
 #include "krr_core/common/cli.h"
 #include "krr_core/common/random.h"
 #include "krr_core/common/resources.h"
+#include "krr_core/examples/grid_world.h"
 #include "krr_core/mdp/environment.h"
 #include "krr_core/mdp/navigation_task.h"
 #include "krr_core/mdp/rmax_agent.h"

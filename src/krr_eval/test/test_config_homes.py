@@ -1,14 +1,19 @@
 """One home per setting (issue 14 part 2): every YAML under config/ is loaded and
 
 - no leaf key path is defined in two files (config/**.yaml): the navigation task and R-Max live
-  in navigation.yaml, the dialog in dialog.yaml. A node file (config/*_node.yaml,
+  in navigation.yaml, the dialog in dialog.yaml;
+- a setting that has one meaning wherever it is named (ONE_HOME: R-Max's M, the reward, the
+  blocking rate, the time of day...) is defined under one key path of one base file, not again
+  under another section or file (dialog.yaml's learning.known_threshold next to
+  navigation.yaml's rmax_learning.known_threshold would be two homes of R-Max's M); A node file (config/*_node.yaml,
   simulated_user.yaml) is the private namespace of its node, so its paths are the node's
   (learner_node's ~seed is not dialog_node's ~seed);
 - node files carry ROS wiring only (topics, rates, file paths, seeds, budgets): no leaf named
   like a physical / task setting (reward, discount, R-Max, blocking rate, speech model);
 - an experiment file (config/experiments/NAME.yaml) overrides keys of the base files only,
   each with a value different from the base (it names only what it changes), and keeps its own
-  protocol (episodes, places...) in its section NAME, whose keys no base file has.
+  protocol (episodes, places...) in its section NAME, whose keys no base file has and which
+  names no ONE_HOME setting (nav_transfer.time would be a second home of context.time).
 """
 import glob
 import os
@@ -27,7 +32,18 @@ PHYSICAL = {
     "slip_lateral", "trap_probability", "trap_reference_cell_size", "time_of_day",
     "general_question_cost", "confirm_question_cost", "success_reward", "failure_reward",
     "turn_limit", "max_redeliveries", "failure_penalty", "wrong_delivery_penalty",
-    "p_own", "p_general", "p_yesno", "items", "rooms", "persons", "offices",
+    "p_own", "p_general", "p_yesno", "items", "rooms", "persons", "offices", "time",
+}
+
+# Leaf names that mean one setting wherever they stand: at most one key path of the base files.
+# (Not `discount`: the dialog POMDP, the delivery trips, the task's planning and R-Max each have
+# their own, under their own section.)
+ONE_HOME = {
+    "step_cost", "rmax", "known_threshold", "replan_every", "optimism", "refine_known",
+    "blocking_rate", "blocking_mode", "move_success", "slip_stay", "slip_lateral",
+    "trap_probability", "trap_reference_cell_size", "time", "model_discount",
+    "general_question_cost", "confirm_question_cost", "success_reward", "failure_reward",
+    "turn_limit", "max_redeliveries", "failure_penalty", "wrong_delivery_penalty",
 }
 
 
@@ -56,6 +72,7 @@ def check(files):
     problems = []
     owner = {}   # leaf path -> first non-experiment file defining it
     base = {}    # leaf path -> value, over the base files
+    homes = {}   # ONE_HOME leaf name -> (file, key) of its first definition in a base file
     for rel in sorted(files):
         kind = classify(rel)
         if kind == "experiment":
@@ -70,6 +87,12 @@ def check(files):
                 owner[path] = rel
             if kind == "base":
                 base[path] = value
+                name = path[-1]
+                if name in ONE_HOME:
+                    if name in homes and homes[name] != (rel, key):
+                        problems.append("%s is set in %s (%s) and in %s (%s): one setting, two "
+                                        "homes" % (name, homes[name][0], homes[name][1], rel, key))
+                    homes.setdefault(name, (rel, key))
             elif PHYSICAL & set(path):
                 problems.append("%s: node file defines the physical / task setting %s (its home "
                                 "is a base file)" % (rel, key))
@@ -85,10 +108,14 @@ def check(files):
             key = ".".join(path)
             if path[0] == own:
                 # A base section inside the experiment's own (own.planning.step_cost) would be
-                # a second name for a base setting.
+                # a second name for a base setting, and so would a ONE_HOME name (own.time).
                 if path in base or (len(path) > 2 and path[1:] in base):
                     problems.append("%s: %s is a base setting, not the experiment's own" %
                                     (rel, key))
+                elif path[-1] in ONE_HOME:
+                    problems.append("%s: %s names the setting %s of a base file (%s): override "
+                                    "that key instead" % (rel, key, path[-1],
+                                                          homes.get(path[-1], ("?", "?"))[1]))
             elif path not in base:
                 problems.append("%s: %s overrides no key of a base file" % (rel, key))
             elif base[path] == value:
@@ -122,6 +149,14 @@ class ConfigHomesTest(unittest.TestCase):
             self.assertIn(("rmax_learning", key), nav)
         self.assertIn(("simulator", "blocking_rate"), nav)
         self.assertIn(("dialog", "discount"), leaves(files["dialog.yaml"]))
+        self.assertIn(("context", "time"), nav)
+        for rel in files:
+            if rel != "navigation.yaml":
+                self.assertNotIn("known_threshold", {p[-1] for p in leaves(files[rel])
+                                                     if classify(rel) == "base"}, rel)
+        # The delivery experiments' M lives in their experiment file, as a change of the base.
+        delivery = leaves(files[os.path.join("experiments", "delivery_trials.yaml")])
+        self.assertEqual(delivery[("rmax_learning", "known_threshold")], 30)
 
     def test_a_second_definition_fails(self):
         # The checker must catch what it exists to forbid, else a green run means nothing.
@@ -137,9 +172,23 @@ class ConfigHomesTest(unittest.TestCase):
         exp = os.path.join("experiments", "x.yaml")
         ok = dict(base, **{exp: {"x": {"episodes": 3}, "planning": {"step_cost": 0.5}}})
         self.assertEqual(check(ok), [])
+        # One setting under two sections or files: the second home is caught, whatever its path.
+        two = dict(base, **{"dialog.yaml": {"dialog": {"discount": 0.99},
+                                            "learning": {"known_threshold": 30}},
+                            "navigation.yaml": {"planning": {"step_cost": 1.0},
+                                                "rmax_learning": {"known_threshold": 5}}})
+        self.assertTrue(any("known_threshold is set in" in p for p in check(two)), check(two))
+        time = dict(base, **{"navigation.yaml": {"planning": {"step_cost": 1.0},
+                                                 "context": {"time": "morning"}},
+                             "dialog.yaml": {"dialog": {"discount": 0.99},
+                                             "navigation": {"time": "morning"}}})
+        self.assertTrue(any("time is set in" in p for p in check(time)), check(time))
+        node_time = dict(base, **{"learner_node.yaml": {"time": "morning"}})
+        self.assertTrue(any("node file defines" in p for p in check(node_time)))
         for doc, what in (({"planning": {"speed": 2}}, "overrides no key"),
                           ({"planning": {"step_cost": 1.0}}, "the base's value"),
-                          ({"x": {"planning": {"step_cost": 2.0}}}, "not the experiment's own")):
+                          ({"x": {"planning": {"step_cost": 2.0}}}, "not the experiment's own"),
+                          ({"x": {"time": "noon"}}, "names the setting time")):
             problems = check(dict(base, **{exp: doc}))
             self.assertTrue(any(what in p for p in problems), (doc, problems))
 

@@ -1,6 +1,7 @@
 """The include layering of the C++ code (test/check_layering.py), run with the other suites so
 that test/run_all.sh counts it: no experiment header in library or node code, no domain module
-in a generic one, no ROS header in the core.
+in a generic one, no ROS header in the core, no toy problem (examples) outside tests and
+benchmarks.
 """
 import os
 import subprocess
@@ -35,6 +36,13 @@ class LayeringTest(unittest.TestCase):
             "src/krr_core/src/dialog/d.cpp": '#include "../experiments/trials.cpp"\n',
             "src/krr_core/src/nav/n.cpp": '#include "krr_core/kb/domain.h"\n',
             "src/krr_core/src/common/c.cpp": "/*\n#include <ros/ros.h>\n*/\n#include <ros/ros.h>\n",
+            "src/krr_core/include/krr_core/examples/toy.h": "",
+            "src/krr_core/src/examples/toy.cpp": '#include "krr_core/examples/toy.h"\n',
+            "src/krr_core/test/pomdp/t.cpp": '#include "krr_core/examples/toy.h"\n',
+            "src/krr_core/bench/b.cpp": '#include "krr_core/examples/toy.h"\n',
+            "src/krr_core/src/pomdp/p.cpp": '#include "krr_core/examples/toy.h"\n',
+            "src/krr_core/src/experiments/e.cpp": '#include "../../include/krr_core/examples/toy.h"\n',
+            "src/krr_core/apps/a.cpp": '#include "krr_core/examples/toy.h"\n',
         }
         with tempfile.TemporaryDirectory() as root:
             for rel, text in files.items():
@@ -48,7 +56,12 @@ class LayeringTest(unittest.TestCase):
         self.assertIn("src/krr_core/src/dialog/d.cpp:1: experiments:", out)
         self.assertIn("src/krr_core/src/nav/n.cpp:1: generic:", out)
         self.assertIn("src/krr_core/src/common/c.cpp:4: ros:", out)
-        self.assertIn("4 violations", out)  # the experiments' own code and apps are allowed
+        self.assertIn("src/krr_core/src/pomdp/p.cpp:1: examples:", out)
+        self.assertIn("src/krr_core/src/experiments/e.cpp:1: examples:", out)
+        self.assertIn("src/krr_core/apps/a.cpp:1: examples:", out)
+        # The experiments' own code and apps may use the experiments; tests, benchmarks and the
+        # examples library itself the examples.
+        self.assertIn("7 violations", out)
 
 
 if __name__ == "__main__":

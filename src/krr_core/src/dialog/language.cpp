@@ -8,6 +8,7 @@
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
+#include "krr_core/common/yaml_section.h"
 
 namespace krr {
 namespace dialog {
@@ -132,14 +133,8 @@ LanguageConfig parseLanguageConfigNode(const YAML::Node& root, const std::string
 
 }  // namespace
 
-LanguageConfig parseLanguageConfig(const std::string& yamlText, const std::string& name) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(yamlText);
-  } catch (const YAML::Exception& e) {
-    throw ConfigError(name + ":" + std::to_string(e.mark.line + 1) + ":" +
-                      std::to_string(e.mark.column + 1) + ": invalid YAML: " + e.msg);
-  }
+LanguageConfig parseLanguageConfig(const std::string& text, const std::string& name) {
+  const YAML::Node root = parseYaml(text, name);
   try {
     return parseLanguageConfigNode(root, name);
   } catch (const YAML::Exception& e) {

@@ -3,6 +3,8 @@
 #include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/resource_locator.h"
+#include "krr_core/common/yaml_section.h"
+#include "experiment_yaml.h"
 
 namespace krr {
 namespace dialog {
@@ -46,8 +48,31 @@ void ExperimentCli::finish() {
   experiment.validate();
 }
 
-DialogConfig ExperimentCli::config(const ExperimentPaths& paths) const {
+DialogConfig loadDeliveryExperimentConfig(const ExperimentPaths& paths) {
   DialogConfig c = loadDialogConfig(paths.dialog_yaml);
+  const std::string& file = paths.delivery_yaml;
+  kb::detail::ExperimentBase b = kb::detail::experimentBaseOf(c.rmaxParams(), 0.0, 1.0);
+  const YamlSection top(parseYaml(readFile(file), file), file, "", {"planning", "rmax_learning"});
+  if (top.has("planning") && top.get("planning").IsMap() && top.get("planning")["discount"]) {
+    throw ConfigError(file + ": field 'planning.discount': not a setting of the delivery "
+                      "experiments (their trips' discount is config/dialog.yaml's "
+                      "navigation.discount)");
+  }
+  kb::detail::readBaseOverrides(top, b, 0.0);
+  const mdp::RMaxParams p = kb::detail::rmaxParamsOf(b.planning, b.rmax_learning);
+  c.step_cost = p.step_cost;
+  c.rmax = p.rmax;
+  c.known_threshold = p.known_threshold;
+  c.refine_known = p.refine_known;
+  c.rmax_discount = p.discount;
+  c.rmax_replan_every = p.replan_every;
+  c.rmax_optimism = p.optimism;
+  c.validate();
+  return c;
+}
+
+DialogConfig ExperimentCli::config(const ExperimentPaths& paths) const {
+  DialogConfig c = loadDeliveryExperimentConfig(paths);
   if (!serve_cost.empty()) c.serve_cost_mode = serveCostModeFromString(serve_cost);
   if (serve_cost_weight >= 0) c.serve_cost_weight = serve_cost_weight;
   if (wrong_delivery_penalty >= 0) c.wrong_delivery_penalty = wrong_delivery_penalty;

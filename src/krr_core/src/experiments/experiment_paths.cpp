@@ -23,10 +23,11 @@ ExperimentPaths ExperimentPaths::find(const std::string& root_hint, const std::s
   ExperimentPaths p;
   p.root = root;
   p.dialog_yaml = root + "/config/dialog.yaml";
+  p.delivery_yaml = root + "/config/experiments/delivery_trials.yaml";
   p.navigation_yaml = root + "/config/navigation.yaml";
   p.navigation_plog = root + "/config/navigation.plog";
   p.geometry = root + "/maps/" + domain + "_geometry.plog";
-  for (const std::string* f : {&p.dialog_yaml, &p.navigation_yaml, &p.navigation_plog})
+  for (const std::string* f : {&p.dialog_yaml, &p.delivery_yaml, &p.navigation_yaml, &p.navigation_plog})
     if (!isFile(*f)) throw ConfigError("missing input file " + *f + " (repository root " + root + ")");
   if (!isFile(p.geometry))
     throw ConfigError("no geometry file " + p.geometry + " for domain '" + domain +

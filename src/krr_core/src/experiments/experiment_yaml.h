@@ -1,117 +1,20 @@
-// Private helper of the experiments: strict reading of small YAML option files (every
-// field optional, unknown fields and bad values are ConfigErrors naming file and field).
+// Private helper of the experiments: the base settings an experiment file overrides (read
+// with the one YAML section reader, common/yaml_section.h: every field optional, unknown
+// fields and bad values are ConfigErrors naming file and field).
 #pragma once
 
-#include <yaml-cpp/yaml.h>
-
-#include <cmath>
 #include <fstream>
-#include <set>
-#include <sstream>
 #include <string>
-#include <vector>
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
+#include "krr_core/common/yaml_section.h"
 #include "krr_core/mdp/rmax_agent.h"
 #include "krr_core/nav/navigation_config.h"
 
 namespace krr {
 namespace kb {
 namespace detail {
-
-/// @brief One YAML mapping with a fixed set of allowed keys.
-class YamlSection {
- public:
-  YamlSection(const YAML::Node& node, std::string file, std::string prefix,
-              const std::set<std::string>& allowed)
-      : node_(node), file_(std::move(file)), prefix_(std::move(prefix)) {
-    if (node_.IsNull()) return;
-    if (!node_.IsMap())
-      throw ConfigError(file_ + ": " + (prefix_.empty() ? std::string("the file") : "field '" + prefix_ + "'") +
-                        " must be a mapping");
-    for (auto it = node_.begin(); it != node_.end(); ++it) {
-      const std::string k = it->first.Scalar();
-      if (!allowed.count(k)) throw ConfigError(file_ + ": unknown field '" + field(k) + "'");
-    }
-  }
-
-  bool has(const std::string& k) const { return node_.IsMap() && node_[k]; }
-  YAML::Node get(const std::string& k) const { return node_[k]; }
-  std::string field(const std::string& k) const { return prefix_.empty() ? k : prefix_ + "." + k; }
-  const std::string& file() const { return file_; }
-
-  double number(const std::string& k, double def, double lo, double hi) const {
-    if (!has(k)) return def;
-    double v;
-    try {
-      v = node_[k].as<double>();
-    } catch (const YAML::Exception&) {
-      throw ConfigError(file_ + ": field '" + field(k) + "': value '" + text(node_[k]) +
-                        "' is not a number");
-    }
-    if (!std::isfinite(v) || v < lo || v > hi) {
-      std::ostringstream o;
-      o << file_ << ": field '" << field(k) << "': value " << v << " is outside [" << lo << ", "
-        << hi << "]";
-      throw ConfigError(o.str());
-    }
-    return v;
-  }
-
-  std::size_t count(const std::string& k, std::size_t def, std::size_t lo, std::size_t hi) const {
-    if (!has(k)) return def;
-    const double v = number(k, 0, static_cast<double>(lo), static_cast<double>(hi));
-    if (v != std::floor(v))
-      throw ConfigError(file_ + ": field '" + field(k) + "': value " + text(node_[k]) +
-                        " is not an integer");
-    return static_cast<std::size_t>(v);
-  }
-
-  std::string string(const std::string& k, const std::string& def) const {
-    if (!has(k)) return def;
-    if (!node_[k].IsScalar())
-      throw ConfigError(file_ + ": field '" + field(k) + "': value '" + text(node_[k]) +
-                        "' is not a string");
-    return node_[k].Scalar();
-  }
-
-  std::vector<std::string> strings(const std::string& k, const std::vector<std::string>& def) const {
-    if (!has(k)) return def;
-    const YAML::Node n = node_[k];
-    if (!n.IsSequence())
-      throw ConfigError(file_ + ": field '" + field(k) + "': value '" + text(n) +
-                        "' must be a list of names");
-    std::vector<std::string> out;
-    for (const auto& e : n) {
-      if (!e.IsScalar())
-        throw ConfigError(file_ + ": field '" + field(k) + "': element '" + text(e) +
-                          "' is not a name");
-      out.push_back(e.Scalar());
-    }
-    return out;
-  }
-
-  static std::string text(const YAML::Node& n) {
-    YAML::Emitter e;
-    e << YAML::Flow << n;
-    return e.c_str();
-  }
-
- private:
-  YAML::Node node_;
-  std::string file_, prefix_;
-};
-
-/// @brief Parse a YAML file; ConfigError naming the file (and line) when it is not YAML.
-inline YAML::Node loadYamlFile(const std::string& path) {
-  const std::string text = readFile(path);  // IoError when unreadable
-  try {
-    return YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    throw ConfigError(path + ":" + std::to_string(e.mark.line + 1) + ": not valid YAML: " + e.msg);
-  }
-}
 
 /// @brief R-Max parameters of the navigation task: the reward of `planning` (step_cost, rmax)
 /// and the learning settings of `rmax_learning` (navigation.yaml).
@@ -137,6 +40,7 @@ struct ExperimentBase {
   nav::PlanningConfig planning;
   nav::RMaxLearningConfig rmax_learning;
   double blocking_rate = 0.3;
+  std::string time = "morning";  ///< context.time
   bool found = false;
 };
 
@@ -151,6 +55,7 @@ inline ExperimentBase experimentBase(const std::string& experiment_file) {
   b.planning = c.planning;
   b.rmax_learning = c.rmax_learning;
   b.blocking_rate = c.simulator.blocking_rate;
+  b.time = c.time;
   b.found = true;
   return b;
 }
@@ -185,7 +90,8 @@ inline void applyRMax(const ExperimentBase& b, mdp::RMaxParams& p) {
 
 /// @brief The overrides of base settings in an experiment file's top level: `planning`
 /// {step_cost, rmax, discount}, `rmax_learning` {known_threshold, discount, replan_every,
-/// optimism, refine_known} and `simulator` {blocking_rate} (blocking_rate_lo: its lower bound).
+/// optimism, refine_known}, `simulator` {blocking_rate} (blocking_rate_lo: its lower bound)
+/// and `context` {time}; a section the caller's `top` does not allow is refused there.
 inline void readBaseOverrides(const YamlSection& top, ExperimentBase& b, double blocking_rate_lo) {
   if (top.has("planning")) {
     YamlSection p(top.get("planning"), top.file(), "planning", {"step_cost", "rmax", "discount"});
@@ -197,14 +103,10 @@ inline void readBaseOverrides(const YamlSection& top, ExperimentBase& b, double 
     YamlSection r(top.get("rmax_learning"), top.file(), "rmax_learning",
                   {"known_threshold", "discount", "replan_every", "optimism", "refine_known"});
     nav::RMaxLearningConfig& l = b.rmax_learning;
-    l.known_threshold = static_cast<int>(r.count("known_threshold", l.known_threshold, 1, 1000000));
+    l.known_threshold = static_cast<int>(r.integer("known_threshold", l.known_threshold, 1, 1000000));
     l.discount = r.number("discount", l.discount, 0.0, 1.0);
-    l.replan_every = static_cast<int>(r.count("replan_every", l.replan_every, 0, 1000000));
-    const std::string refine = r.string("refine_known", l.refine_known ? "true" : "false");
-    if (refine != "true" && refine != "false")
-      throw ConfigError(r.file() + ": field '" + r.field("refine_known") + "': value '" + refine +
-                        "' is not true or false");
-    l.refine_known = refine == "true";
+    l.replan_every = static_cast<int>(r.integer("replan_every", l.replan_every, 0, 1000000));
+    l.refine_known = r.boolean("refine_known", l.refine_known);
     l.optimism = r.string("optimism", l.optimism);
     if (l.optimism != "self_loop" && l.optimism != "terminal_bonus")
       throw ConfigError(r.file() + ": field '" + r.field("optimism") + "': unknown value '" +
@@ -213,6 +115,10 @@ inline void readBaseOverrides(const YamlSection& top, ExperimentBase& b, double 
   if (top.has("simulator")) {
     YamlSection s(top.get("simulator"), top.file(), "simulator", {"blocking_rate"});
     b.blocking_rate = s.number("blocking_rate", b.blocking_rate, blocking_rate_lo, 1.0);
+  }
+  if (top.has("context")) {
+    YamlSection c(top.get("context"), top.file(), "context", {"time"});
+    b.time = c.string("time", b.time);
   }
 }
 

@@ -26,24 +26,27 @@ void NavTransferOptions::validate() const {
 
 NavTransferOptions loadNavTransferOptions(const std::string& path,
                                           const NavTransferOptions& defaults) {
-  using detail::YamlSection;
-  const YAML::Node root = detail::loadYamlFile(path);
+  const YAML::Node root = parseYaml(readFile(path), path);
   // Base settings (navigation.yaml: reward, R-Max, blocking rate), then the file's overrides
   // of them, then the experiment's own section.
-  YamlSection top(root, path, "", {"nav_transfer", "planning", "rmax_learning", "simulator"});
+  YamlSection top(root, path, "",
+                  {"nav_transfer", "planning", "rmax_learning", "simulator", "context"});
   detail::ExperimentBase b = detail::experimentBase(path);
-  if (!b.found) b = detail::experimentBaseOf(defaults.rmax, defaults.blocking_rate, 0.99);
+  if (!b.found) {
+    b = detail::experimentBaseOf(defaults.rmax, defaults.blocking_rate, 0.99);
+    b.time = defaults.time;
+  }
   detail::readBaseOverrides(top, b, 0.0);
   NavTransferOptions o = defaults;
   detail::applyRMax(b, o.rmax);
   o.blocking_rate = b.blocking_rate;
+  o.time = b.time;
   YamlSection s(top.has("nav_transfer") ? top.get("nav_transfer") : YAML::Node(), path, "nav_transfer",
-                {"start", "source", "target", "time", "source_episodes", "convergence_episodes",
+                {"start", "source", "target", "source_episodes", "convergence_episodes",
                  "target_episodes"});
   o.start = s.string("start", o.start);
   o.source = s.string("source", o.source);
   o.target = s.string("target", o.target);
-  o.time = s.string("time", o.time);
   o.source_episodes = s.count("source_episodes", o.source_episodes, 1, 100000000);
   o.convergence_episodes = s.count("convergence_episodes", o.convergence_episodes, 1, 100000000);
   o.target_episodes = s.count("target_episodes", o.target_episodes, 1, 100000000);

@@ -54,8 +54,7 @@ void NewCircumstancesOptions::validate() const {
 
 NewCircumstancesOptions loadNewCircumstancesOptions(const std::string& path,
                                                     const NewCircumstancesOptions& defaults) {
-  using detail::YamlSection;
-  const YAML::Node root = detail::loadYamlFile(path);
+  const YAML::Node root = parseYaml(readFile(path), path);
   if (root.IsMap() && root["new_circumstances"] && root["new_circumstances"].IsMap() &&
       root["new_circumstances"]["unknown_times"])
     throw ConfigError(path + ": field 'new_circumstances.unknown_times' is no longer read: the settings the robot "

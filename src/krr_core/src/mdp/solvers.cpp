@@ -1,12 +1,9 @@
-#include "krr_core/common/format.h"
+// Value iteration and policy iteration: the driver (initial values, passes, stopping,
+// greedy policies) over the inner-loop kernels of solver_kernels.h (reference and AVX2).
 #include "krr_core/mdp/solvers.h"
 
 #include <Eigen/Sparse>
 #include <Eigen/SparseLU>
-
-#if defined(__x86_64__) && defined(__GNUC__)
-#include <immintrin.h>
-#endif
 
 #include <algorithm>
 #include <cmath>
@@ -16,6 +13,8 @@
 #include <string>
 
 #include "krr_core/common/errors.h"
+#include "krr_core/common/format.h"
+#include "solver_kernels.h"
 
 namespace krr {
 namespace mdp {
@@ -31,137 +30,29 @@ void checkWarmStart(const std::vector<double>* warm, std::size_t n) {
   }
 }
 
-#if defined(__x86_64__) && defined(__GNUC__)
-#define KRR_MDP_X86_DISPATCH 1
-bool cpuHasAvx2Fma() {
-  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  return has;
-}
-#define KRR_AVX2 __attribute__((target("avx2,fma"), always_inline)) inline
-KRR_AVX2 __m256d load4(const double* p) { return _mm256_loadu_pd(p); }
-KRR_AVX2 __m256d load4(const float* p) { return _mm256_cvtps_pd(_mm_loadu_ps(p)); }
-KRR_AVX2 double hmax4(__m256d v) {
-  __m128d h = _mm_max_pd(_mm256_castpd256_pd128(v), _mm256_extractf128_pd(v, 1));
-  return _mm_cvtsd_f64(_mm_max_sd(h, _mm_unpackhi_pd(h, h)));
-}
-#endif
+using kernels::Isa;
+using kernels::kGA;
+using kernels::kGBlock;
+using kernels::kGK;
+using kernels::kGL;
 
-/*
- * One grid row, Jacobi-style: for every cell x of row y, b[x] = live[x] * max_a (r_a[x] +
- * g * sum_k p_ak[x] V(neighbour_k of x)), reading V from the padded array (zero halo, so the
- * edges need no branch), then V(row y) = b; returns max_x |b[x] - V_old(x)|. The store of a
- * block is delayed until the next block has loaded its (old) left neighbour, so the row is
- * updated in place in one pass. `cur` points at the left halo cell (index x + 1 is cell x);
- * all kernels use the same operation order (with fused multiply-adds where the CPU has them).
- */
-constexpr std::size_t kGL = BasicGridModel<double>::kLanes;
-constexpr std::size_t kGA = BasicGridModel<double>::kNumActions;
-constexpr std::size_t kGK = BasicGridModel<double>::kSweepOutcomes;
-constexpr std::size_t kGBlock = BasicGridModel<double>::kBlockSize;
-static_assert(kGL == 8 && kGK == 5, "grid kernels assume 8 lanes and 5 sweep outcomes");
-
-template <class P>
-double gridRowGeneric(std::size_t nb, const P* __restrict prob, const P* __restrict rew,
-                      const P* __restrict live, const double* __restrict up,
-                      double* __restrict cur, const double* __restrict dn, double g) {
-  double pend[kGL] = {0.0}, res = 0.0;
-  for (std::size_t xb = 0; xb < nb; ++xb) {
-    const std::size_t x0 = xb * kGL;
-    double vl[kGL], vc[kGL], vr[kGL], vu[kGL], vd[kGL], best[kGL];
-    for (std::size_t l = 0; l < kGL; ++l) {
-      vl[l] = cur[x0 + l];
-      vc[l] = cur[x0 + l + 1];
-      vr[l] = cur[x0 + l + 2];
-      vu[l] = up[x0 + l + 1];
-      vd[l] = dn[x0 + l + 1];
-    }
-    if (xb > 0) std::copy(pend, pend + kGL, cur + x0 + 1 - kGL);
-    for (std::size_t a = 0; a < kGA; ++a) {
-      const P* q = prob + xb * kGBlock + a * kGK * kGL;
-      const P* r = rew + (xb * kGA + a) * kGL;
-      for (std::size_t l = 0; l < kGL; ++l) {
-        const double acc0 = double(q[l]) * vc[l] + double(q[2 * kGL + l]) * vd[l] +
-                            double(q[4 * kGL + l]) * vr[l];
-        const double acc1 = double(q[kGL + l]) * vu[l] + double(q[3 * kGL + l]) * vl[l];
-        const double v = (acc0 + acc1) * g + double(r[l]);
-        best[l] = (a == 0 || v > best[l]) ? v : best[l];
-      }
-    }
-    for (std::size_t l = 0; l < kGL; ++l) {
-      pend[l] = best[l] * double(live[x0 + l]);
-      res = std::max(res, std::fabs(pend[l] - vc[l]));
+/// @brief Record a pass of d pipelined sweeps (residuals res[0..d)) as sweeps it+1..it+d; the
+/// first sweep below the threshold ends the solve (the pass's later sweeps only got closer, and
+/// the solution reports the last one's residual). True when the solve converged.
+bool recordPass(const double* res, std::size_t d, double threshold, std::size_t& it,
+                Solution& sol) {
+  for (std::size_t j = 0; j < d; ++j) {
+    ++it;
+    sol.residual = res[j];
+    if (res[j] < threshold) {
+      sol.converged = true;
+      sol.residual = res[d - 1];
+      it += d - 1 - j;
+      break;
     }
   }
-  if (nb > 0) std::copy(pend, pend + kGL, cur + (nb - 1) * kGL + 1);
-  return res;
-}
-
-#ifdef KRR_MDP_X86_DISPATCH
-template <class P>
-__attribute__((target("avx2,fma"))) double gridRowAvx2(
-    std::size_t nb, const P* __restrict prob, const P* __restrict rew, const P* __restrict live,
-    const double* __restrict up, double* __restrict cur, const double* __restrict dn,
-    double g) {
-  const __m256d gv = _mm256_set1_pd(g);
-  const __m256d absmask = _mm256_castsi256_pd(_mm256_set1_epi64x(0x7fffffffffffffffLL));
-  __m256d res = _mm256_setzero_pd(), pend0 = res, pend1 = res;
-  for (std::size_t xb = 0; xb < nb; ++xb) {
-    const std::size_t x0 = xb * kGL;
-    __m256d out[2];
-#pragma GCC unroll 2
-    for (std::size_t h = 0; h < 2; ++h) {
-      const std::size_t xh = x0 + 4 * h;
-      const __m256d vl = _mm256_loadu_pd(cur + xh), vc = _mm256_loadu_pd(cur + xh + 1);
-      const __m256d vr = _mm256_loadu_pd(cur + xh + 2), vu = _mm256_loadu_pd(up + xh + 1);
-      const __m256d vd = _mm256_loadu_pd(dn + xh + 1);
-      if (h == 0 && xb > 0) {
-        _mm256_storeu_pd(cur + x0 + 1 - kGL, pend0);
-        _mm256_storeu_pd(cur + x0 + 5 - kGL, pend1);
-      }
-      __m256d best = _mm256_setzero_pd();
-#pragma GCC unroll 4
-      for (std::size_t a = 0; a < kGA; ++a) {
-        const P* q = prob + xb * kGBlock + a * kGK * kGL + 4 * h;
-        __m256d acc0 = _mm256_mul_pd(load4(q), vc);
-        __m256d acc1 = _mm256_mul_pd(load4(q + kGL), vu);
-        acc0 = _mm256_fmadd_pd(load4(q + 2 * kGL), vd, acc0);
-        acc1 = _mm256_fmadd_pd(load4(q + 3 * kGL), vl, acc1);
-        acc0 = _mm256_fmadd_pd(load4(q + 4 * kGL), vr, acc0);
-        const __m256d v = _mm256_fmadd_pd(_mm256_add_pd(acc0, acc1), gv,
-                                          load4(rew + (xb * kGA + a) * kGL + 4 * h));
-        best = a == 0 ? v : _mm256_max_pd(v, best);
-      }
-      out[h] = _mm256_mul_pd(best, load4(live + xh));
-      res = _mm256_max_pd(res, _mm256_and_pd(_mm256_sub_pd(out[h], vc), absmask));
-    }
-    pend0 = out[0];
-    pend1 = out[1];
-  }
-  if (nb > 0) {
-    _mm256_storeu_pd(cur + (nb - 1) * kGL + 1, pend0);
-    _mm256_storeu_pd(cur + (nb - 1) * kGL + 5, pend1);
-  }
-  return hmax4(res);
-}
-
-#endif
-
-/// Which kernels to run (chosen once per solve). AVX-512 was measured slower than AVX2 on the
-/// target CPU (Zen 4 splits 512-bit operations), so AVX2 + FMA is the widest.
-enum class Isa { kGeneric, kAvx2 };
-
-/// AVX2 + FMA when the CPU has them, unless the environment variable KRR_MDP_ISA=generic
-/// selects the portable kernels (to test them and compare in benchmarks).
-Isa bestIsa() {
-  static const Isa isa = [] {
-    const char* e = std::getenv("KRR_MDP_ISA");
-    if (e != nullptr && std::string(e) == "generic") return Isa::kGeneric;
-#ifdef KRR_MDP_X86_DISPATCH
-    if (cpuHasAvx2Fma()) return Isa::kAvx2;
-#endif
-    return Isa::kGeneric;
-  }();
-  return isa;
+  sol.iterations = it;
+  return sol.converged;
 }
 
 template <class P>
@@ -172,11 +63,14 @@ double updateGridRow(Isa isa, const BasicGridModel<P>& m, std::uint32_t y, doubl
   double* cur = vp + static_cast<std::size_t>(y + 1) * wp;
   const double* dn = vp + static_cast<std::size_t>(y + 2) * wp;
 #ifdef KRR_MDP_X86_DISPATCH
-  if (isa == Isa::kAvx2)
-    return gridRowAvx2<P>(nb, m.probBlocks(y), m.rewardBlocks(y), m.liveRow(y), up, cur, dn, g);
+  if (isa == Isa::kAvx2) {
+    return kernels::gridRowAvx2<P>(nb, m.probBlocks(y), m.rewardBlocks(y), m.liveRow(y), up,
+                                   cur, dn, g);
+  }
 #endif
   (void)isa;
-  return gridRowGeneric<P>(nb, m.probBlocks(y), m.rewardBlocks(y), m.liveRow(y), up, cur, dn, g);
+  return kernels::gridRowReference<P>(nb, m.probBlocks(y), m.rewardBlocks(y), m.liveRow(y), up,
+                                      cur, dn, g);
 }
 
 template <class P>
@@ -210,7 +104,7 @@ Solution gridValueIteration(const BasicGridModel<P>& m, const SolverOptions& opt
   }
   const double threshold = stoppingThreshold(options.epsilon, g);
   Solution sol;
-  const Isa isa = bestIsa();
+  const Isa isa = kernels::bestIsa();
   // Grids whose model does not fit in the per-core cache run `depth` sweeps per pass over
   // memory, pipelined one row apart (sweep j updates row t - j at step t, in order of j). Each
   // sweep then sees exactly the rows a sequential sweep would see, so the result is identical
@@ -237,19 +131,7 @@ Solution gridValueIteration(const BasicGridModel<P>& m, const SolverOptions& opt
         res[j] = std::max(res[j], updateGridRow(isa, m, row, vp.data(), wp, g));
       }
     }
-    bool done = false;
-    for (std::size_t j = 0; j < d; ++j) {
-      ++it;
-      sol.residual = res[j];
-      if (res[j] < threshold) {  // later sweeps of the pass only got closer
-        sol.converged = done = true;
-        sol.residual = res[d - 1];
-        it += d - 1 - j;
-        break;
-      }
-    }
-    sol.iterations = it;
-    if (done) break;
+    if (recordPass(res.data(), d, threshold, it, sol)) break;
   }
   sol.values.assign(m.getS(), 0.0);
   sol.policy.assign(m.getS(), 0);
@@ -335,75 +217,18 @@ double bellmanResidual(const SparseModel& m, const std::vector<double>& v) {
 
 namespace {
 
-/**
- * Gauss-Seidel sweeps over rows padded to exactly K entries (zero-probability padding pointing
- * at the state itself). A compile-time trip count removes the branch mispredictions that
- * variable-length CSR rows cost on every (s, a).
- */
-template <int K>
-inline __attribute__((always_inline)) void sweepPaddedBody(
-    const SparseModel& m, const std::vector<StateId>& nx, const std::vector<double>& pr,
-    std::vector<double>& v, const SolverOptions& options, Solution& sol) {
-  const std::size_t ns = m.getS(), na = m.getA();
-  const std::vector<std::uint8_t>& term = m.terminalFlags();
-  const double* rw = m.rewards();
-  const double g = m.getDiscount();
-  const double threshold = stoppingThreshold(options.epsilon, g);
-  double* vv = v.data();
-  for (std::size_t it = 1; it <= options.max_iterations; ++it) {
-    double res = 0.0;
-    const bool forward = it % 2 == 1;
-    for (std::size_t idx = 0; idx < ns; ++idx) {
-      const std::size_t s = forward ? idx : ns - 1 - idx;
-      if (term[s]) continue;
-      double best = -std::numeric_limits<double>::infinity();
-      const std::size_t i0 = s * na;
-      for (std::size_t i = i0; i < i0 + na; ++i) {
-        const StateId* n = nx.data() + i * K;
-        const double* p = pr.data() + i * K;
-        // Two accumulators halve the floating-point add chain of a row.
-        double acc0 = 0.0, acc1 = 0.0;
-#pragma GCC unroll 8
-        for (int k = 0; k < K; k += 2) {
-          acc0 += p[k] * vv[n[k]];
-          acc1 += p[k + 1] * vv[n[k + 1]];
-        }
-        const double q = rw[i] + g * (acc0 + acc1);
-        best = q > best ? q : best;
-      }
-      const double d = std::fabs(best - vv[s]);
-      res = d > res ? d : res;
-      vv[s] = best;
-    }
-    sol.iterations = it;
-    sol.residual = res;
-    if (res < threshold) {
-      sol.converged = true;
-      break;
-    }
-  }
-}
-
-#ifdef KRR_MDP_X86_DISPATCH
-template <int K>
-__attribute__((target("avx2,fma"))) void sweepPaddedAvx2(
-    const SparseModel& m, const std::vector<StateId>& nx, const std::vector<double>& pr,
-    std::vector<double>& v, const SolverOptions& options, Solution& sol) {
-  sweepPaddedBody<K>(m, nx, pr, v, options, sol);
-}
-#endif
-
 template <int K>
 void sweepPadded(const SparseModel& m, const std::vector<StateId>& nx,
                  const std::vector<double>& pr, std::vector<double>& v,
                  const SolverOptions& options, Solution& sol) {
 #ifdef KRR_MDP_X86_DISPATCH
-  if (cpuHasAvx2Fma()) {
-    sweepPaddedAvx2<K>(m, nx, pr, v, options, sol);
+  // (As before the split: the CPU alone decides here, KRR_MDP_ISA does not.)
+  if (kernels::cpuHasAvx2Fma()) {
+    kernels::sweepPaddedAvx2<K>(m, nx, pr, v, options, sol);
     return;
   }
 #endif
-  sweepPaddedBody<K>(m, nx, pr, v, options, sol);
+  kernels::sweepPaddedReference<K>(m, nx, pr, v, options, sol);
 }
 
 template <int K>
@@ -425,10 +250,6 @@ void solvePadded(const SparseModel& m, std::vector<double>& v, const SolverOptio
   sweepPadded<K>(m, nx, pr, v, options, sol);
 }
 
-}  // namespace
-
-namespace {
-
 /*
  * Value iteration on the sweep layout (see BasicSweepModel). Gauss-Seidel in place; the
  * backups of one state's actions are evaluated together in SIMD lanes. A pass runs `depth`
@@ -441,168 +262,14 @@ namespace {
  * from memory once per pass instead of once per sweep.
  */
 
-/// Backup of state s: max over actions of R(s, a) + sum_k P[s][k][a] V(N(s)_k), portable.
-template <class P>
-double sweepBackupGeneric(const BasicSweepModel<P>& m, const double* v, std::size_t s) {
-  const std::size_t K = m.successorsPerState(), L = m.actionLanes();
-  const std::uint32_t* n = m.successorIndices() + s * K;
-  const P* q = m.probabilityBlocks() + s * K * L;
-  const P* r = m.rewardRows() + s * L;
-  double acc[BasicSweepModel<P>::kMaxActions] = {0.0};
-  for (std::size_t a = 0; a < L; ++a) acc[a] = double(r[a]);
-  for (std::size_t k = 0; k < K; ++k) {
-    const double vk = v[n[k]];
-    for (std::size_t a = 0; a < L; ++a) acc[a] += double(q[k * L + a]) * vk;
-  }
-  double best = acc[0];
-  for (std::size_t a = 1; a < L; ++a) best = acc[a] > best ? acc[a] : best;
-  return best;
-}
-
-template <class P>
-void sweepPassGeneric(const BasicSweepModel<P>& m, double* v, std::size_t depth, std::size_t C,
-                      bool forward, double* res) {
-  const std::size_t ns = m.getS();
-  const std::size_t nch = (ns + C - 1) / C;
-  for (std::size_t t = 0; t + 1 < nch + depth; ++t) {
-    for (std::size_t i = 0; i < C; ++i) {
-      for (std::size_t j = 0; j < depth; ++j) {
-        if (t < j || t - j >= nch) continue;
-        const std::size_t p = (t - j) * C + i;
-        if (p >= ns) continue;
-        const std::size_t s = forward ? p : ns - 1 - p;
-        const double b = sweepBackupGeneric(m, v, s);
-        res[j] = std::max(res[j], std::fabs(b - v[s]));
-        v[s] = b;
-      }
-    }
-  }
-}
-
-#ifdef KRR_MDP_X86_DISPATCH
-KRR_AVX2 __m256d bcast(const double* p) { return _mm256_broadcast_sd(p); }
-
-template <int K, int L, class P>
-KRR_AVX2 double sweepBackupAvx2(const std::uint32_t* __restrict sc, const P* __restrict pr,
-                                const P* __restrict rw, const double* __restrict v,
-                                std::size_t s) {
-  const std::uint32_t* n = sc + s * K;
-  const P* q = pr + s * K * L;
-  const P* r = rw + s * L;
-  // Two accumulators per 4 lanes halve the dependency chain of the sum.
-  __m256d a0 = load4(r), a1 = _mm256_mul_pd(load4(q), bcast(v + n[0]));
-  __m256d b0 = L == 8 ? load4(r + 4) : a0, b1 = L == 8 ? _mm256_mul_pd(load4(q + 4), bcast(v + n[0])) : a1;
-#pragma GCC unroll 8
-  for (int k = 1; k < K; ++k) {
-    const __m256d vk = bcast(v + n[k]);
-    if (k % 2 == 1) {
-      a0 = _mm256_fmadd_pd(load4(q + k * L), vk, a0);
-      if (L == 8) b0 = _mm256_fmadd_pd(load4(q + k * L + 4), vk, b0);
-    } else {
-      a1 = _mm256_fmadd_pd(load4(q + k * L), vk, a1);
-      if (L == 8) b1 = _mm256_fmadd_pd(load4(q + k * L + 4), vk, b1);
-    }
-  }
-  __m256d acc = _mm256_add_pd(a0, a1);
-  if (L == 8) acc = _mm256_max_pd(acc, _mm256_add_pd(b0, b1));
-  return hmax4(acc);
-}
-
-/// Backs up state s in place and returns max(res, |change|).
-template <int K, int L, class P>
-KRR_AVX2 double sweepUpdateAvx2(const std::uint32_t* __restrict sc, const P* __restrict pr,
-                                const P* __restrict rw, double* __restrict v, std::size_t s,
-                                double res) {
-  const double b = sweepBackupAvx2<K, L, P>(sc, pr, rw, v, s);
-  const double d = std::fabs(b - v[s]);
-  v[s] = b;
-  return d > res ? d : res;
-}
-
-template <int K, int L, int D, class P>
-__attribute__((target("avx2,fma"))) void sweepPassAvx2(const BasicSweepModel<P>& m, double* v,
-                                                       std::size_t C, bool forward,
-                                                       double* res) {
-  const std::uint32_t* __restrict sc = m.successorIndices();
-  const P* __restrict pr = m.probabilityBlocks();
-  const P* __restrict rw = m.rewardRows();
-  const std::size_t ns = m.getS();
-  const std::size_t nch = (ns + C - 1) / C;
-  double r[D];
-  for (int j = 0; j < D; ++j) r[j] = res[j];
-  constexpr std::size_t kAhead = 16;  // prefetch distance of the leading sweep, in states
-  for (std::size_t t = 0; t + 1 < nch + D; ++t) {
-    if (t + 1 >= static_cast<std::size_t>(D) && t + 1 < nch) {
-      // Every sweep has a full chunk: the hot loop, without bounds checks.
-      const std::size_t base = t * C;
-      for (std::size_t i = 0; i < C; ++i) {
-        const std::size_t pa = base + i + kAhead;
-        if (pa < ns) {
-          const std::size_t sa = forward ? pa : ns - 1 - pa;
-          const char* qa = reinterpret_cast<const char*>(pr + sa * K * L);
-          for (std::size_t off = 0; off < K * L * sizeof(P); off += 64) {
-            _mm_prefetch(qa + off, _MM_HINT_T0);
-          }
-          _mm_prefetch(reinterpret_cast<const char*>(sc + sa * K), _MM_HINT_T0);
-        }
-#pragma GCC unroll 4
-        for (int j = 0; j < D; ++j) {
-          const std::size_t p = base + i - static_cast<std::size_t>(j) * C;
-          r[j] = sweepUpdateAvx2<K, L, P>(sc, pr, rw, v, forward ? p : ns - 1 - p, r[j]);
-        }
-      }
-    } else {
-      for (std::size_t i = 0; i < C; ++i) {
-        for (int j = 0; j < D; ++j) {
-          if (t < static_cast<std::size_t>(j) || t - j >= nch) continue;
-          const std::size_t p = (t - j) * C + i;
-          if (p < ns) r[j] = sweepUpdateAvx2<K, L, P>(sc, pr, rw, v, forward ? p : ns - 1 - p, r[j]);
-        }
-      }
-    }
-  }
-  for (int j = 0; j < D; ++j) res[j] = r[j];
-}
-
-template <int K, int L, class P>
-bool sweepPassAvx2D(const BasicSweepModel<P>& m, double* v, std::size_t depth, std::size_t C,
-                    bool forward, double* res) {
-  if (depth == 4) {
-    sweepPassAvx2<K, L, 4, P>(m, v, C, forward, res);
-  } else if (depth == 1) {
-    sweepPassAvx2<K, L, 1, P>(m, v, C, forward, res);
-  } else {
-    return false;
-  }
-  return true;
-}
-
-template <int L, class P>
-bool sweepPassAvx2K(const BasicSweepModel<P>& m, double* v, std::size_t depth, std::size_t C,
-                    bool forward, double* res) {
-  switch (m.successorsPerState()) {
-    case 2: return sweepPassAvx2D<2, L, P>(m, v, depth, C, forward, res);
-    case 4: return sweepPassAvx2D<4, L, P>(m, v, depth, C, forward, res);
-    case 5: return sweepPassAvx2D<5, L, P>(m, v, depth, C, forward, res);
-    case 6: return sweepPassAvx2D<6, L, P>(m, v, depth, C, forward, res);
-    case 8: return sweepPassAvx2D<8, L, P>(m, v, depth, C, forward, res);
-    default: return false;
-  }
-}
-#endif
-
 template <class P>
 void sweepPass(Isa isa, const BasicSweepModel<P>& m, double* v, std::size_t depth,
                std::size_t C, bool forward, double* res) {
 #ifdef KRR_MDP_X86_DISPATCH
-  if (isa == Isa::kAvx2) {
-    const bool done = m.actionLanes() == 4 ? sweepPassAvx2K<4, P>(m, v, depth, C, forward, res)
-                                           : sweepPassAvx2K<8, P>(m, v, depth, C, forward, res);
-    if (done) return;
-  }
+  if (isa == Isa::kAvx2 && kernels::sweepPassAvx2(m, v, depth, C, forward, res)) return;
 #endif
   (void)isa;
-  sweepPassGeneric(m, v, depth, C, forward, res);
+  kernels::sweepPassReference(m, v, depth, C, forward, res);
 }
 
 template <class P>
@@ -622,7 +289,7 @@ Solution sweepValueIteration(const BasicSweepModel<P>& m, const SolverOptions& o
       v[s] = initialValue(options.initial, best, m.getDiscount());
     }
   }
-  const Isa isa = bestIsa();
+  const Isa isa = kernels::bestIsa();
   // Chunk and depth: pipelining needs chunks of at least the bandwidth and room for the
   // chunks in flight; below that (tiny or wide-reaching models) one sweep per pass.
   const std::size_t C = std::max<std::size_t>(m.bandwidth(), 64);
@@ -637,19 +304,7 @@ Solution sweepValueIteration(const BasicSweepModel<P>& m, const SolverOptions& o
     if (d > options.max_iterations - it) d = 1;  // finish a capped solve sweep by sweep
     std::fill(res, res + 4, 0.0);
     sweepPass(isa, m, v.data(), d, C, forward, res);
-    bool done = false;
-    for (std::size_t j = 0; j < d; ++j) {
-      ++it;
-      sol.residual = res[j];
-      if (res[j] < threshold) {  // later sweeps of the pass only got closer
-        sol.converged = done = true;
-        sol.residual = res[d - 1];
-        it += d - 1 - j;
-        break;
-      }
-    }
-    sol.iterations = it;
-    if (done) break;
+    if (recordPass(res, d, threshold, it, sol)) break;
   }
   // Greedy policy (lowest action index among ties), through the same layout.
   sol.policy.assign(ns, 0);
@@ -726,35 +381,11 @@ Solution valueIteration(const SparseModel& m, const SolverOptions& options,
   }
   const StateId* nx = m.nextStates();
   const double* pr = m.probabilities();
-  const double* rw = m.rewards();
-  const double g = m.getDiscount();
-  const double threshold = stoppingThreshold(options.epsilon, g);
-  double* vv = v.data();
-  for (std::size_t it = 1; it <= options.max_iterations; ++it) {
-    double res = 0.0;
-    const bool forward = it % 2 == 1;
-    for (std::size_t idx = 0; idx < ns; ++idx) {
-      const std::size_t s = forward ? idx : ns - 1 - idx;
-      if (term[s]) continue;
-      double best = -std::numeric_limits<double>::infinity();
-      const std::size_t i0 = s * na;
-      for (std::size_t i = i0; i < i0 + na; ++i) {
-        double acc = 0.0;
-        for (std::uint32_t k = rs[i]; k < rs[i + 1]; ++k) acc += pr[k] * vv[nx[k]];
-        const double q = rw[i] + g * acc;
-        best = q > best ? q : best;
-      }
-      const double d = std::fabs(best - vv[s]);
-      res = d > res ? d : res;
-      vv[s] = best;
-    }
-    sol.iterations = it;
-    sol.residual = res;
-    if (res < threshold) {
-      sol.converged = true;
-      break;
-    }
-  }
+  kernels::gaussSeidelSweeps(m, v, options, sol, [nx, pr, rs](std::size_t i, const double* vv) {
+    double acc = 0.0;
+    for (std::uint32_t k = rs[i]; k < rs[i + 1]; ++k) acc += pr[k] * vv[nx[k]];
+    return acc;
+  });
   sol.policy = greedyPolicy(m, v);
   sol.values = std::move(v);
   return sol;
@@ -849,6 +480,19 @@ Solution policyIteration(const SparseModel& m, const SolverOptions& options,
   sol.residual = bellmanResidual(m, sol.values);
   return sol;
 }
+
+namespace kernels {
+
+Isa bestIsa() {
+  static const Isa isa = [] {
+    const char* e = std::getenv("KRR_MDP_ISA");
+    if (e != nullptr && std::string(e) == "generic") return Isa::kReference;
+    return cpuHasAvx2Fma() ? Isa::kAvx2 : Isa::kReference;
+  }();
+  return isa;
+}
+
+}  // namespace kernels
 
 }  // namespace mdp
 }  // namespace krr

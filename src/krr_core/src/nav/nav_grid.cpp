@@ -10,6 +10,7 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/limits.h"
+#include "krr_core/common/yaml_section.h"
 
 namespace krr {
 namespace nav {
@@ -25,21 +26,6 @@ std::string dump(const YAML::Node& n) {
   std::string s = YAML::Dump(n);
   std::replace(s.begin(), s.end(), '\n', ' ');
   return s;
-}
-
-YAML::Node loadYamlFile(const std::string& path, const char* what) {
-  std::string text;
-  try {
-    text = readFile(path);
-  } catch (const IoError& e) {
-    throw MapError(path + ": cannot read " + what + ": " + e.what());
-  }
-  try {
-    return YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    throw MapError(path + ":" + std::to_string(e.mark.line + 1) + ":" +
-                   std::to_string(e.mark.column + 1) + ": broken YAML: " + e.msg);
-  }
 }
 
 std::vector<double> numbers(const YAML::Node& n, size_t count, const std::string& where) {
@@ -102,7 +88,7 @@ void checkKeys(const YAML::Node& map, const std::set<std::string>& allowed,
 namespace {
 
 PlacesFile loadPlacesImpl(const std::string& path) {
-  YAML::Node root = loadYamlFile(path, "places file");
+  YAML::Node root = loadYamlMapFile(path, "places file");
   if (!root.IsMap()) throw MapError(path + ": broken YAML: top level is not a mapping");
   checkKeys(root, {"places", "blocking_areas"}, path);
   PlacesFile pf;
@@ -498,7 +484,7 @@ std::string NavGrid::toPlog(const std::string& name) const {
 }
 
 NavGrid NavGrid::fromYaml(const std::string& path) {
-  YAML::Node root = loadYamlFile(path, "navigation domain");
+  YAML::Node root = loadYamlMapFile(path, "navigation domain");
   if (!root.IsMap()) throw MapError(path + ": broken YAML: top level is not a mapping");
   auto getInt = [&](const char* field) {
     if (!root[field]) throw MapError(path + ": missing field '" + field + "'");

@@ -1,8 +1,6 @@
 #include "krr_core/common/format.h"
 #include "krr_core/nav/navigation_config.h"
 
-#include <yaml-cpp/yaml.h>
-
 #include <algorithm>
 #include <cmath>
 #include <set>
@@ -11,6 +9,7 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/limits.h"
+#include "krr_core/common/yaml_section.h"
 
 namespace krr {
 namespace nav {
@@ -18,109 +17,6 @@ namespace nav {
 namespace {
 
 std::string num(double v) { return formatNumber(v, 10); }
-
-std::string dump(const YAML::Node& n) {
-  std::string s = YAML::Dump(n);
-  std::replace(s.begin(), s.end(), '\n', ' ');
-  return s;
-}
-
-/// Reads fields of one YAML mapping, rejecting unknown keys and naming the full field path.
-class Section {
- public:
-  Section(const YAML::Node& node, std::string file, std::string prefix,
-          std::set<std::string> allowed)
-      : node_(node), file_(std::move(file)), prefix_(std::move(prefix)) {
-    if (!node_.IsMap()) {
-      throw ConfigError(file_ + ": field '" + prefix_ + "': value '" + dump(node_) +
-                        "' must be a mapping");
-    }
-    for (auto it = node_.begin(); it != node_.end(); ++it) {
-      const std::string key = it->first.Scalar();
-      if (!allowed.count(key)) {
-        throw ConfigError(file_ + ": unknown field '" + field(key) + "'");
-      }
-    }
-  }
-
-  std::string field(const std::string& key) const {
-    return prefix_.empty() ? key : prefix_ + "." + key;
-  }
-  bool has(const std::string& key) const { return static_cast<bool>(node_[key]); }
-  YAML::Node get(const std::string& key) const { return node_[key]; }
-
-  double number(const std::string& key, double def, double lo, double hi, bool required = false,
-                bool lo_open = false) const {
-    const YAML::Node n = node_[key];
-    if (!n) {
-      if (required) throw ConfigError(file_ + ": missing field '" + field(key) + "'");
-      return def;
-    }
-    double v;
-    try {
-      v = n.as<double>();
-    } catch (const YAML::Exception&) {
-      throw ConfigError(file_ + ": field '" + field(key) + "': value '" + dump(n) +
-                        "' is not a number");
-    }
-    if (!std::isfinite(v) || v < lo || v > hi || (lo_open && v == lo)) {
-      throw ConfigError(file_ + ": field '" + field(key) + "': value " + num(v) + " must be in " +
-                        (lo_open ? "(" : "[") + num(lo) + ", " + num(hi) + "]");
-    }
-    return v;
-  }
-
-  int integer(const std::string& key, int def, int lo, int hi, bool required = false) const {
-    const YAML::Node n = node_[key];
-    if (!n) {
-      if (required) throw ConfigError(file_ + ": missing field '" + field(key) + "'");
-      return def;
-    }
-    int v;
-    try {
-      v = n.as<int>();
-    } catch (const YAML::Exception&) {
-      throw ConfigError(file_ + ": field '" + field(key) + "': value '" + dump(n) +
-                        "' is not an integer");
-    }
-    if (v < lo || v > hi) {
-      throw ConfigError(file_ + ": field '" + field(key) + "': value " + std::to_string(v) +
-                        " must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
-    }
-    return v;
-  }
-
-  std::string string(const std::string& key, const std::string& def, bool required = false) const {
-    const YAML::Node n = node_[key];
-    if (!n) {
-      if (required) throw ConfigError(file_ + ": missing field '" + field(key) + "'");
-      return def;
-    }
-    if (!n.IsScalar() || n.Scalar().empty()) {
-      throw ConfigError(file_ + ": field '" + field(key) + "': value '" + dump(n) +
-                        "' must be a non-empty string");
-    }
-    return n.Scalar();
-  }
-
-  bool boolean(const std::string& key, bool def) const {
-    const YAML::Node n = node_[key];
-    if (!n) return def;
-    try {
-      return n.as<bool>();
-    } catch (const YAML::Exception&) {
-      throw ConfigError(file_ + ": field '" + field(key) + "': value '" + dump(n) +
-                        "' must be true or false");
-    }
-  }
-
-  const std::string& file() const { return file_; }
-
- private:
-  YAML::Node node_;
-  std::string file_;
-  std::string prefix_;
-};
 
 std::string resolve(const std::string& base_dir, const std::string& p) {
   return p[0] == '/' ? p : base_dir + "/" + p;
@@ -193,34 +89,22 @@ const DomainConfig& NavigationConfig::domain(const std::string& name) const {
 }
 
 NavigationConfig loadNavigationConfig(const std::string& path) {
-  std::string text;
-  try {
-    text = readFile(path);
-  } catch (const IoError& e) {
-    throw ConfigError(path + ": cannot read navigation config: " + e.what());
-  }
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    throw ConfigError(path + ":" + std::to_string(e.mark.line + 1) + ":" +
-                      std::to_string(e.mark.column + 1) + ": broken YAML: " + e.msg);
-  }
+  const YAML::Node root = loadYamlFile(path, "navigation config");
   NavigationConfig cfg;
   const std::string dir = dirName(path);
-  Section top(root, path, "", {"map", "places", "grid", "domains", "simulator", "planner", "planning",
-                             "rmax_learning"});
-  cfg.map = resolve(dir, top.string("map", "", true));
-  cfg.places = resolve(dir, top.string("places", "", true));
+  YamlSection top(root, path, "", {"map", "places", "grid", "domains", "simulator", "planner", "planning",
+                             "rmax_learning", "context"});
+  cfg.map = resolve(dir, top.requiredString("map"));
+  cfg.places = resolve(dir, top.requiredString("places"));
   if (top.has("grid")) {
-    Section grid(top.get("grid"), path, "grid", {"max_blocked_fraction"});
+    YamlSection grid(top.get("grid"), path, "grid", {"max_blocked_fraction"});
     cfg.max_blocked_fraction =
-        grid.number("max_blocked_fraction", cfg.max_blocked_fraction, 0.0, 1.0, false, true);
+        grid.number("max_blocked_fraction", cfg.max_blocked_fraction, 0.0, 1.0, YamlSection::kLowerOpen);
   }
   if (!top.has("domains")) throw ConfigError(path + ": missing field 'domains'");
   const YAML::Node dn = top.get("domains");
   if (!dn.IsMap() || dn.size() == 0) {
-    throw ConfigError(path + ": field 'domains': value '" + dump(dn) +
+    throw ConfigError(path + ": field 'domains': value '" + yamlText(dn) +
                       "' must be a non-empty mapping name -> {cols, rows, step_limit}");
   }
   for (auto it = dn.begin(); it != dn.end(); ++it) {
@@ -232,27 +116,27 @@ NavigationConfig loadNavigationConfig(const std::string& path) {
                         "' must be a plain identifier [A-Za-z0-9_-]+ (it names files in the "
                         "map directory)");
     }
-    Section s(it->second, path, "domains." + d.name, {"cols", "rows", "step_limit"});
-    d.cols = s.integer("cols", 0, 1, 10000, true);
-    d.rows = s.integer("rows", 0, 1, 10000, true);
-    d.step_limit = s.integer("step_limit", 0, 1, 100000000, true);
+    YamlSection s(it->second, path, "domains." + d.name, {"cols", "rows", "step_limit"});
+    d.cols = s.requiredInteger("cols", 1, 10000);
+    d.rows = s.requiredInteger("rows", 1, 10000);
+    d.step_limit = s.requiredInteger("step_limit", 1, 100000000);
     cfg.domains.push_back(d);
   }
   if (top.has("simulator")) {
-    Section s(top.get("simulator"), path, "simulator",
+    YamlSection s(top.get("simulator"), path, "simulator",
               {"move_success", "slip_stay", "slip_lateral", "blocking_rate", "blocking_mode",
                "trap_probability",
                "trap_reference_cell_size", "time_of_day", "areas"});
     SimulatorConfig& c = cfg.simulator;
-    c.move_success = s.number("move_success", c.move_success, 0.0, 1.0, true);
-    c.slip_stay = s.number("slip_stay", c.slip_stay, 0.0, 1.0, true);
-    c.slip_lateral = s.number("slip_lateral", c.slip_lateral, 0.0, 1.0, true);
+    c.move_success = s.requiredNumber("move_success", 0.0, 1.0);
+    c.slip_stay = s.requiredNumber("slip_stay", 0.0, 1.0);
+    c.slip_lateral = s.requiredNumber("slip_lateral", 0.0, 1.0);
     const double sum = c.move_success + c.slip_stay + c.slip_lateral;
     if (std::fabs(sum - 1.0) > 1e-9) {
       throw ConfigError(path + ": field 'simulator.move_success': move_success + slip_stay + "
                         "slip_lateral = " + num(sum) + " must be 1");
     }
-    c.blocking_rate = s.number("blocking_rate", c.blocking_rate, 0.0, 1.0, true);
+    c.blocking_rate = s.requiredNumber("blocking_rate", 0.0, 1.0);
     const std::string mode = s.string("blocking_mode", "per_cell");
     if (mode == "per_cell") {
       c.blocking_mode = BlockingMode::kPerCell;
@@ -262,13 +146,13 @@ NavigationConfig loadNavigationConfig(const std::string& path) {
       throw ConfigError(path + ": field 'simulator.blocking_mode': unknown value '" + mode +
                         "' (expected per_cell or on_entry)");
     }
-    c.trap_probability = s.number("trap_probability", c.trap_probability, 0.0, 1.0, true);
+    c.trap_probability = s.requiredNumber("trap_probability", 0.0, 1.0);
     c.trap_reference_cell_size =
         s.number("trap_reference_cell_size", c.trap_reference_cell_size, 0.0, 1e6);
     if (s.has("time_of_day")) {
       const YAML::Node t = s.get("time_of_day");
       if (!t.IsMap() || t.size() == 0) {
-        throw ConfigError(path + ": field 'simulator.time_of_day': value '" + dump(t) +
+        throw ConfigError(path + ": field 'simulator.time_of_day': value '" + yamlText(t) +
                           "' must be a non-empty mapping name -> factor");
       }
       c.times_of_day.clear();
@@ -281,7 +165,7 @@ NavigationConfig loadNavigationConfig(const std::string& path) {
           v = it->second.as<double>();
         } catch (const YAML::Exception&) {
           throw ConfigError(path + ": field 'simulator.time_of_day." + name + "': value '" +
-                            dump(it->second) + "' is not a number");
+                            yamlText(it->second) + "' is not a number");
         }
         if (!std::isfinite(v) || v < 0.0) {
           throw ConfigError(path + ": field 'simulator.time_of_day." + name + "': value " +
@@ -293,20 +177,20 @@ NavigationConfig loadNavigationConfig(const std::string& path) {
     if (s.has("areas")) {
       const YAML::Node an = s.get("areas");
       if (!an.IsMap() && !(an.IsSequence() && an.size() == 0) && !an.IsNull()) {
-        throw ConfigError(path + ": field 'simulator.areas': value '" + dump(an) +
+        throw ConfigError(path + ": field 'simulator.areas': value '" + yamlText(an) +
                           "' must be a mapping area -> {rate, time_of_day}");
       }
       if (an.IsMap()) {
         for (auto it = an.begin(); it != an.end(); ++it) {
           const std::string name = it->first.Scalar();
-          Section a(it->second, path, "simulator.areas." + name, {"rate", "time_of_day"});
+          YamlSection a(it->second, path, "simulator.areas." + name, {"rate", "time_of_day"});
           AreaConfig ac;
           ac.rate = a.number("rate", -1.0, 0.0, 1.0);
           if (a.has("time_of_day")) {
             const YAML::Node t = a.get("time_of_day");
             if (!t.IsMap()) {
               throw ConfigError(path + ": field 'simulator.areas." + name +
-                                ".time_of_day': value '" + dump(t) + "' must be a mapping");
+                                ".time_of_day': value '" + yamlText(t) + "' must be a mapping");
             }
             for (auto jt = t.begin(); jt != t.end(); ++jt) {
               const std::string tn = jt->first.Scalar();
@@ -319,7 +203,7 @@ NavigationConfig loadNavigationConfig(const std::string& path) {
               try {
                 v = jt->second.as<double>();
               } catch (const YAML::Exception&) {
-                throw ConfigError(path + ": field '" + f + "': value '" + dump(jt->second) +
+                throw ConfigError(path + ": field '" + f + "': value '" + yamlText(jt->second) +
                                   "' is not a number");
               }
               if (!std::isfinite(v) || v < 0.0) {
@@ -339,7 +223,7 @@ NavigationConfig loadNavigationConfig(const std::string& path) {
     }
   }
   if (top.has("planner")) {
-    Section s(top.get("planner"), path, "planner",
+    YamlSection s(top.get("planner"), path, "planner",
               {"robot_radius", "algorithm", "timeout", "range", "interpolation_step", "simplify"});
     PlannerConfig& p = cfg.planner;
     p.robot_radius = s.number("robot_radius", p.robot_radius, 0.0, 100.0);
@@ -348,29 +232,29 @@ NavigationConfig loadNavigationConfig(const std::string& path) {
       throw ConfigError(path + ": field 'planner.algorithm': unknown value '" + p.algorithm +
                         "' (expected rrtconnect or prm)");
     }
-    p.timeout = s.number("timeout", p.timeout, 0.0, 3600.0, false, true);
+    p.timeout = s.number("timeout", p.timeout, 0.0, 3600.0, YamlSection::kLowerOpen);
     p.range = s.number("range", p.range, 0.0, 1e6);
-    p.interpolation_step = s.number("interpolation_step", p.interpolation_step, 0.0, 1e6, false, true);
+    p.interpolation_step = s.number("interpolation_step", p.interpolation_step, 0.0, 1e6, YamlSection::kLowerOpen);
     p.simplify = s.boolean("simplify", p.simplify);
   }
   if (top.has("planning")) {
-    Section s(top.get("planning"), path, "planning", {"step_cost", "rmax", "discount", "model_discount"});
+    YamlSection s(top.get("planning"), path, "planning", {"step_cost", "rmax", "discount", "model_discount"});
     PlanningConfig& p = cfg.planning;
     p.step_cost = s.number("step_cost", p.step_cost, 0.0, 1e12);
-    p.rmax = s.number("rmax", p.rmax, 0.0, 1e12, false, true);
-    p.discount = s.number("discount", p.discount, 0.0, 1.0, false, true);
-    p.model_discount = s.number("model_discount", p.model_discount, 0.0, 1.0, false, true);
+    p.rmax = s.number("rmax", p.rmax, 0.0, 1e12, YamlSection::kLowerOpen);
+    p.discount = s.number("discount", p.discount, 0.0, 1.0, YamlSection::kLowerOpen);
+    p.model_discount = s.number("model_discount", p.model_discount, 0.0, 1.0, YamlSection::kLowerOpen);
     if (!(p.step_cost < p.rmax)) {
       throw ConfigError(path + ": field 'planning.step_cost': value " + num(p.step_cost) +
                         " must be below planning.rmax (" + num(p.rmax) + ")");
     }
   }
   if (top.has("rmax_learning")) {
-    Section s(top.get("rmax_learning"), path, "rmax_learning",
+    YamlSection s(top.get("rmax_learning"), path, "rmax_learning",
               {"known_threshold", "discount", "replan_every", "optimism", "refine_known"});
     RMaxLearningConfig& r = cfg.rmax_learning;
     r.known_threshold = s.integer("known_threshold", r.known_threshold, 1, 1000000);
-    r.discount = s.number("discount", r.discount, 0.0, 1.0, false, true);
+    r.discount = s.number("discount", r.discount, 0.0, 1.0, YamlSection::kLowerOpen);
     r.replan_every = s.integer("replan_every", r.replan_every, 0, 1000000);
     r.optimism = s.string("optimism", r.optimism);
     if (r.optimism != "terminal_bonus" && r.optimism != "self_loop") {
@@ -378,6 +262,15 @@ NavigationConfig loadNavigationConfig(const std::string& path) {
                         "' (expected terminal_bonus or self_loop)");
     }
     r.refine_known = s.boolean("refine_known", r.refine_known);
+  }
+  if (top.has("context")) {
+    YamlSection s(top.get("context"), path, "context", {"time"});
+    cfg.time = s.string("time", cfg.time);
+  }
+  const std::vector<std::string>& times = cfg.simulator.times_of_day;
+  if (std::find(times.begin(), times.end(), cfg.time) == times.end()) {
+    throw ConfigError(path + ": field 'context.time': unknown time of day '" + cfg.time +
+                      "' (not in simulator.time_of_day)");
   }
   return cfg;
 }

@@ -13,6 +13,7 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/limits.h"
+#include "krr_core/common/yaml_section.h"
 
 namespace krr {
 namespace nav {
@@ -362,19 +363,7 @@ double fieldDouble(const YAML::Node& root, const std::string& field, const std::
 }  // namespace
 
 MapMetadata loadMapMetadata(const std::string& yaml_path) {
-  std::string text;
-  try {
-    text = readFile(yaml_path);
-  } catch (const IoError& e) {
-    throw MapError(yaml_path + ": cannot read map YAML: " + e.what());
-  }
-  YAML::Node root;
-  try {
-    root = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    throw MapError(yaml_path + ":" + std::to_string(e.mark.line + 1) + ":" +
-                   std::to_string(e.mark.column + 1) + ": broken YAML: " + e.msg);
-  }
+  const YAML::Node root = loadYamlMapFile(yaml_path, "map YAML");
   if (!root.IsMap()) throw MapError(yaml_path + ": broken YAML: top level is not a mapping");
   MapMetadata m;
   const YAML::Node image = root["image"];

@@ -1,6 +1,7 @@
 /**
  * @file asp_backend.cpp
- * @brief P-log -> ASP translation and the P-log measure of clingo's answer sets.
+ * @brief The P-log measure of clingo's answer sets and the AspBackend queries (the
+ * translation is in asp_translation.cpp).
  *
  * Naming inside the generated program: every P-log variable X becomes VX (so that the
  * translation's own variables, all starting with W, never clash with it); every attribute atom
@@ -11,7 +12,7 @@
  */
 #include "krr_core/plog/asp_backend.h"
 
-#include "krr_core/plog/arith.h"
+#include "asp_translation.h"
 
 #include <algorithm>
 #include <cctype>
@@ -29,418 +30,12 @@
 namespace krr {
 namespace plog {
 
+using namespace asp_detail;
+
 namespace {
 
 /// Slack on sums of assigned probabilities (they are decimal fractions read as doubles).
 constexpr double kSumTolerance = 1e-9;
-
-bool isLowerIdentifier(const std::string& s) {
-  std::size_t i = 0;
-  while (i < s.size() && s[i] == '_') ++i;
-  if (i >= s.size() || !(s[i] >= 'a' && s[i] <= 'z')) return false;
-  for (; i < s.size(); ++i) {
-    char c = s[i];
-    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '\'')) return false;
-  }
-  return true;
-}
-
-std::string where(const SourceLocation& loc) {
-  return loc.file.empty() ? std::string("<program>") : loc.str();
-}
-
-/// A constant or function name in clingo syntax: kept when it is a clingo identifier, else an
-/// error (P-log names are identifiers; anything else means a parser change we do not know).
-std::string aspName(const std::string& name, const SourceLocation& loc) {
-  if (!isLowerIdentifier(name)) {
-    throw Error(where(loc) + ": AspBackend: name '" + name +
-                "' is not a clingo identifier and cannot be translated");
-  }
-  return name;
-}
-
-std::string aspVar(const std::string& name) {
-  if (name == "_") return "_";
-  return "V" + name;
-}
-
-std::string aspTerm(const Term& t);
-
-std::string aspOperand(const Term& t) {
-  std::string s = aspTerm(t);
-  if (t.kind == Term::Kind::Binary || t.kind == Term::Kind::Negate ||
-      (t.kind == Term::Kind::Integer && t.value < 0)) {
-    return "(" + s + ")";
-  }
-  return s;
-}
-
-std::string aspTerm(const Term& t) {
-  switch (t.kind) {
-    case Term::Kind::Symbol:
-      return aspName(t.name, t.loc);
-    case Term::Kind::Integer:
-      return std::to_string(t.value);
-    case Term::Kind::Variable:
-      return aspVar(t.name);
-    case Term::Kind::Compound: {
-      std::string s = aspName(t.name, t.loc) + "(";
-      for (std::size_t i = 0; i < t.args.size(); ++i) s += (i ? "," : "") + aspTerm(t.args[i]);
-      return s + ")";
-    }
-    case Term::Kind::Negate:
-      if (t.args.size() != 1) throw Error(where(t.loc) + ": AspBackend: malformed negation");
-      return "-" + aspOperand(t.args[0]);
-    case Term::Kind::Binary: {
-      if (t.args.size() != 2) throw Error(where(t.loc) + ": AspBackend: malformed expression");
-      std::string op = t.name;
-      if (op == "mod") op = "\\";
-      if (op != "+" && op != "-" && op != "*" && op != "/" && op != "\\") {
-        throw Error(where(t.loc) + ": AspBackend: unsupported operator '" + t.name + "'");
-      }
-      return aspOperand(t.args[0]) + op + aspOperand(t.args[1]);
-    }
-  }
-  return "";
-}
-
-std::string aspAttr(const AttributeTerm& a) {
-  std::string s = aspName(a.name, a.loc);
-  if (a.args.empty()) return s;
-  s += "(";
-  for (std::size_t i = 0; i < a.args.size(); ++i) s += (i ? "," : "") + aspTerm(a.args[i]);
-  return s + ")";
-}
-
-std::string aspVal(const Atom& a) { return "val(" + aspAttr(a.attr) + "," + aspTerm(a.value) + ")"; }
-
-std::string aspOp(CompareOp op, bool negate) {
-  if (negate) {
-    switch (op) {
-      case CompareOp::Eq: op = CompareOp::Ne; break;
-      case CompareOp::Ne: op = CompareOp::Eq; break;
-      case CompareOp::Lt: op = CompareOp::Ge; break;
-      case CompareOp::Le: op = CompareOp::Gt; break;
-      case CompareOp::Gt: op = CompareOp::Le; break;
-      case CompareOp::Ge: op = CompareOp::Lt; break;
-    }
-  }
-  switch (op) {
-    case CompareOp::Eq: return "=";
-    case CompareOp::Ne: return "!=";
-    case CompareOp::Lt: return "<";
-    case CompareOp::Le: return "<=";
-    case CompareOp::Gt: return ">";
-    case CompareOp::Ge: return ">=";
-  }
-  return "=";
-}
-
-void termVars(const Term& t, std::set<std::string>& out) {
-  std::vector<std::string> v;
-  t.collectVariables(v);
-  for (auto& n : v)
-    if (n != "_") out.insert(n);
-}
-
-void attrVars(const AttributeTerm& a, std::set<std::string>& out) {
-  for (const auto& t : a.args) termVars(t, out);
-}
-
-void literalVars(const Literal& l, std::set<std::string>& out) {
-  if (l.kind == Literal::Kind::Atom) {
-    attrVars(l.atom.attr, out);
-    termVars(l.atom.value, out);
-  } else {
-    termVars(l.lhs, out);
-    termVars(l.rhs, out);
-  }
-}
-
-/// Builds the body of one generated rule: literal translations plus, for every P-log variable
-/// used, the sort atom that P-log grounding ranges it over.
-class BodyBuilder {
- public:
-  BodyBuilder(const Program& program, const VariableSorts& sorts, int& fresh)
-      : program_(program), sorts_(sorts), fresh_(fresh) {}
-
-  void raw(const std::string& s) { parts_.push_back(s); }
-
-  void literal(const Literal& l) {
-    literalVars(l, vars_);
-    if (l.kind == Literal::Kind::Comparison) {
-      parts_.push_back(aspTerm(l.lhs) + aspOp(l.op, l.naf) + aspTerm(l.rhs));
-      return;
-    }
-    if (!l.negated) {
-      parts_.push_back((l.naf ? "not " : "") + aspVal(l.atom));
-      return;
-    }
-    // a(t) != y: a(t) has a value and it is not y.
-    std::string w = "W" + std::to_string(fresh_++);
-    std::string attr = aspAttr(l.atom.attr), y = aspTerm(l.atom.value);
-    if (!l.naf) {
-      parts_.push_back("val(" + attr + "," + w + ")");
-      parts_.push_back(w + "!=" + y);
-    } else {
-      parts_.push_back("#count{" + w + ":val(" + attr + "," + w + ")," + w + "!=" + y + "}=0");
-    }
-  }
-
-  void literals(const std::vector<Literal>& ls) {
-    for (const auto& l : ls) literal(l);
-  }
-
-  void vars(const std::set<std::string>& v) { vars_.insert(v.begin(), v.end()); }
-  void forget(const std::string& v) { vars_.erase(v); }
-  void term(const Term& t) { termVars(t, vars_); }
-  void attr(const AttributeTerm& a) { attrVars(a, vars_); }
-
-  /// The body text (without the leading ":-"); sort atoms first so clingo binds them early.
-  std::string str() const {
-    std::vector<std::string> all;
-    for (const auto& v : vars_) {
-      auto it = sorts_.find(v);
-      std::string sort = it != sorts_.end() ? it->second : program_.domainSortOf(v);
-      if (sort.empty()) continue;
-      all.push_back("sort(" + aspName(sort, {}) + "," + aspVar(v) + ")");
-    }
-    all.insert(all.end(), parts_.begin(), parts_.end());
-    std::string s;
-    for (std::size_t i = 0; i < all.size(); ++i) s += (i ? ", " : "") + all[i];
-    return s;
-  }
-
- private:
-  const Program& program_;
-  const VariableSorts& sorts_;
-  int& fresh_;
-  std::vector<std::string> parts_;
-  std::set<std::string> vars_;
-};
-
-std::string ruleText(const std::string& head, const std::string& body) {
-  if (body.empty()) return head + ".\n";
-  return head + (head.empty() ? ":- " : " :- ") + body + ".\n";
-}
-
-const AttributeDecl& attributeOf(const Program& program, const AttributeTerm& a) {
-  const AttributeDecl* d = program.findAttribute(a.name);
-  if (d == nullptr) {
-    throw UnknownSymbolError(where(a.loc) + ": AspBackend: undeclared attribute '" + a.name + "'");
-  }
-  return *d;
-}
-
-/// Positive translation of a ground observation/query literal as a rule body (no naf).
-std::string groundLiteralBody(const Program& program, const Literal& l, int& fresh) {
-  static const VariableSorts kNoSorts;
-  Literal pos = l;
-  pos.naf = false;
-  BodyBuilder b(program, kNoSorts, fresh);
-  b.literal(pos);
-  return b.str();
-}
-
-/// What one answer of a clingo run is: a conjunction given observations (same interventions
-/// for the whole run).
-struct QuerySpec {
-  std::vector<Literal> formula;
-  std::vector<Observation> observations;
-  std::string text;  ///< for error messages
-};
-
-std::string translateBase(const Program& program) {
-  std::ostringstream out;
-  int fresh = 0;
-  out << "% P-log program translated to ASP by krr::plog::AspBackend\n";
-  out << "% sorts\n";
-  for (const auto& s : program.sorts) {
-    const std::string name = aspName(s.name, s.loc);
-    if (s.is_range && s.range_lo <= s.range_hi &&
-        s.values.size() == rangeSize(s.range_lo, s.range_hi)) {
-      out << "sort(" << name << "," << s.range_lo << ".." << s.range_hi << ").\n";
-      continue;
-    }
-    for (const auto& v : s.values) out << "sort(" << name << "," << aspTerm(v) << ").\n";
-  }
-  out << "% an attribute term has at most one value\n";
-  out << ":- val(WA,WY1), val(WA,WY2), WY1 != WY2.\n";
-
-  out << "% rules\n";
-  for (const auto& r : program.rules) {
-    out << kAspSourceMarker << where(r.loc) << "\n";
-    BodyBuilder b(program, r.variable_sorts, fresh);
-    std::string head;
-    if (r.head) {
-      head = aspVal(*r.head);
-      b.attr(r.head->attr);
-      b.term(r.head->value);
-      // Arithmetic in the head (next = C+1): ground instances whose value falls outside the
-      // sort are ill-typed and not part of the ground program, as in P-log's grounding.
-      const AttributeDecl& decl = attributeOf(program, r.head->attr);
-      auto arithmetic = [](const Term& t) {
-        return t.kind == Term::Kind::Binary || t.kind == Term::Kind::Negate;
-      };
-      for (std::size_t k = 0; k < r.head->attr.args.size() && k < decl.arg_sorts.size(); ++k) {
-        if (arithmetic(r.head->attr.args[k]) && !decl.arg_sorts[k].empty()) {
-          b.raw("sort(" + aspName(decl.arg_sorts[k], decl.loc) + "," +
-                aspTerm(r.head->attr.args[k]) + ")");
-        }
-      }
-      if (arithmetic(r.head->value)) {
-        b.raw("sort(" + aspName(decl.range_sort, decl.loc) + "," + aspTerm(r.head->value) + ")");
-      }
-    }
-    b.literals(r.body);
-    out << ruleText(head, b.str());
-  }
-
-  out << "% random selections: sel(rule, attribute term), poss(rule, attribute term, value)\n";
-  for (std::size_t i = 0; i < program.random_rules.size(); ++i) {
-    const RandomRule& r = program.random_rules[i];
-    out << kAspSourceMarker << where(r.loc) << "\n";
-    const AttributeDecl& decl = attributeOf(program, r.attr);
-    const std::string a = aspAttr(r.attr), idx = std::to_string(i);
-    {
-      BodyBuilder b(program, r.variable_sorts, fresh);
-      b.attr(r.attr);
-      b.literals(r.body);
-      b.raw("not intervene(" + a + ")");
-      out << ruleText("sel(" + idx + "," + a + ")", b.str());
-    }
-    {
-      BodyBuilder b(program, r.variable_sorts, fresh);
-      std::string y = r.has_range ? aspVar(r.range_var) : "WY";
-      b.raw("sel(" + idx + "," + a + ")");
-      b.raw("sort(" + aspName(decl.range_sort, decl.loc) + "," + y + ")");
-      if (r.has_range) {
-        // The range may use variables bound by the selection body (random(y : {Z : Z > X})
-        // :- x = X), so the body is evaluated again with the range.
-        b.literals(r.body);
-        b.literals(r.range_body);
-        b.forget(r.range_var);  // already ranged over the attribute's range sort above
-      }
-      out << ruleText("poss(" + idx + "," + a + "," + y + ")", b.str());
-    }
-    // An empty dynamic range leaves the term without a value (npos = 0 is then reported as
-    // incoherent, as the native engine does) instead of silently killing the world.
-    out << "1 { val(" << a << ",WY) : poss(" << idx << "," << a << ",WY) } 1 :- sel(" << idx
-        << "," << a << "), poss(" << idx << "," << a << ",_).\n";
-  }
-  out << "% chosen(rule, attribute term, value, number of possible values); empty ranges\n";
-  out << "npos(WI,WA,WN) :- sel(WI,WA), WN = #count{ WY : poss(WI,WA,WY) }.\n";
-  out << "chosen(WI,WA,WY,WN) :- sel(WI,WA), val(WA,WY), npos(WI,WA,WN).\n";
-  out << "empty(WI,WA) :- npos(WI,WA,0).\n";
-
-  out << "% pr-atoms: pra(pr-atom, attribute term, value) when it applies\n";
-  for (std::size_t j = 0; j < program.pr_atoms.size(); ++j) {
-    const PrAtom& p = program.pr_atoms[j];
-    out << kAspSourceMarker << where(p.loc) << "\n";
-    attributeOf(program, p.atom.attr);
-    const std::string a = aspAttr(p.atom.attr), y = aspTerm(p.atom.value);
-    std::vector<std::string> rules;
-    if (p.label.empty()) {
-      rules.push_back("WI");
-    } else {
-      for (std::size_t i = 0; i < program.random_rules.size(); ++i) {
-        if (program.random_rules[i].label == p.label) rules.push_back(std::to_string(i));
-      }
-    }
-    for (const auto& ri : rules) {
-      BodyBuilder b(program, p.variable_sorts, fresh);
-      b.raw("sel(" + ri + "," + a + ")");
-      b.raw("poss(" + ri + "," + a + "," + y + ")");
-      b.attr(p.atom.attr);
-      b.term(p.atom.value);
-      b.literals(p.body);
-      out << ruleText("pra(" + std::to_string(j) + "," + a + "," + y + ")", b.str());
-    }
-  }
-
-  out << "% interventions and observations of the program\n";
-  for (const auto& d : program.interventions) {
-    out << kAspSourceMarker << where(d.loc) << "\n";
-    out << aspVal(d.atom) << ". intervene(" << aspAttr(d.atom.attr) << ").\n";
-  }
-  for (std::size_t k = 0; k < program.observations.size(); ++k) {
-    const Observation& o = program.observations[k];
-    out << kAspSourceMarker << where(o.loc) << "\n";
-    out << ruleText("pobs(" + std::to_string(k) + ")",
-                    groundLiteralBody(program, o.literal, fresh));
-    out << ":- " << (o.truth ? "not " : "") << "pobs(" << k << ").\n";
-  }
-  out << kAspSourceMarker << "<translation>\n";
-  out << "#defined intervene/1. #defined pobs/1. #defined pra/3. #defined val/2.\n";
-  out << "#defined sel/2. #defined poss/3.\n";
-  return out.str();
-}
-
-/// The part of a clingo run specific to its queries. Each scenario g is one set of
-/// interventions; with several scenarios they are guarded by the external atom scn(g) and a
-/// Lua main solves once per scenario (multi-shot), so one clingo process answers all of them.
-/// spec_scenario[k] is the scenario of spec k (specs are numbered globally).
-std::string translateScenarios(const Program& program,
-                               const std::vector<std::vector<Intervention>>& scenarios,
-                               const std::vector<QuerySpec>& specs) {
-  std::ostringstream out;
-  int fresh = 1000000;
-  const bool multi = scenarios.size() > 1;
-  out << "% query interventions\n";
-  for (std::size_t g = 0; g < scenarios.size(); ++g) {
-    const std::string guard = multi ? " :- scn(" + std::to_string(g) + ").\n" : ".\n";
-    for (const auto& d : scenarios[g]) {
-      out << aspVal(d.atom) << guard << "intervene(" << aspAttr(d.atom.attr) << ")" << guard;
-    }
-  }
-  out << "% queries: ev(k) when the evidence of query k holds, q(k) when its formula holds\n";
-  for (std::size_t k = 0; k < specs.size(); ++k) {
-    const QuerySpec& s = specs[k];
-    const std::string ks = std::to_string(k);
-    std::string ev;
-    for (std::size_t m = 0; m < s.observations.size(); ++m) {
-      const std::string lit = "qobs(" + ks + "," + std::to_string(m) + ")";
-      out << ruleText(lit, groundLiteralBody(program, s.observations[m].literal, fresh));
-      ev += (ev.empty() ? "" : ", ") + std::string(s.observations[m].truth ? "" : "not ") + lit;
-    }
-    out << ruleText("ev(" + ks + ")", ev);
-    std::string q;
-    for (std::size_t m = 0; m < s.formula.size(); ++m) {
-      const std::string lit = "qlit(" + ks + "," + std::to_string(m) + ")";
-      out << ruleText(lit, groundLiteralBody(program, s.formula[m], fresh));
-      q += (q.empty() ? "" : ", ") + std::string(s.formula[m].naf ? "not " : "") + lit;
-    }
-    out << ruleText("q(" + ks + ")", q);
-  }
-  out << "#defined qobs/2. #defined qlit/2.\n";
-  out << "#show chosen/4. #show empty/2. #show pra/3. #show q/1. #show ev/1.\n";
-  if (multi) {
-    out << "#external scn(0.." << scenarios.size() - 1 << ").\n#show scn/1.\n";
-    out << "#script (lua)\n"
-           "function main(prg)\n"
-           "  prg:ground({{\"base\", {}}})\n"
-           "  for g = 0, "
-        << scenarios.size() - 1
-        << " do\n"
-           "    if g > 0 then prg:assign_external(clingo.Function(\"scn\", {clingo.Number(g - 1)}), "
-           "false) end\n"
-           "    prg:assign_external(clingo.Function(\"scn\", {clingo.Number(g)}), true)\n"
-           "    prg:solve()\n"
-           "  end\n"
-           "end\n"
-           "#end.\n";
-  }
-  return out.str();
-}
-
-std::string interventionKey(const std::vector<Intervention>& dos) {
-  std::vector<std::string> keys;
-  for (const auto& d : dos) keys.push_back(toString(d.atom));
-  std::sort(keys.begin(), keys.end());
-  std::string k;
-  for (const auto& s : keys) k += s + ";";
-  return k;
-}
 
 std::string modelText(const AspModel& model) {
   std::string s;
@@ -501,6 +96,8 @@ double worldMeasure(const Program& program, const AspModel& model, std::vector<c
       auto& v = a.name == "q" ? holds_q : holds_ev;
       if (k < 0 || k >= static_cast<long long>(v.size())) bad(text);
       v[static_cast<std::size_t>(k)] = 1;
+    } else if (a.name == "val") {
+      // shown for programs with consistency-restoring rules only (to tell worlds apart)
     } else if (a.name == "scn") {
       if (a.args.size() != 1) bad(text);
       scenario = parseIndex(a.args[0], model);
@@ -588,11 +185,29 @@ double worldMeasure(const Program& program, const AspModel& model, std::vector<c
 
 AspBackend::AspBackend(AspOptions options) : options_(std::move(options)) {}
 
-std::string AspBackend::translate(const Program& program) const {
-  return translateBase(program) + "#show val/2. #show sel/2. #show pra/3.\n";
-}
-
 namespace {
+
+/// The answer sets of an optimising run (--opt-mode=optN) that are possible worlds: those of
+/// minimal cost, each once. clingo prints the models improving the bound before it enumerates
+/// the optimal ones (so the first optimal model appears twice), and answer sets that differ
+/// only in which consistency-restoring rules they apply are one world: models are compared
+/// by their atoms, which include the world's val/2 atoms.
+std::vector<AspModel> optimalWorlds(const ClingoResult& res) {
+  if (res.models.empty()) return {};
+  if (res.costs.size() != res.models.size()) {
+    throw Error("AspBackend: clingo printed no optimisation value for an answer set");
+  }
+  const auto best = *std::min_element(res.costs.begin(), res.costs.end());
+  std::set<std::vector<std::string>> seen;
+  std::vector<AspModel> out;
+  for (std::size_t i = 0; i < res.models.size(); ++i) {
+    if (res.costs[i] != best) continue;
+    std::vector<std::string> atoms = res.models[i];
+    std::sort(atoms.begin(), atoms.end());
+    if (seen.insert(atoms).second) out.push_back(res.models[i]);
+  }
+  return out;
+}
 
 /// One clingo run answering specs under their scenarios' interventions.
 GroupResult runScenarios(const Program& program,
@@ -600,13 +215,25 @@ GroupResult runScenarios(const Program& program,
                          const std::vector<QuerySpec>& specs,
                          const std::vector<std::size_t>& spec_scenario, const AspOptions& options,
                          AspStats& stats) {
-  const std::string text =
-      translateBase(program) + translateScenarios(program, scenarios, specs);
+  const bool cr = program.hasConsistencyRestoringRules();
+  std::string text = translateBase(program) + translateScenarios(program, scenarios, specs);
+  std::vector<std::string> args;
+  if (cr) {
+    // CR-Prolog as plog2.0 implements it: the possible worlds are the answer sets with the
+    // fewest applied consistency-restoring rule instances. The query's evidence is part of
+    // the program whose consistency is restored, so it is a constraint here (callers give
+    // one scenario and specs with identical evidence, see runGroup).
+    if (scenarios.size() != 1) throw Error("AspBackend: consistency-restoring rules need one scenario per run");
+    text += "#minimize{ 1,WC,WT : appl(WC,WT) }.\n#show val/2.\n";
+    for (std::size_t k = 0; k < specs.size(); ++k) text += ":- not ev(" + std::to_string(k) + ").\n";
+    args.push_back("--opt-mode=optN");
+  }
   const auto t0 = std::chrono::steady_clock::now();
-  ClingoResult res = runClingo(text, options);
+  ClingoResult res = runClingo(text, options, args);
   stats.clingo_seconds +=
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   ++stats.clingo_runs;
+  if (cr) res.models = optimalWorlds(res);
   stats.worlds += res.models.size();
   GroupResult g;
   g.num.assign(specs.size(), 0.0);
@@ -652,11 +279,48 @@ GroupResult runScenarios(const Program& program,
   return g;
 }
 
+std::string evidenceKey(const std::vector<Observation>& observations) {
+  std::vector<std::string> keys;
+  for (const auto& o : observations) keys.push_back((o.truth ? "+" : "-") + toString(o.literal));
+  std::sort(keys.begin(), keys.end());
+  std::string k;
+  for (const auto& s : keys) k += s + ";";
+  return k;
+}
+
+/// The specs under one set of interventions. With consistency-restoring rules, the worlds
+/// depend on the evidence (it takes part in the minimisation), so specs are answered in
+/// one run per distinct evidence; GroupResult::scenario then numbers these runs.
 GroupResult runGroup(const Program& program, const std::vector<Intervention>& dos,
                      const std::vector<QuerySpec>& specs, const AspOptions& options,
                      AspStats& stats) {
-  return runScenarios(program, {dos}, specs, std::vector<std::size_t>(specs.size(), 0), options,
-                      stats);
+  if (!program.hasConsistencyRestoringRules()) {
+    return runScenarios(program, {dos}, specs, std::vector<std::size_t>(specs.size(), 0),
+                        options, stats);
+  }
+  std::map<std::string, std::vector<std::size_t>> by_evidence;
+  for (std::size_t k = 0; k < specs.size(); ++k)
+    by_evidence[evidenceKey(specs[k].observations)].push_back(k);
+  GroupResult out;
+  out.num.assign(specs.size(), 0.0);
+  out.den.assign(specs.size(), 0.0);
+  out.error.assign(specs.size(), std::string());
+  out.scenario.assign(specs.size(), 0);
+  for (const auto& [key, members] : by_evidence) {
+    std::vector<QuerySpec> sub;
+    for (std::size_t k : members) sub.push_back(specs[k]);
+    GroupResult r = runScenarios(program, {dos}, sub, std::vector<std::size_t>(sub.size(), 0),
+                                 options, stats);
+    for (std::size_t m = 0; m < members.size(); ++m) {
+      const std::size_t k = members[m];
+      out.num[k] = r.num[m];
+      out.den[k] = r.den[m];
+      out.error[k] = r.error[m];
+      out.scenario[k] = out.worlds.size();
+    }
+    out.worlds.push_back(r.worlds.at(0));
+  }
+  return out;
 }
 
 double ratio(const GroupResult& g, std::size_t k, const std::string& text) {
@@ -711,7 +375,8 @@ std::vector<double> AspBackend::probabilities(const Program& program,
       (*incoherence_errors)[i] = e.what();
     }
   };
-  if (scenarios.size() == 1 || (options_.multi_shot && !multi_shot_failed_)) {
+  const bool cr = program.hasConsistencyRestoringRules();
+  if (!cr && (scenarios.size() == 1 || (options_.multi_shot && !multi_shot_failed_))) {
     try {
       GroupResult g =
           runScenarios(program, scenarios, specs, query_scenario, options_, stats_);

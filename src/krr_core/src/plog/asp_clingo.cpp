@@ -381,6 +381,20 @@ ClingoResult runClingo(const std::string& program, const AspOptions& options,
     if (line == "UNKNOWN") {
       throw Error("AspBackend: clingo did not finish the search on " + subject);
     }
+    static const std::string kOpt = "Optimization:";
+    if (line.compare(0, kOpt.size(), kOpt) == 0) {
+      if (result.models.empty()) {
+        throw Error("AspBackend: optimisation value before any answer set in clingo's output on " +
+                    subject);
+      }
+      std::istringstream values(line.substr(kOpt.size()));
+      std::vector<long long> cost;
+      long long v = 0;
+      while (values >> v) cost.push_back(v);
+      result.costs.resize(result.models.size());
+      result.costs.back() = cost;
+      continue;
+    }
     result.models.push_back(splitAspTerms(line, ' '));
   }
   if (!status_seen) {

@@ -70,6 +70,14 @@ std::string Program::domainSortOf(const std::string& variable) const {
   return "";
 }
 
+bool Program::hasConsistencyRestoringRules() const {
+  for (const auto& r : rules)
+    if (r.consistency_restoring) return true;
+  for (const auto& r : random_rules)
+    if (r.consistency_restoring) return true;
+  return false;
+}
+
 namespace {
 
 int precedence(const Term& t) {
@@ -171,6 +179,7 @@ std::string obsString(const Observation& o) {
 std::string toString(const Rule& r) {
   std::string s;
   if (r.head) s = toString(*r.head);
+  if (r.consistency_restoring) return s + " :+" + (r.body.empty() ? "" : " " + bodyString(r.body)) + ".";
   if (!r.body.empty() || !r.head) s += (r.head ? " :- " : ":- ") + bodyString(r.body);
   return s + ".";
 }
@@ -181,6 +190,7 @@ std::string toString(const RandomRule& r) {
   s += "random(" + toString(r.attr);
   if (r.has_range) s += " : {" + r.range_var + " : " + bodyString(r.range_body) + "}";
   s += ")";
+  if (r.consistency_restoring) return s + " :+" + (r.body.empty() ? "" : " " + bodyString(r.body)) + ".";
   if (!r.body.empty()) s += " :- " + bodyString(r.body);
   return s + ".";
 }

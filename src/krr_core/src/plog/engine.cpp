@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <sstream>
 
 namespace krr {
@@ -538,20 +539,25 @@ void ExactEngine::scopeOfInstance(int inst, std::vector<int>& out) {
   out.insert(out.end(), scope_cache_[i].begin(), scope_cache_[i].end());
 }
 
+void ExactEngine::scopeOfItems(int inst, std::vector<int>& out) {
+  const GInstance& gi = g_.instances[static_cast<size_t>(inst)];
+  for (const auto& it : liveItemsCached(inst)) {
+    if (it.kind == 0) {
+      const GSelection& sel = gi.selections[static_cast<size_t>(it.index)];
+      for (const auto& l : sel.body) scopeOfLit(l, out);
+      for (const auto& r : sel.range)
+        for (const auto& l : r.second) scopeOfLit(l, out);
+    } else {
+      for (const auto& l : gi.prs[static_cast<size_t>(it.index)].body) scopeOfLit(l, out);
+    }
+  }
+}
+
 void ExactEngine::buildCpt(int inst, Factor& f) {
   const GInstance& gi = g_.instances[static_cast<size_t>(inst)];
   const std::vector<Item>& items = liveItemsCached(inst);
   std::vector<int> parents;
-  for (const auto& it : items) {
-    if (it.kind == 0) {
-      const GSelection& s = gi.selections[static_cast<size_t>(it.index)];
-      for (const auto& l : s.body) scopeOfLit(l, parents);
-      for (const auto& r : s.range)
-        for (const auto& l : r.second) scopeOfLit(l, parents);
-    } else {
-      for (const auto& l : gi.prs[static_cast<size_t>(it.index)].body) scopeOfLit(l, parents);
-    }
-  }
+  scopeOfItems(inst, parents);
   std::sort(parents.begin(), parents.end());
   parents.erase(std::unique(parents.begin(), parents.end()), parents.end());
   if (std::binary_search(parents.begin(), parents.end(), inst))
@@ -687,6 +693,37 @@ void ExactEngine::buildCpt(int inst, Factor& f) {
   for (int p : parents) assign_[static_cast<size_t>(p)] = -1;
 }
 
+ExactEngine::Factor ExactEngine::indicatorFactor(std::vector<int> scope,
+                                                 const std::string& too_large,
+                                                 const std::function<bool()>& holds) {
+  std::sort(scope.begin(), scope.end());
+  scope.erase(std::unique(scope.begin(), scope.end()), scope.end());
+  Factor f;
+  f.vars = scope;
+  size_t total = 1;
+  for (int v : scope) {
+    f.card.push_back(card(v));
+    total *= static_cast<size_t>(card(v));
+    if (total > kMaxFactor) throw OutsideFragmentError(too_large);
+  }
+  f.t.assign(total, 0.0);
+  std::vector<int> cur(scope.size(), 0);
+  for (size_t row = 0; row < total; ++row) {
+    checkTime(63);
+    for (size_t k = 0; k < scope.size(); ++k)
+      assign_[static_cast<size_t>(scope[k])] =
+          states_[static_cast<size_t>(scope[k])][static_cast<size_t>(cur[k])];
+    newStamp();
+    f.t[row] = holds() ? 1.0 : 0.0;
+    for (size_t k = 0; k < cur.size(); ++k) {
+      if (++cur[k] < f.card[k]) break;
+      cur[k] = 0;
+    }
+  }
+  for (int v : scope) assign_[static_cast<size_t>(v)] = -1;
+  return f;
+}
+
 void ExactEngine::buildIndicator(const std::vector<GCondition>& conds, bool constraint_style,
                                  const std::vector<GLit>* constraint_body,
                                  std::vector<Factor>& out) {
@@ -697,46 +734,16 @@ void ExactEngine::buildIndicator(const std::vector<GCondition>& conds, bool cons
     for (const auto& c : conds)
       for (const auto& l : c.lits) scopeOfLit(l, scope);
   }
-  std::sort(scope.begin(), scope.end());
-  scope.erase(std::unique(scope.begin(), scope.end()), scope.end());
-  Factor f;
-  f.vars = scope;
-  size_t total = 1;
-  for (int v : scope) {
-    f.card.push_back(card(v));
-    total *= static_cast<size_t>(card(v));
-    if (total > kMaxFactor)
-      throw OutsideFragmentError("condition spans too many random attributes for the native reasoner");
-  }
-  f.t.assign(total, 0.0);
-  std::vector<int> cur(scope.size(), 0);
-  for (size_t row = 0; row < total; ++row) {
-    checkTime(63);
-    for (size_t k = 0; k < scope.size(); ++k)
-      assign_[static_cast<size_t>(scope[k])] =
-          states_[static_cast<size_t>(scope[k])][static_cast<size_t>(cur[k])];
-    newStamp();
-    bool ok;
-    if (constraint_style) {
-      ok = !bodyHolds(*constraint_body);
-    } else {
-      ok = true;
-      for (const auto& c : conds) {
-        bool v = c.constant && bodyHolds(c.lits);
-        if (v != c.truth) {
-          ok = false;
-          break;
+  out.push_back(indicatorFactor(
+      std::move(scope), "condition spans too many random attributes for the native reasoner",
+      [&]() {
+        if (constraint_style) return !bodyHolds(*constraint_body);
+        for (const auto& c : conds) {
+          const bool v = c.constant && bodyHolds(c.lits);
+          if (v != c.truth) return false;
         }
-      }
-    }
-    f.t[row] = ok ? 1.0 : 0.0;
-    for (size_t k = 0; k < cur.size(); ++k) {
-      if (++cur[k] < f.card[k]) break;
-      cur[k] = 0;
-    }
-  }
-  for (int v : scope) assign_[static_cast<size_t>(v)] = -1;
-  out.push_back(std::move(f));
+        return true;
+      }));
 }
 
 ExactEngine::Factor ExactEngine::multiply(const Factor& a, const Factor& b) {
@@ -900,19 +907,8 @@ void ExactEngine::buildFactors(const std::vector<const std::vector<GCondition>*>
     while (!queue.empty()) {
       int x = queue.back();
       queue.pop_back();
-      const GInstance& gi = g_.instances[static_cast<size_t>(x)];
-      const std::vector<Item>& items = liveItemsCached(x);
       s.clear();
-      for (const auto& it : items) {
-        if (it.kind == 0) {
-          const GSelection& sel = gi.selections[static_cast<size_t>(it.index)];
-          for (const auto& l : sel.body) scopeOfLit(l, s);
-          for (const auto& r : sel.range)
-            for (const auto& l : r.second) scopeOfLit(l, s);
-        } else {
-          for (const auto& l : gi.prs[static_cast<size_t>(it.index)].body) scopeOfLit(l, s);
-        }
-      }
+      scopeOfItems(x, s);
       addScope(s);
     }
   };
@@ -974,35 +970,14 @@ void ExactEngine::buildFactors(const std::vector<const std::vector<GCondition>*>
     // factor: at most one value of d holds
     std::vector<int> scope;
     scopeOfInstance(d, scope);
-    std::sort(scope.begin(), scope.end());
-    scope.erase(std::unique(scope.begin(), scope.end()), scope.end());
-    Factor f;
-    f.vars = scope;
-    size_t total = 1;
-    for (int v : scope) {
-      f.card.push_back(card(v));
-      total *= static_cast<size_t>(card(v));
-      if (total > kMaxFactor) throw OutsideFragmentError("derived attribute " + gi.name + " has too many causes");
-    }
-    f.t.assign(total, 0.0);
-    std::vector<int> cur(scope.size(), 0);
-    for (size_t row = 0; row < total; ++row) {
-      checkTime(63);
-      for (size_t k = 0; k < scope.size(); ++k)
-        assign_[static_cast<size_t>(scope[k])] =
-            states_[static_cast<size_t>(scope[k])][static_cast<size_t>(cur[k])];
-      newStamp();
-      int n = 0;
-      for (int v : vals)
-        if (atomHolds(d, v)) ++n;
-      f.t[row] = n <= 1 ? 1.0 : 0.0;
-      for (size_t k = 0; k < cur.size(); ++k) {
-        if (++cur[k] < f.card[k]) break;
-        cur[k] = 0;
-      }
-    }
-    for (int v : scope) assign_[static_cast<size_t>(v)] = -1;
-    factors.push_back(std::move(f));
+    factors.push_back(indicatorFactor(std::move(scope),
+                                      "derived attribute " + gi.name + " has too many causes",
+                                      [&]() {
+                                        int n = 0;
+                                        for (int v : vals)
+                                          if (atomHolds(d, v)) ++n;
+                                        return n <= 1;
+                                      }));
   }
 }
 
@@ -1046,16 +1021,21 @@ std::pair<double, double> ExactEngine::measure(const std::vector<GCondition>& fo
   return {zqe, ze};
 }
 
+std::vector<double> ExactEngine::unnormalisedMarginal(int inst,
+                                                      const std::vector<GCondition>& evidence) {
+  std::vector<Factor> factors;
+  buildFactors({&evidence}, inst, factors);
+  if (!evidence.empty()) buildIndicator(evidence, false, nullptr, factors);
+  checkPendingErrors(factors);
+  return eliminate(std::move(factors), inst);
+}
+
 std::vector<std::pair<int, double>> ExactEngine::marginalSparse(
     int inst, const std::vector<GCondition>& evidence) {
   const GInstance& gi = g_.instances[static_cast<size_t>(inst)];
   std::vector<std::pair<int, double>> out;
   if (gi.random && fixed_[static_cast<size_t>(inst)] < 0) {
-    std::vector<Factor> factors;
-    buildFactors({&evidence}, inst, factors);
-    if (!evidence.empty()) buildIndicator(evidence, false, nullptr, factors);
-    checkPendingErrors(factors);
-    std::vector<double> t = eliminate(std::move(factors), inst);
+    std::vector<double> t = unnormalisedMarginal(inst, evidence);
     const std::vector<int>& st = states_[static_cast<size_t>(inst)];
     if (t.size() == st.size()) {
       for (size_t k = 0; k < st.size(); ++k) out.push_back({st[k], t[k]});
@@ -1075,11 +1055,7 @@ std::vector<double> ExactEngine::marginal(int inst, const std::vector<GCondition
   const size_t D = gi.domain.size();
   std::vector<double> out(D + 1, 0.0);
   if (gi.random && fixed_[static_cast<size_t>(inst)] < 0) {
-    std::vector<Factor> factors;
-    buildFactors({&evidence}, inst, factors);
-    if (!evidence.empty()) buildIndicator(evidence, false, nullptr, factors);
-    checkPendingErrors(factors);
-    std::vector<double> t = eliminate(std::move(factors), inst);
+    std::vector<double> t = unnormalisedMarginal(inst, evidence);
     const std::vector<int>& st = states_[static_cast<size_t>(inst)];
     if (t.size() == st.size()) {
       for (size_t k = 0; k < st.size(); ++k) out[static_cast<size_t>(st[k])] = t[k];

@@ -326,6 +326,16 @@ class Grounder {
 
   void run(const std::set<std::string>& cone_names) {
     start_ = std::chrono::steady_clock::now();
+    // Consistency-restoring rules make the possible worlds depend on a global minimisation
+    // over all answer sets, which the native engine does not do.
+    for (const auto& r : prog_.rules)
+      if (r.consistency_restoring)
+        throw OutsideFragmentError(r.loc.str() + ": consistency-restoring rule (':+') is outside "
+                                   "the native reasoner's fragment (use the ASP back end)");
+    for (const auto& r : prog_.random_rules)
+      if (r.consistency_restoring)
+        throw OutsideFragmentError(r.loc.str() + ": consistency-restoring rule (':+') is outside "
+                                   "the native reasoner's fragment (use the ASP back end)");
     const size_t na = prog_.attributes.size();
     g_.attr_random.assign(na, false);
     g_.attr_dynamic.assign(na, false);
@@ -664,13 +674,51 @@ class Grounder {
   using Emit = std::function<void(const std::vector<int>&, const std::vector<GLit>&,
                                   const std::vector<int>&)>;
 
+  /// The state of one join: the statement, which of its literals are used, the binding of its
+  /// variable slots (-1: unbound), the dynamic literals collected (with their origins), the
+  /// slots that must be bound at the end, and where complete bindings go.
+  struct JoinState {
+    Stmt& s;
+    std::vector<char>& done;
+    std::vector<int>& b;
+    std::vector<GLit>& acc;
+    std::vector<int>& acc_origin;
+    const std::vector<int>& required;
+    const Emit& emit;
+  };
+
   void join(Stmt& s, std::vector<char>& done, std::vector<int>& b, std::vector<GLit>& acc,
             std::vector<int>& acc_origin, const std::vector<int>& required, const Emit& emit) {
+    JoinState j{s, done, b, acc, acc_origin, required, emit};
+    joinStep(j);
+  }
+
+  /// Evaluate the cheapest ready literal and recurse on the rest (bindFromSort when none is
+  /// ready); the literal is marked done for the recursion only.
+  void joinStep(JoinState& j) {
     spend(0, 0);
-    // choose the next literal
+    int best_pos = -1;
+    const int best = chooseLiteral(j.s, j.done, j.b, best_pos);
+    if (best < 0) {
+      bindFromSort(j);
+      return;
+    }
+    const CLit& l = j.s.lits[static_cast<size_t>(best)];
+    j.done[static_cast<size_t>(best)] = 1;
+    if (!l.is_atom) joinComparison(j, l);
+    else if (l.dynamic) joinDynamic(j, l);
+    else joinStatic(j, l, best_pos);
+    j.done[static_cast<size_t>(best)] = 0;
+  }
+
+  /// The cheapest literal that the binding b lets us evaluate (cost 0: a test; else the number
+  /// of candidate facts or values), -1 when none; best_pos: for a static atom, the argument
+  /// position whose fact index gives the candidates (-1: all facts).
+  int chooseLiteral(const Stmt& s, const std::vector<char>& done, const std::vector<int>& b,
+                    int& best_pos) {
     int best = -1;
     size_t best_cost = std::numeric_limits<size_t>::max();
-    int best_pos = -1;
+    best_pos = -1;
     for (size_t i = 0; i < s.lits.size(); ++i) {
       if (done[i]) continue;
       const CLit& l = s.lits[i];
@@ -728,188 +776,211 @@ class Grounder {
       }
       if (cost == 0) break;
     }
-    if (best < 0) {
-      // no literal ready: enumerate a variable from its sort (remaining literals first)
-      int var = -1;
-      size_t vsize = std::numeric_limits<size_t>::max();
-      auto consider = [&](int slot) {
-        if (b[static_cast<size_t>(slot)] >= 0) return;
-        int so = s.slot_sort[static_cast<size_t>(slot)];
-        if (so < 0) return;
-        size_t n = sort_vals_[static_cast<size_t>(so)].size();
-        if (n < vsize) {
-          vsize = n;
-          var = slot;
-        }
-      };
-      bool any_left = false;
-      for (size_t i = 0; i < s.lits.size(); ++i) {
+    return best;
+  }
+
+  /// No literal is ready: bind the unbound variable with the smallest sort to each of its
+  /// values (variables of the remaining literals first, then the required ones); with every
+  /// variable bound and no literal left, the binding is complete and emitted.
+  void bindFromSort(JoinState& j) {
+    const Stmt& s = j.s;
+    const std::vector<char>& done = j.done;
+    std::vector<int>& b = j.b;
+    const std::vector<int>& required = j.required;
+    // no literal ready: enumerate a variable from its sort (remaining literals first)
+    int var = -1;
+    size_t vsize = std::numeric_limits<size_t>::max();
+    auto consider = [&](int slot) {
+      if (b[static_cast<size_t>(slot)] >= 0) return;
+      int so = s.slot_sort[static_cast<size_t>(slot)];
+      if (so < 0) return;
+      size_t n = sort_vals_[static_cast<size_t>(so)].size();
+      if (n < vsize) {
+        vsize = n;
+        var = slot;
+      }
+    };
+    bool any_left = false;
+    for (size_t i = 0; i < s.lits.size(); ++i) {
+      if (done[i]) continue;
+      any_left = true;
+      for (int v : s.lits[i].vars) consider(v);
+    }
+    if (!any_left)
+      for (int v : required) consider(v);
+    if (var < 0) {
+      for (size_t i = 0; i < s.lits.size() && any_left; ++i) {
         if (done[i]) continue;
-        any_left = true;
-        for (int v : s.lits[i].vars) consider(v);
-      }
-      if (!any_left)
-        for (int v : required) consider(v);
-      if (var < 0) {
-        for (size_t i = 0; i < s.lits.size() && any_left; ++i) {
-          if (done[i]) continue;
-          for (int v : s.lits[i].vars)
-            if (b[static_cast<size_t>(v)] < 0)
-              throw UnknownSymbolError(s.lits[i].loc.str() + ": cannot determine the sort of "
-                                       "variable " + s.slot_names[static_cast<size_t>(v)] +
-                                       " (declare it with #domain or use it as an attribute "
-                                       "argument)");
-        }
-        for (int v : required)
+        for (int v : s.lits[i].vars)
           if (b[static_cast<size_t>(v)] < 0)
-            throw UnknownSymbolError(s.loc.str() + ": cannot determine the sort of variable " +
-                                     s.slot_names[static_cast<size_t>(v)]);
-        emit(b, acc, acc_origin);
-        return;
+            throw UnknownSymbolError(s.lits[i].loc.str() + ": cannot determine the sort of "
+                                     "variable " + s.slot_names[static_cast<size_t>(v)] +
+                                     " (declare it with #domain or use it as an attribute "
+                                     "argument)");
       }
-      for (int val : sort_vals_[static_cast<size_t>(s.slot_sort[static_cast<size_t>(var)])]) {
-        b[static_cast<size_t>(var)] = val;
-        join(s, done, b, acc, acc_origin, required, emit);
-      }
-      b[static_cast<size_t>(var)] = -1;
+      for (int v : required)
+        if (b[static_cast<size_t>(v)] < 0)
+          throw UnknownSymbolError(s.loc.str() + ": cannot determine the sort of variable " +
+                                   s.slot_names[static_cast<size_t>(v)]);
+      j.emit(b, j.acc, j.acc_origin);
       return;
     }
-    const CLit& l = s.lits[static_cast<size_t>(best)];
-    done[static_cast<size_t>(best)] = 1;
-    auto recurse = [&]() { join(s, done, b, acc, acc_origin, required, emit); };
-    if (!l.is_atom) {
-      bool lb = bound(l.lhs, b), rb = bound(l.rhs, b);
-      if (lb && rb) {
-        int x = evalTerm(l.lhs, b), y = evalTerm(l.rhs, b);
-        bool ok = x >= 0 && y >= 0 && compare(l.op, x, y);
-        if (l.naf) ok = !ok && x >= 0 && y >= 0;
-        if (ok) recurse();
-      } else {
-        const CTerm& var = lb ? l.rhs : l.lhs;
-        int v = evalTerm(lb ? l.lhs : l.rhs, b);
-        if (v >= 0) {
-          int so = s.slot_sort[static_cast<size_t>(var.slot)];
-          bool in_sort = so < 0;
-          if (!in_sort) {
-            const auto& sv = sort_vals_[static_cast<size_t>(so)];
-            in_sort = std::find(sv.begin(), sv.end(), v) != sv.end();
-          }
-          if (in_sort) {
-            b[static_cast<size_t>(var.slot)] = v;
-            recurse();
-            b[static_cast<size_t>(var.slot)] = -1;
-          }
+    for (int val : sort_vals_[static_cast<size_t>(s.slot_sort[static_cast<size_t>(var)])]) {
+      b[static_cast<size_t>(var)] = val;
+      joinStep(j);
+    }
+    b[static_cast<size_t>(var)] = -1;
+  }
+
+  /// A comparison: a test when both sides are bound, else `X = expr` binds X (within its sort).
+  void joinComparison(JoinState& j, const CLit& l) {
+    const Stmt& s = j.s;
+    std::vector<int>& b = j.b;
+    auto recurse = [&]() { joinStep(j); };
+    bool lb = bound(l.lhs, b), rb = bound(l.rhs, b);
+    if (lb && rb) {
+      int x = evalTerm(l.lhs, b), y = evalTerm(l.rhs, b);
+      bool ok = x >= 0 && y >= 0 && compare(l.op, x, y);
+      if (l.naf) ok = !ok && x >= 0 && y >= 0;
+      if (ok) recurse();
+    } else {
+      const CTerm& var = lb ? l.rhs : l.lhs;
+      int v = evalTerm(lb ? l.lhs : l.rhs, b);
+      if (v >= 0) {
+        int so = s.slot_sort[static_cast<size_t>(var.slot)];
+        bool in_sort = so < 0;
+        if (!in_sort) {
+          const auto& sv = sort_vals_[static_cast<size_t>(so)];
+          in_sort = std::find(sv.begin(), sv.end(), v) != sv.end();
+        }
+        if (in_sort) {
+          b[static_cast<size_t>(var.slot)] = v;
+          recurse();
+          b[static_cast<size_t>(var.slot)] = -1;
         }
       }
-    } else if (l.dynamic) {
+    }
+  }
+
+  /// An atom of an attribute that varies between worlds: collected as a ground literal (one per
+  /// value of its instance when the value is an unbound variable).
+  void joinDynamic(JoinState& j, const CLit& l) {
+    std::vector<int>& b = j.b;
+    std::vector<GLit>& acc = j.acc;
+    std::vector<int>& acc_origin = j.acc_origin;
+    auto recurse = [&]() { joinStep(j); };
+    std::vector<int> args;
+    bool ok = true;
+    for (const auto& a : l.args) {
+      int v = evalTerm(a, b);
+      if (v < 0) ok = false;
+      args.push_back(v);
+    }
+    if (ok) {
+      ok = argsInSorts(l.attr, args);
+      if (!ok) {
+        // instance outside its sorts: the atom is false
+        if (l.naf) recurse();
+      } else {
+        int inst = instanceFor(l.attr, args);
+        if (bound(l.value, b)) {
+          int v = evalTerm(l.value, b);
+          int vi = v < 0 ? -1 : valueIdx(inst, v);
+          if (vi < 0 && !l.naf && !l.neg) {
+            // impossible value: literal false
+          } else if (vi < 0 && l.naf && !l.neg) {
+            recurse();
+          } else {
+            acc.push_back(GLit{inst, vi, l.naf, l.neg});
+            acc_origin.push_back(l.origin);
+            recurse();
+            acc.pop_back();
+            acc_origin.pop_back();
+          }
+        } else {
+          const std::vector<int> dom = g_.instances[static_cast<size_t>(inst)].domain;
+          for (size_t vi = 0; vi < dom.size(); ++vi) {
+            b[static_cast<size_t>(l.value.slot)] = dom[vi];
+            acc.push_back(GLit{inst, static_cast<int>(vi), false, false});
+            acc_origin.push_back(l.origin);
+            recurse();
+            acc.pop_back();
+            acc_origin.pop_back();
+          }
+          b[static_cast<size_t>(l.value.slot)] = -1;
+        }
+      }
+    }
+  }
+
+  /// An atom of a static attribute: a test against the facts when bound (a guard atom is
+  /// deferred to guard_acc_ instead), else one binding per matching fact (candidates from the
+  /// index of argument position best_pos when >= 0).
+  void joinStatic(JoinState& j, const CLit& l, int best_pos) {
+    std::vector<int>& b = j.b;
+    auto recurse = [&]() { joinStep(j); };
+    const FactSet& f = facts_[static_cast<size_t>(l.attr)];
+    bool all = true;
+    for (const auto& a : l.args) all = all && bound(a, b);
+    all = all && bound(l.value, b);
+    if (all) {
       std::vector<int> args;
       bool ok = true;
       for (const auto& a : l.args) {
-        int v = evalTerm(a, b);
-        if (v < 0) ok = false;
-        args.push_back(v);
+        args.push_back(evalTerm(a, b));
+        if (args.back() < 0) ok = false;
       }
-      if (ok) {
-        ok = argsInSorts(l.attr, args);
-        if (!ok) {
-          // instance outside its sorts: the atom is false
-          if (l.naf) recurse();
-        } else {
-          int inst = instanceFor(l.attr, args);
-          if (bound(l.value, b)) {
-            int v = evalTerm(l.value, b);
-            int vi = v < 0 ? -1 : valueIdx(inst, v);
-            if (vi < 0 && !l.naf && !l.neg) {
-              // impossible value: literal false
-            } else if (vi < 0 && l.naf && !l.neg) {
-              recurse();
-            } else {
-              acc.push_back(GLit{inst, vi, l.naf, l.neg});
-              acc_origin.push_back(l.origin);
-              recurse();
-              acc.pop_back();
-              acc_origin.pop_back();
-            }
-          } else {
-            const std::vector<int> dom = g_.instances[static_cast<size_t>(inst)].domain;
-            for (size_t vi = 0; vi < dom.size(); ++vi) {
-              b[static_cast<size_t>(l.value.slot)] = dom[vi];
-              acc.push_back(GLit{inst, static_cast<int>(vi), false, false});
-              acc_origin.push_back(l.origin);
-              recurse();
-              acc.pop_back();
-              acc_origin.pop_back();
-            }
-            b[static_cast<size_t>(l.value.slot)] = -1;
-          }
-        }
+      int v = evalTerm(l.value, b);
+      if (l.guard && ok && v >= 0) {
+        // deferred: the ground statement is in force while the fact does not hold
+        std::vector<int> key;
+        key.reserve(args.size() + 2);
+        key.push_back(l.attr);
+        key.insert(key.end(), args.begin(), args.end());
+        key.push_back(v);
+        guard_acc_.push_back(std::move(key));
+        recurse();
+        guard_acc_.pop_back();
+        return;
       }
+      bool holds = ok && v >= 0 && staticAtom(l.attr, args, v, l.neg);
+      if (l.naf) holds = !holds;
+      if (holds) recurse();
     } else {
-      const FactSet& f = facts_[static_cast<size_t>(l.attr)];
-      bool all = true;
-      for (const auto& a : l.args) all = all && bound(a, b);
-      all = all && bound(l.value, b);
-      if (all) {
-        std::vector<int> args;
-        bool ok = true;
-        for (const auto& a : l.args) {
-          args.push_back(evalTerm(a, b));
-          if (args.back() < 0) ok = false;
+      // iterate candidate tuples (copy the id list: facts may grow during static fixpoint)
+      std::vector<int> cand;
+      if (best_pos >= 0) {
+        const CTerm& t = static_cast<size_t>(best_pos) < l.args.size() ? l.args[best_pos] : l.value;
+        int v = evalTerm(t, b);
+        if (static_cast<size_t>(best_pos) < f.pos_index.size()) {
+          auto it = f.pos_index[best_pos].find(v);
+          if (it != f.pos_index[best_pos].end()) cand = it->second;
         }
-        int v = evalTerm(l.value, b);
-        if (l.guard && ok && v >= 0) {
-          // deferred: the ground statement is in force while the fact does not hold
-          std::vector<int> key;
-          key.reserve(args.size() + 2);
-          key.push_back(l.attr);
-          key.insert(key.end(), args.begin(), args.end());
-          key.push_back(v);
-          guard_acc_.push_back(std::move(key));
-          recurse();
-          guard_acc_.pop_back();
-          done[static_cast<size_t>(best)] = 0;
-          return;
-        }
-        bool holds = ok && v >= 0 && staticAtom(l.attr, args, v, l.neg);
-        if (l.naf) holds = !holds;
-        if (holds) recurse();
       } else {
-        // iterate candidate tuples (copy the id list: facts may grow during static fixpoint)
-        std::vector<int> cand;
-        if (best_pos >= 0) {
-          const CTerm& t = static_cast<size_t>(best_pos) < l.args.size() ? l.args[best_pos] : l.value;
-          int v = evalTerm(t, b);
-          if (static_cast<size_t>(best_pos) < f.pos_index.size()) {
-            auto it = f.pos_index[best_pos].find(v);
-            if (it != f.pos_index[best_pos].end()) cand = it->second;
+        cand.resize(f.tuples.size());
+        for (size_t i = 0; i < cand.size(); ++i) cand[i] = static_cast<int>(i);
+      }
+      std::vector<int> set_slots;
+      for (int ti : cand) {
+        const std::vector<int>& tuple = f.tuples[static_cast<size_t>(ti)];
+        if (tuple.size() != l.args.size() + 1) continue;
+        bool ok = true;
+        set_slots.clear();
+        for (size_t p = 0; p < tuple.size() && ok; ++p) {
+          const CTerm& t = p < l.args.size() ? l.args[p] : l.value;
+          if (t.k == CTerm::Var && b[static_cast<size_t>(t.slot)] < 0) {
+            b[static_cast<size_t>(t.slot)] = tuple[p];
+            set_slots.push_back(t.slot);
+          } else if (bound(t, b)) {
+            if (evalTerm(t, b) != tuple[p]) ok = false;
+          } else {
+            ok = false;  // compound pattern with unbound variables: unsupported match
           }
-        } else {
-          cand.resize(f.tuples.size());
-          for (size_t i = 0; i < cand.size(); ++i) cand[i] = static_cast<int>(i);
         }
-        std::vector<int> set_slots;
-        for (int ti : cand) {
-          const std::vector<int>& tuple = f.tuples[static_cast<size_t>(ti)];
-          if (tuple.size() != l.args.size() + 1) continue;
-          bool ok = true;
-          set_slots.clear();
-          for (size_t p = 0; p < tuple.size() && ok; ++p) {
-            const CTerm& t = p < l.args.size() ? l.args[p] : l.value;
-            if (t.k == CTerm::Var && b[static_cast<size_t>(t.slot)] < 0) {
-              b[static_cast<size_t>(t.slot)] = tuple[p];
-              set_slots.push_back(t.slot);
-            } else if (bound(t, b)) {
-              if (evalTerm(t, b) != tuple[p]) ok = false;
-            } else {
-              ok = false;  // compound pattern with unbound variables: unsupported match
-            }
-          }
-          if (ok) recurse();
-          for (int sl : set_slots) b[static_cast<size_t>(sl)] = -1;
-        }
+        if (ok) recurse();
+        for (int sl : set_slots) b[static_cast<size_t>(sl)] = -1;
       }
     }
-    done[static_cast<size_t>(best)] = 0;
   }
 
   void runJoin(Stmt& s, const std::vector<int>& required, const Emit& emit) {

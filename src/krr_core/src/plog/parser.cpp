@@ -1,3 +1,9 @@
+/**
+ * @file parser.cpp
+ * @brief Recursive-descent parser of P-log text (classic and plog2.0 dialects) into raw
+ * statements, and the public parse functions (lexer.cpp makes the tokens, resolver.cpp
+ * turns the raw statements into a Program).
+ */
 #include "krr_core/plog/parser.h"
 
 #include "krr_core/plog/arith.h"
@@ -11,172 +17,14 @@
 #include <set>
 #include <unordered_set>
 
+#include "parser_syntax.h"
+
 namespace krr {
 namespace plog {
+
+using namespace syntax;
+
 namespace {
-
-// ---------------------------------------------------------------------------------------------
-// Lexer
-// ---------------------------------------------------------------------------------------------
-
-enum class Tok {
-  End, Ident, Var, Int, Decimal, LParen, RParen, LBrace, RBrace, LBracket, RBracket, Comma,
-  Semicolon, Dot, DotDot, Colon, If, Bar, Eq, EqEq, Ne, Lt, Gt, Le, Ge, Plus, Minus, Star,
-  Slash, Question, Hash, Arrow
-};
-
-struct Token {
-  Tok kind = Tok::End;
-  std::string text;
-  SourceLocation loc;
-};
-
-std::vector<Token> lex(const std::string& src, const std::string& file) {
-  std::vector<Token> out;
-  size_t i = 0;
-  int line = 1, col = 1;
-  auto adv = [&](size_t n) {
-    for (size_t k = 0; k < n && i < src.size(); ++k, ++i) {
-      if (src[i] == '\n') {
-        ++line;
-        col = 1;
-      } else {
-        ++col;
-      }
-    }
-  };
-  while (i < src.size()) {
-    char c = src[i];
-    if (c == '%') {
-      while (i < src.size() && src[i] != '\n') adv(1);
-      continue;
-    }
-    if (std::isspace(static_cast<unsigned char>(c))) {
-      adv(1);
-      continue;
-    }
-    Token t;
-    t.loc = SourceLocation{file, line, col};
-    auto two = [&](const char* s) { return src.compare(i, 2, s) == 0; };
-    if (std::isalpha(static_cast<unsigned char>(c)) || c == '_') {
-      size_t j = i;
-      while (j < src.size() && (std::isalnum(static_cast<unsigned char>(src[j])) || src[j] == '_'))
-        ++j;
-      t.text = src.substr(i, j - i);
-      t.kind = (std::isupper(static_cast<unsigned char>(c)) || c == '_') ? Tok::Var : Tok::Ident;
-      adv(j - i);
-    } else if (std::isdigit(static_cast<unsigned char>(c))) {
-      size_t j = i;
-      while (j < src.size() && std::isdigit(static_cast<unsigned char>(src[j]))) ++j;
-      t.kind = Tok::Int;
-      if (j + 1 < src.size() && src[j] == '.' && std::isdigit(static_cast<unsigned char>(src[j + 1]))) {
-        ++j;
-        while (j < src.size() && std::isdigit(static_cast<unsigned char>(src[j]))) ++j;
-        t.kind = Tok::Decimal;
-      }
-      t.text = src.substr(i, j - i);
-      adv(j - i);
-    } else {
-      size_t n = 1;
-      if (two(":-")) { t.kind = Tok::If; n = 2; }
-      else if (two("..")) { t.kind = Tok::DotDot; n = 2; }
-      else if (two("==")) { t.kind = Tok::EqEq; n = 2; }
-      else if (two("!=")) { t.kind = Tok::Ne; n = 2; }
-      else if (two("<>")) { t.kind = Tok::Ne; n = 2; }
-      else if (two("<=")) { t.kind = Tok::Le; n = 2; }
-      else if (two(">=")) { t.kind = Tok::Ge; n = 2; }
-      else if (two("->")) { t.kind = Tok::Arrow; n = 2; }
-      else {
-        switch (c) {
-          case '(': t.kind = Tok::LParen; break;
-          case ')': t.kind = Tok::RParen; break;
-          case '{': t.kind = Tok::LBrace; break;
-          case '}': t.kind = Tok::RBrace; break;
-          case '[': t.kind = Tok::LBracket; break;
-          case ']': t.kind = Tok::RBracket; break;
-          case ',': t.kind = Tok::Comma; break;
-          case ';': t.kind = Tok::Semicolon; break;
-          case '.': t.kind = Tok::Dot; break;
-          case ':': t.kind = Tok::Colon; break;
-          case '|': t.kind = Tok::Bar; break;
-          case '=': t.kind = Tok::Eq; break;
-          case '<': t.kind = Tok::Lt; break;
-          case '>': t.kind = Tok::Gt; break;
-          case '+': t.kind = Tok::Plus; break;
-          case '-': t.kind = Tok::Minus; break;
-          case '*': t.kind = Tok::Star; break;
-          case '/': t.kind = Tok::Slash; break;
-          case '?': t.kind = Tok::Question; break;
-          case '#': t.kind = Tok::Hash; break;
-          default: {
-            std::string shown = std::isprint(static_cast<unsigned char>(c))
-                                    ? std::string("'") + c + "'"
-                                    : "byte " + std::to_string(static_cast<unsigned char>(c));
-            throw ParseError(t.loc, "unexpected character " + shown);
-          }
-        }
-      }
-      t.text = src.substr(i, n);
-      adv(n);
-    }
-    out.push_back(t);
-  }
-  Token e;
-  e.kind = Tok::End;
-  e.loc = SourceLocation{file, line, col};
-  out.push_back(e);
-  return out;
-}
-
-// ---------------------------------------------------------------------------------------------
-// Raw (unresolved) syntax
-// ---------------------------------------------------------------------------------------------
-
-struct RawLit {
-  bool naf = false;
-  Term lhs;
-  bool has_op = false;
-  CompareOp op = CompareOp::Eq;
-  Term rhs;
-  SourceLocation loc;
-};
-
-struct RawObs {
-  RawLit lit;
-  bool truth = true;
-  SourceLocation loc;
-};
-
-struct RawQuery {
-  std::vector<RawLit> formula;
-  std::vector<RawObs> obs;
-  std::vector<RawLit> dos;
-  std::string text;
-  SourceLocation loc;
-};
-
-struct RawStmt {
-  enum class Kind { Rule, Random, Pr, Obs, Do, Query } kind = Kind::Rule;
-  std::string label;
-  std::optional<RawLit> head;      // Rule (absent: constraint); Random: lhs = attribute term
-  std::vector<RawLit> body;
-  bool has_range = false;          // Random
-  std::string range_var;
-  std::vector<RawLit> range_body;
-  std::string range_pred;          // plog2 random(a, p)
-  RawLit pr_atom;                  // Pr
-  double prob = 0;
-  std::string prob_text;
-  RawObs obs;                      // Obs
-  RawLit do_lit;                   // Do
-  RawQuery query;                  // Query
-  int priority = 0;                // Pr: knowledge generation
-  SourceLocation loc;
-};
-
-// ---------------------------------------------------------------------------------------------
-// Parser
-// ---------------------------------------------------------------------------------------------
 
 class Parser {
  public:
@@ -279,12 +127,25 @@ class Parser {
     return peek(k).kind == Tok::Ident && peek(k).text == s;
   }
 
-  /// @brief Consistency-restoring rules `h :+ body.` need the minimal-abduction semantics of
-  /// CR-Prolog, which neither back end implements: refuse them by name instead of misreading
-  /// `:+` or dropping the rule.
-  void refuseCrRule() {
-    if (peek().kind == Tok::Colon && peek(1).kind == Tok::Plus)
-      throw ParseError(peek().loc, "consistency-restoring rules (':+') are not supported");
+  /// @brief The arrow of a consistency-restoring rule `h :+ body.` (plog2.0): consumed and
+  /// true when next, so the statement is read as a rule marked consistency-restoring.
+  bool acceptCrArrow() {
+    if (peek().kind == Tok::Colon && peek(1).kind == Tok::Plus) {
+      next();
+      next();
+      return true;
+    }
+    return false;
+  }
+
+  /// @brief Body of a rule after its head: `:- body`, `:+ body`, `:+` or nothing.
+  void parseRuleTail(RawStmt& st) {
+    if (acceptCrArrow()) {
+      st.consistency_restoring = true;
+      if (peek().kind != Tok::Dot) st.body = parseBody();
+    } else if (accept(Tok::If)) {
+      st.body = parseBody();
+    }
   }
 
   /// @brief Observations and actions are facts (plog2.0 manual, section on statements); a
@@ -336,10 +197,8 @@ class Parser {
       parseSortDecl();
       return;
     }
-    if (first.kind == Tok::Ident && peek(1).kind == Tok::Colon) {
-      pos_ += 1;
-      refuseCrRule();  // `a :+ b.` is a CR-rule, not a declaration
-      pos_ -= 1;
+    if (first.kind == Tok::Ident && peek(1).kind == Tok::Colon && peek(2).kind != Tok::Plus) {
+      // (`a :+ b.` is a consistency-restoring rule, not a declaration)
       parseAttributeDecl();
       return;
     }
@@ -394,7 +253,7 @@ class Parser {
       next();
       next();
       st.kind = RawStmt::Kind::Do;
-      st.do_lit = parseDoArgs();
+      st.do_lit = parseDoArgs(&st.do_args);
       refuseBody("do(...)");
       endStatement();
     } else if (first.kind == Tok::Question) {
@@ -410,8 +269,7 @@ class Parser {
     } else {
       st.kind = RawStmt::Kind::Rule;
       st.head = parseLiteral(false);
-      refuseCrRule();
-      if (accept(Tok::If)) st.body = parseBody();
+      parseRuleTail(st);
       endStatement();
     }
     out.push_back(std::move(st));
@@ -755,8 +613,7 @@ class Parser {
       st.range_pred = expect(Tok::Ident, "dynamic range predicate name").text;
     }
     expect(Tok::RParen, "')' closing random(...)");
-    refuseCrRule();
-    if (accept(Tok::If)) st.body = parseBody();
+    parseRuleTail(st);
     endStatement();
   }
 
@@ -836,16 +693,21 @@ class Parser {
     return o;
   }
 
-  RawLit parseDoArgs() {
+  /// @brief Arguments of do(...) after `do(`; args (when given) receives the comma-separated
+  /// argument terms as written (`do(a, y, true)` -> {a, y, true}), for do-facts tested in
+  /// rule bodies and the agent form do(agent, a, y).
+  RawLit parseDoArgs(std::vector<Term>* args = nullptr) {
     RawLit l = parseLiteral(false);
     if (accept(Tok::Comma)) {
       if (l.has_op) fail(peek(), "')' closing do(...)");
       l.has_op = true;
       l.op = CompareOp::Eq;
       l.rhs = parseExpr();
+      if (args) *args = {l.lhs, l.rhs};
       if (accept(Tok::Comma)) {
         // plog2.0 `do(a, y, true)`; an intervention cannot make a = y false
         Term flag = parseExpr();
+        if (args) args->push_back(flag);
         if (flag.kind != Term::Kind::Symbol || flag.name != "true")
           throw ParseError(flag.loc, "the third argument of do(a, y, ...) must be 'true' "
                                      "(an intervention fixes a = y; do(a, y, false) is not "
@@ -1044,653 +906,25 @@ class Parser {
   std::map<std::string, long long> consts_;
 };
 
-// ---------------------------------------------------------------------------------------------
-// Resolution
-// ---------------------------------------------------------------------------------------------
-
-class Resolver {
- public:
-  explicit Resolver(Program& p) : prog_(p) {}
-
-  bool isAttributeTerm(const Term& t) const {
-    if (t.kind != Term::Kind::Symbol && t.kind != Term::Kind::Compound) return false;
-    return prog_.findAttribute(t.name) != nullptr;
-  }
-
-  AttributeTerm toAttr(const Term& t) {
-    AttributeTerm a;
-    a.name = t.name;
-    a.args = t.args;
-    a.loc = t.loc;
-    const AttributeDecl* d = prog_.findAttribute(t.name);
-    if (!d) throw UnknownSymbolError(t.loc.str() + ": unknown attribute '" + t.name + "'");
-    if (d->arg_sorts.size() != a.args.size())
-      throw UnknownSymbolError(t.loc.str() + ": attribute '" + t.name + "' expects " +
-                               std::to_string(d->arg_sorts.size()) + " argument(s), got " +
-                               std::to_string(a.args.size()));
-    for (size_t i = 0; i < a.args.size(); ++i) {
-      checkValue(a.args[i], d->arg_sorts[i], "argument " + std::to_string(i + 1) + " of '" +
-                                                 t.name + "'");
-    }
-    return a;
-  }
-
-  void checkValue(const Term& v, const std::string& sort, const std::string& what) {
-    if (sort.empty()) return;
-    if (v.kind != Term::Kind::Symbol && v.kind != Term::Kind::Integer &&
-        v.kind != Term::Kind::Compound)
-      return;
-    if (!v.isGround()) return;
-    const SortDecl* s = prog_.findSort(sort);
-    if (!s) throw UnknownSymbolError(v.loc.str() + ": unknown sort '" + sort + "'");
-    auto& cache = sort_cache_[sort];
-    if (cache.size() != s->values.size()) {
-      cache.clear();
-      for (const auto& x : s->values) cache.insert(toString(x));
-    }
-    if (cache.count(toString(v))) return;
-    throw UnknownSymbolError(v.loc.str() + ": unknown value '" + toString(v) + "' for " + what +
-                             " (not in sort " + sort + ")");
-  }
-
-  Atom makeAtom(const Term& attr_term, const Term& value) {
-    Atom a;
-    a.attr = toAttr(attr_term);
-    a.value = value;
-    a.loc = attr_term.loc;
-    const AttributeDecl* d = prog_.findAttribute(attr_term.name);
-    checkValue(value, d->range_sort, "the value of '" + attr_term.name + "'");
-    return a;
-  }
-
-  Term freshVar() { return Term::variable("_V" + std::to_string(fresh_++)); }
-
-  /// @brief plog2.0 lets rule bodies test observations: `not obs(s, true, true)` holds when the
-  /// program does not observe s = true. They are read as the hidden boolean attribute
-  /// `obs(a(t), y, flag)` (untyped arguments), made true by one fact per observation.
-  bool usesObsLiterals() const {
-    const AttributeDecl* d = prog_.findAttribute("obs");
-    return d && d->implicit && d->arg_sorts.size() == 3;
-  }
-
-  static bool rawUsesObs(const std::vector<RawLit>& body) {
-    for (const auto& l : body)
-      if (!l.has_op && l.lhs.kind == Term::Kind::Compound && l.lhs.name == "obs") return true;
-    return false;
-  }
-
-  void declareObsAttribute(const std::vector<RawStmt>& stmts) {
-    if (prog_.findAttribute("obs")) return;
-    for (const auto& s : stmts) {
-      if (!rawUsesObs(s.body) && !rawUsesObs(s.range_body)) continue;
-      AttributeDecl d;
-      d.name = "obs";
-      d.arg_sorts.assign(3, "");
-      d.range_sort = "boolean";
-      d.implicit = true;
-      d.loc = s.loc;
-      prog_.attributes.push_back(d);
-      return;
-    }
-  }
-
-  /// @brief `obs(a(t), y)` / `obs(a(t), y, true|false)` in a body as the atom
-  /// obs(a(t), y, flag) = true, after checking a(t) and y against a's declaration.
-  Atom obsAtom(const Term& t) {
-    if (t.args.size() != 2 && t.args.size() != 3)
-      throw ParseError(t.loc, "obs(a, y) or obs(a, y, true|false) expected in a rule body");
-    const Term& a = t.args[0];
-    if ((a.kind != Term::Kind::Symbol && a.kind != Term::Kind::Compound) ||
-        !prog_.findAttribute(a.name) || a.name == "obs")
-      throw UnknownSymbolError(a.loc.str() + ": obs(...) needs an attribute term, got '" +
-                               toString(a) + "'");
-    makeAtom(a, t.args[1]);  // arity, argument sorts and value sort
-    Term flag = t.args.size() == 3 ? t.args[2] : Term::symbol("true", t.loc);
-    if (flag.kind != Term::Kind::Symbol || (flag.name != "true" && flag.name != "false"))
-      throw ParseError(flag.loc, "expected 'true' or 'false' as third argument of obs");
-    Atom o;
-    o.attr.name = "obs";
-    o.attr.args = {a, t.args[1], flag};
-    o.attr.loc = t.loc;
-    o.value = Term::symbol("true", t.loc);
-    o.loc = t.loc;
-    return o;
-  }
-
-  /// @brief The fact obs(a(t), y, flag) that makes body tests of an observation true.
-  Rule obsFact(const Observation& o) {
-    Term a;
-    a.kind = o.literal.atom.attr.args.empty() ? Term::Kind::Symbol : Term::Kind::Compound;
-    a.name = o.literal.atom.attr.name;
-    a.args = o.literal.atom.attr.args;
-    a.loc = o.loc;
-    Rule r;
-    r.loc = o.loc;
-    Atom h;
-    h.attr.name = "obs";
-    h.attr.args = {a, o.literal.atom.value, Term::symbol(o.truth ? "true" : "false", o.loc)};
-    h.attr.loc = o.loc;
-    h.value = Term::symbol("true", o.loc);
-    h.loc = o.loc;
-    r.head = h;
-    return r;
-  }
-
-  // Resolve one raw literal into zero or more literals (rewrites may add literals).
-  void resolveLit(const RawLit& r, std::vector<Literal>& out) {
-    Literal l;
-    l.naf = r.naf;
-    l.loc = r.loc;
-    if (!r.has_op && r.lhs.kind == Term::Kind::Compound && !prog_.findAttribute(r.lhs.name) &&
-        r.lhs.name == "do")
-      throw ParseError(r.loc, "do(...) in a rule body is not supported (only as a fact or in "
-                              "a query condition)");
-    if (!r.has_op && r.lhs.kind == Term::Kind::Compound && r.lhs.name == "obs" &&
-        usesObsLiterals()) {
-      l.kind = Literal::Kind::Atom;
-      l.atom = obsAtom(r.lhs);
-      out.push_back(l);
-      return;
-    }
-    if (!r.has_op) {
-      const Term* t = &r.lhs;
-      bool neg = false;
-      if (t->kind == Term::Kind::Negate) {
-        neg = true;
-        t = &t->args[0];
-      }
-      if (t->kind != Term::Kind::Symbol && t->kind != Term::Kind::Compound)
-        throw ParseError(r.loc, "expected a literal, got '" + toString(r.lhs) + "'");
-      const AttributeDecl* d = prog_.findAttribute(t->name);
-      if (!d) throw UnknownSymbolError(t->loc.str() + ": unknown predicate '" + t->name + "'");
-      if (d->range_sort != "boolean")
-        throw ParseError(r.loc, "attribute '" + t->name + "' has range " + d->range_sort +
-                                    " and needs a value: " + t->name + "=...");
-      l.kind = Literal::Kind::Atom;
-      l.atom = makeAtom(*t, Term::symbol(neg ? "false" : "true", t->loc));
-      out.push_back(l);
-      return;
-    }
-    bool la = isAttributeTerm(r.lhs), ra = isAttributeTerm(r.rhs);
-    if (la && ra && (r.op == CompareOp::Eq || r.op == CompareOp::Ne)) {
-      // a(t) = y where y is also a declared 0-ary attribute name: prefer the value reading.
-      const AttributeDecl* d = prog_.findAttribute(r.lhs.name);
-      const SortDecl* s = prog_.findSort(d->range_sort);
-      bool is_value = false;
-      if (s)
-        for (const auto& x : s->values)
-          if (x == r.rhs) is_value = true;
-      if (is_value) ra = false;
-    }
-    if ((la || ra) && r.naf && (la && ra))
-      throw Error(r.loc.str() + ": 'not' before an equality of two attribute terms is not "
-                                "supported; bind them to variables first");
-    if (la && !ra && (r.op == CompareOp::Eq || r.op == CompareOp::Ne)) {
-      l.kind = Literal::Kind::Atom;
-      l.negated = r.op == CompareOp::Ne;
-      l.atom = makeAtom(r.lhs, r.rhs);
-      out.push_back(l);
-      return;
-    }
-    if (ra && !la && (r.op == CompareOp::Eq || r.op == CompareOp::Ne)) {
-      l.kind = Literal::Kind::Atom;
-      l.negated = r.op == CompareOp::Ne;
-      l.atom = makeAtom(r.rhs, r.lhs);
-      out.push_back(l);
-      return;
-    }
-    if (la && ra && r.op == CompareOp::Eq && !r.naf) {
-      Term v = freshVar();
-      for (const Term* side : {&r.lhs, &r.rhs}) {
-        Literal a;
-        a.kind = Literal::Kind::Atom;
-        a.loc = r.loc;
-        a.atom = makeAtom(*side, v);
-        out.push_back(a);
-      }
-      return;
-    }
-    Term lhs = r.lhs, rhs = r.rhs;
-    if (la || ra) {
-      if (r.naf)
-        throw Error(r.loc.str() + ": 'not' before a comparison of attribute terms is not "
-                                  "supported; bind the attribute to a variable first");
-      if (la) {
-        Term v = freshVar();
-        Literal a;
-        a.kind = Literal::Kind::Atom;
-        a.loc = r.loc;
-        a.atom = makeAtom(r.lhs, v);
-        out.push_back(a);
-        lhs = v;
-      }
-      if (ra) {
-        Term v = freshVar();
-        Literal a;
-        a.kind = Literal::Kind::Atom;
-        a.loc = r.loc;
-        a.atom = makeAtom(r.rhs, v);
-        out.push_back(a);
-        rhs = v;
-      }
-    }
-    checkArith(lhs);
-    checkArith(rhs);
-    l.kind = Literal::Kind::Comparison;
-    l.op = r.op;
-    l.lhs = lhs;
-    l.rhs = rhs;
-    out.push_back(l);
-  }
-
-  void checkArith(const Term& t) {
-    if (t.kind == Term::Kind::Compound || t.kind == Term::Kind::Symbol) {
-      if (prog_.findAttribute(t.name) && t.kind == Term::Kind::Compound)
-        throw Error(t.loc.str() + ": attribute term '" + toString(t) +
-                    "' inside an arithmetic expression is not supported");
-    }
-    for (const auto& a : t.args) checkArith(a);
-  }
-
-  std::vector<Literal> resolveBody(const std::vector<RawLit>& raw) {
-    std::vector<Literal> out;
-    for (const auto& r : raw) resolveLit(r, out);
-    return out;
-  }
-
-  Atom resolveHeadAtom(const RawLit& r, const char* what) {
-    if (r.naf) throw ParseError(r.loc, std::string("'not' is not allowed in ") + what);
-    const Term* h = &r.lhs;
-    if (h->kind == Term::Kind::Negate) h = &h->args[0];
-    if ((h->kind == Term::Kind::Symbol || h->kind == Term::Kind::Compound) &&
-        !prog_.findAttribute(h->name))
-      throw UnknownSymbolError(h->loc.str() + ": undeclared attribute '" + h->name + "' in " +
-                               what);
-    std::vector<Literal> tmp;
-    resolveLit(r, tmp);
-    if (tmp.size() != 1 || tmp[0].kind != Literal::Kind::Atom || tmp[0].negated)
-      throw ParseError(r.loc, std::string("expected an atom a(t)=y or p(t) as ") + what);
-    return tmp[0].atom;
-  }
-
-  void typeTerm(const Term& t, const std::string& sort, VariableSorts& vs) {
-    if (t.kind == Term::Kind::Variable && !sort.empty() && t.name != "_") vs.emplace(t.name, sort);
-    if (t.kind == Term::Kind::Compound && !sort.empty())
-      for (size_t i = 0; i < t.args.size(); ++i)
-        if (!t.args[i].isGround())
-          typeTerm(t.args[i], projectionSort(sort, t.name, t.args.size(), i), vs);
-  }
-
-  /// @brief Sort of the i-th argument of the records f(...) of `sort`, so that a variable
-  /// nested in a value (`genotype_of(X) = g(g_a, Y)`) ranges over what can stand there. The
-  /// sort is hidden (builtin: not exported; a re-parse derives it again).
-  std::string projectionSort(const std::string& sort, const std::string& f, size_t arity,
-                             size_t i) {
-    const SortDecl* s = prog_.findSort(sort);
-    if (!s) return "";
-    std::string name = "arg_" + sort + "_" + f + std::to_string(arity) + "_" + std::to_string(i);
-    if (const SortDecl* old = prog_.findSort(name)) return old->builtin ? name : "";
-    SortDecl p;
-    p.name = name;
-    p.builtin = true;
-    p.loc = s->loc;
-    std::set<std::string> seen;
-    for (const auto& v : s->values)
-      if (v.kind == Term::Kind::Compound && v.name == f && v.args.size() == arity &&
-          seen.insert(toString(v.args[i])).second)
-        p.values.push_back(v.args[i]);
-    if (p.values.empty()) return "";
-    prog_.sorts.push_back(p);
-    return name;
-  }
-
-  void typeAtom(const Atom& a, VariableSorts& vs) {
-    const AttributeDecl* d = prog_.findAttribute(a.attr.name);
-    if (!d) return;
-    for (size_t i = 0; i < a.attr.args.size() && i < d->arg_sorts.size(); ++i)
-      typeTerm(a.attr.args[i], d->arg_sorts[i], vs);
-    typeTerm(a.value, d->range_sort, vs);
-  }
-
-  void typeBody(const std::vector<Literal>& b, VariableSorts& vs) {
-    for (const auto& l : b)
-      if (l.kind == Literal::Kind::Atom) typeAtom(l.atom, vs);
-  }
-
-  void typeDomains(const std::vector<std::string>& vars, VariableSorts& vs) {
-    for (const auto& v : vars) {
-      std::string s = prog_.domainSortOf(v);
-      if (!s.empty()) vs[v] = s;
-    }
-  }
-
-  static void varsOfBody(const std::vector<Literal>& b, std::vector<std::string>& out) {
-    for (const auto& l : b) {
-      if (l.kind == Literal::Kind::Atom) {
-        for (const auto& a : l.atom.attr.args) a.collectVariables(out);
-        l.atom.value.collectVariables(out);
-      } else {
-        l.lhs.collectVariables(out);
-        l.rhs.collectVariables(out);
-      }
-    }
-  }
-  static void varsOfAtom(const Atom& a, std::vector<std::string>& out) {
-    for (const auto& x : a.attr.args) x.collectVariables(out);
-    a.value.collectVariables(out);
-  }
-
-  void requireGround(const Atom& a, const char* what) {
-    if (!a.value.isGround()) throw ParseError(a.loc, std::string(what) + " must be ground");
-    for (const auto& x : a.attr.args)
-      if (!x.isGround()) throw ParseError(a.loc, std::string(what) + " must be ground");
-  }
-
-  Observation resolveObs(const RawObs& o) {
-    Observation r;
-    r.loc = o.loc;
-    r.truth = o.truth;
-    std::vector<Literal> tmp;
-    resolveLit(o.lit, tmp);
-    if (tmp.size() != 1 || tmp[0].kind != Literal::Kind::Atom || tmp[0].naf)
-      throw ParseError(o.loc, "obs(...) needs an attribute atom a(t)=y or p(t)");
-    r.literal = tmp[0];
-    if (r.literal.negated) {
-      r.literal.negated = false;
-      r.truth = !r.truth;
-    }
-    requireGround(r.literal.atom, "observed atom");
-    return r;
-  }
-
-  Intervention resolveDo(const RawLit& l) {
-    Intervention d;
-    d.loc = l.loc;
-    d.atom = resolveHeadAtom(l, "do(...)");
-    requireGround(d.atom, "do(...) atom");
-    return d;
-  }
-
-  // A query/obs/do literal that did not resolve to an attribute atom names an unknown attribute.
-  void requireKnownAttribute(const RawLit& r) {
-    const Term* t = &r.lhs;
-    if (t->kind == Term::Kind::Negate) t = &t->args[0];
-    if ((t->kind == Term::Kind::Symbol || t->kind == Term::Kind::Compound) &&
-        !prog_.findAttribute(t->name))
-      throw UnknownSymbolError(t->loc.str() + ": unknown attribute '" + t->name + "'");
-  }
-
-  Query resolveQuery(const RawQuery& rq) {
-    if (usesObsLiterals() && !rq.obs.empty())
-      throw Error(rq.loc.str() + ": a query that observes is not supported for a program whose "
-                                 "rules test obs(...); write the observation as a fact");
-    for (const auto& l : rq.formula) requireKnownAttribute(l);
-    for (const auto& o : rq.obs) requireKnownAttribute(o.lit);
-    for (const auto& d : rq.dos) requireKnownAttribute(d);
-    Query q;
-    q.loc = rq.loc;
-    q.text = rq.text;
-    q.formula = resolveBody(rq.formula);
-    for (const auto& l : q.formula) {
-      if (l.kind != Literal::Kind::Atom)
-        throw ParseError(l.loc, "query formula must consist of attribute atoms");
-      requireGround(l.atom, "query atom");
-    }
-    for (const auto& o : rq.obs) q.observations.push_back(resolveObs(o));
-    for (const auto& d : rq.dos) q.interventions.push_back(resolveDo(d));
-    return q;
-  }
-
-  // Declare implicit predicates for undeclared heads of rules/facts.
-  void declareImplicit(const std::vector<RawStmt>& stmts) {
-    // plog2.0 requires every attribute to be declared in its `attributes` section
-    if (plog2_) return;
-    for (const auto& s : stmts) {
-      if (s.kind != RawStmt::Kind::Rule || !s.head) continue;
-      const RawLit& h = *s.head;
-      if (h.has_op && !(h.op == CompareOp::Eq && h.rhs.kind == Term::Kind::Symbol &&
-                        (h.rhs.name == "true" || h.rhs.name == "false")))
-        continue;
-      const Term* t = &h.lhs;
-      if (t->kind == Term::Kind::Negate) t = &t->args[0];
-      if (t->kind != Term::Kind::Symbol && t->kind != Term::Kind::Compound) continue;
-      if (prog_.findAttribute(t->name)) continue;
-      if (prog_.findSort(t->name) == nullptr || true) {
-        AttributeDecl d;
-        d.name = t->name;
-        d.arg_sorts.assign(t->args.size(), "");
-        d.range_sort = "boolean";
-        d.implicit = true;
-        d.loc = t->loc;
-        prog_.attributes.push_back(d);
-      }
-    }
-  }
-
-  /// @brief Give each classic range-only attribute `a : s.` that the statements use with
-  /// arguments (`random(place(B))`) that arity; an argument's sort is the #domain sort of a
-  /// variable written there, untyped otherwise. The classic solver reads its examples so.
-  void inferClassicArity(const std::vector<RawStmt>& stmts) {
-    if (range_only_.empty()) return;
-    std::map<std::string, std::vector<std::string>> seen;  // name -> argument sorts
-    std::function<void(const Term&)> visit = [&](const Term& t) {
-      if (t.kind == Term::Kind::Compound && range_only_.count(t.name)) {
-        auto it = seen.find(t.name);
-        if (it == seen.end()) it = seen.emplace(t.name, std::vector<std::string>(t.args.size())).first;
-        if (it->second.size() == t.args.size())
-          for (size_t i = 0; i < t.args.size(); ++i)
-            if (it->second[i].empty() && t.args[i].kind == Term::Kind::Variable)
-              it->second[i] = prog_.domainSortOf(t.args[i].name);
-      }
-      for (const auto& a : t.args) visit(a);
-    };
-    auto lit = [&](const RawLit& l) {
-      visit(l.lhs);
-      if (l.has_op) visit(l.rhs);
-    };
-    for (const auto& s : stmts) {
-      if (s.head) lit(*s.head);
-      for (const auto& l : s.body) lit(l);
-      for (const auto& l : s.range_body) lit(l);
-      lit(s.pr_atom);
-      lit(s.obs.lit);
-      lit(s.do_lit);
-      for (const auto& l : s.query.formula) lit(l);
-      for (const auto& o : s.query.obs) lit(o.lit);
-      for (const auto& l : s.query.dos) lit(l);
-    }
-    for (auto& a : prog_.attributes)
-      if (a.arg_sorts.empty() && seen.count(a.name)) a.arg_sorts = seen[a.name];
-  }
-
-  /// @brief Classic programs overload undeclared predicate names by arity, as ASP does
-  /// (Poker: pair(K, S) and pair(K)). One attribute has one arity here, so every arity but the
-  /// first one used is renamed `name_<arity>` (a free name) throughout the statements.
-  std::vector<RawStmt> splitOverloadedPredicates(const std::vector<RawStmt>& stmts) {
-    if (plog2_) return stmts;
-    std::map<std::string, std::vector<size_t>> arities;  // first-use order
-    auto top = [](const RawLit& l) -> const Term* {
-      const Term* t = &l.lhs;
-      if (t->kind == Term::Kind::Negate) t = &t->args[0];
-      return (t->kind == Term::Kind::Symbol || t->kind == Term::Kind::Compound) ? t : nullptr;
-    };
-    auto note = [&](const RawLit& l) {
-      const Term* t = top(l);
-      if (!t || prog_.findAttribute(t->name) || t->name == "obs" || t->name == "do") return;
-      auto& v = arities[t->name];
-      if (std::find(v.begin(), v.end(), t->args.size()) == v.end()) v.push_back(t->args.size());
-    };
-    for (const auto& s : stmts) {
-      if (s.kind == RawStmt::Kind::Rule && s.head) note(*s.head);
-      for (const auto& l : s.body) note(l);
-    }
-    std::map<std::pair<std::string, size_t>, std::string> rename;
-    for (const auto& a : arities) {
-      for (size_t k = 1; k < a.second.size(); ++k) {
-        std::string n = a.first + "_" + std::to_string(a.second[k]);
-        while (prog_.findAttribute(n) || arities.count(n)) n += "_";
-        rename[{a.first, a.second[k]}] = n;
-      }
-    }
-    if (rename.empty()) return stmts;
-    std::vector<RawStmt> out = stmts;
-    auto fix = [&](RawLit& l) {
-      Term* t = &l.lhs;
-      if (t->kind == Term::Kind::Negate) t = &t->args[0];
-      if (t->kind != Term::Kind::Symbol && t->kind != Term::Kind::Compound) return;
-      auto it = rename.find({t->name, t->args.size()});
-      if (it != rename.end()) t->name = it->second;
-    };
-    for (auto& s : out) {
-      if (s.head) fix(*s.head);
-      for (auto& l : s.body) fix(l);
-      for (auto& l : s.range_body) fix(l);
-      fix(s.pr_atom);
-      fix(s.obs.lit);
-      for (auto& l : s.query.formula) fix(l);
-      for (auto& o : s.query.obs) fix(o.lit);
-    }
-    return out;
-  }
-
-  void resolveAll(const std::vector<RawStmt>& raw) {
-    const std::vector<RawStmt> stmts = splitOverloadedPredicates(raw);
-    inferClassicArity(stmts);
-    declareObsAttribute(stmts);
-    declareImplicit(stmts);
-    for (const auto& s : stmts) {
-      switch (s.kind) {
-        case RawStmt::Kind::Rule: {
-          Rule r;
-          r.loc = s.loc;
-          if (s.head) r.head = resolveHeadAtom(*s.head, "a rule head");
-          r.body = resolveBody(s.body);
-          std::vector<std::string> vars;
-          if (r.head) {
-            typeAtom(*r.head, r.variable_sorts);
-            varsOfAtom(*r.head, vars);
-          }
-          typeBody(r.body, r.variable_sorts);
-          varsOfBody(r.body, vars);
-          typeDomains(vars, r.variable_sorts);
-          prog_.rules.push_back(std::move(r));
-          break;
-        }
-        case RawStmt::Kind::Random: {
-          RandomRule r;
-          r.loc = s.loc;
-          r.label = s.label;
-          const Term& t = s.head->lhs;
-          if (t.kind != Term::Kind::Symbol && t.kind != Term::Kind::Compound)
-            throw ParseError(s.head->loc, "random(...) needs an attribute term");
-          r.attr = toAttr(t);
-          const AttributeDecl* d = prog_.findAttribute(t.name);
-          r.has_range = s.has_range;
-          if (s.has_range) {
-            if (!s.range_pred.empty()) {
-              r.range_var = "_R" + std::to_string(fresh_++);
-              RawLit pl;
-              pl.loc = s.head->loc;
-              pl.lhs.kind = Term::Kind::Compound;
-              pl.lhs.name = s.range_pred;
-              pl.lhs.loc = s.head->loc;
-              pl.lhs.args.push_back(Term::variable(r.range_var, s.head->loc));
-              r.range_body = resolveBody({pl});
-            } else {
-              r.range_var = s.range_var;
-              r.range_body = resolveBody(s.range_body);
-            }
-            r.variable_sorts.emplace(r.range_var, d->range_sort);
-          }
-          r.body = resolveBody(s.body);
-          std::vector<std::string> vars;
-          for (const auto& a : r.attr.args) a.collectVariables(vars);
-          for (size_t i = 0; i < r.attr.args.size(); ++i)
-            typeTerm(r.attr.args[i], d->arg_sorts[i], r.variable_sorts);
-          typeBody(r.body, r.variable_sorts);
-          typeBody(r.range_body, r.variable_sorts);
-          varsOfBody(r.body, vars);
-          varsOfBody(r.range_body, vars);
-          typeDomains(vars, r.variable_sorts);
-          prog_.random_rules.push_back(std::move(r));
-          break;
-        }
-        case RawStmt::Kind::Pr: {
-          PrAtom p;
-          p.loc = s.loc;
-          p.label = s.label;
-          p.atom = resolveHeadAtom(s.pr_atom, "the atom of a pr-atom");
-          p.body = resolveBody(s.body);
-          p.probability = s.prob;
-          p.probability_text = s.prob_text;
-          p.priority = s.priority;
-          if (!(p.probability >= 0.0 && p.probability <= 1.0))
-            throw IncoherentError(s.loc.str() + ": probability " + s.prob_text + " of pr(" +
-                                  toString(p.atom) + ") is outside [0,1]");
-          std::vector<std::string> vars;
-          varsOfAtom(p.atom, vars);
-          varsOfBody(p.body, vars);
-          typeAtom(p.atom, p.variable_sorts);
-          typeBody(p.body, p.variable_sorts);
-          typeDomains(vars, p.variable_sorts);
-          prog_.pr_atoms.push_back(std::move(p));
-          break;
-        }
-        case RawStmt::Kind::Obs:
-          requireKnownAttribute(s.obs.lit);
-          prog_.observations.push_back(resolveObs(s.obs));
-          if (usesObsLiterals()) prog_.rules.push_back(obsFact(prog_.observations.back()));
-          break;
-        case RawStmt::Kind::Do:
-          requireKnownAttribute(s.do_lit);
-          prog_.interventions.push_back(resolveDo(s.do_lit));
-          break;
-        case RawStmt::Kind::Query:
-          prog_.queries.push_back(resolveQuery(s.query));
-          break;
-      }
-    }
-  }
-
-  int fresh_ = 0;
-  /// @brief The statements are in the plog2.0 dialect (no implicit predicates).
-  bool plog2_ = false;
-  /// @brief Classic attributes declared with their range only (arity taken from use).
-  std::set<std::string> range_only_;
-
- private:
-  Program& prog_;
-  std::map<std::string, std::unordered_set<std::string>> sort_cache_;
-};
-
-void ensureBoolean(Program& p) {
-  if (p.findSort("boolean")) return;
-  SortDecl b;
-  b.name = "boolean";
-  b.builtin = true;
-  b.values = {Term::symbol("true"), Term::symbol("false")};
-  p.sorts.insert(p.sorts.begin(), b);
-}
-
-int freshBase(const Program& p) {
-  // Fresh variable numbers must not collide with those of earlier parses into the program.
-  return static_cast<int>(p.rules.size() + p.random_rules.size() + p.pr_atoms.size() +
-                          p.queries.size()) * 4 + 1000;
-}
-
 }  // namespace
 
 void parseInto(Program& program, const std::string& text, const std::string& file_name,
                Dialect dialect) {
+  parseInto(program, text, file_name, dialect, ParseOptions());
+}
+
+void parseInto(Program& program, const std::string& text, const std::string& file_name,
+               Dialect dialect, const ParseOptions& options) {
   Program work = program;
   ensureBoolean(work);
   Parser parser(text, file_name, work, dialect);
   std::vector<RawStmt> stmts = parser.parseAll();
-  Resolver res(work);
-  res.fresh_ = freshBase(program);
-  res.plog2_ = parser.dialect() == Dialect::Plog2;
-  res.range_only_ = parser.rangeOnly();
-  res.resolveAll(stmts);
+  ResolveSettings settings;
+  settings.fresh = freshBase(program);
+  settings.plog2 = parser.dialect() == Dialect::Plog2;
+  settings.range_only = parser.rangeOnly();
+  settings.strict_sorts = options.strict_sorts;
+  resolveStatements(work, stmts, settings);
   if (program.sorts.empty() && program.attributes.empty() && program.rules.empty() &&
       program.random_rules.empty() && program.pr_atoms.empty())
     work.dialect = parser.dialect();
@@ -1698,8 +932,13 @@ void parseInto(Program& program, const std::string& text, const std::string& fil
 }
 
 Program parseProgram(const std::string& text, const std::string& file_name, Dialect dialect) {
+  return parseProgram(text, file_name, dialect, ParseOptions());
+}
+
+Program parseProgram(const std::string& text, const std::string& file_name, Dialect dialect,
+                     const ParseOptions& options) {
   Program p;
-  parseInto(p, text, file_name, dialect);
+  parseInto(p, text, file_name, dialect, options);
   return p;
 }
 
@@ -1713,9 +952,7 @@ Query parseQuery(const Program& program, const std::string& text, const std::str
   Parser parser(text, file_name, work, Dialect::Classic);
   parser.allow_empty_formula_ = true;
   RawQuery rq = parser.parseStandaloneQuery();
-  Resolver res(work);
-  res.fresh_ = freshBase(program);
-  return res.resolveQuery(rq);
+  return resolveRawQuery(work, rq, freshBase(program));
 }
 
 AttributeTerm parseAttributeTerm(const Program& program, const std::string& text,
@@ -1726,8 +963,7 @@ AttributeTerm parseAttributeTerm(const Program& program, const std::string& text
   Term t = parser.parseStandaloneTerm();
   if (t.kind != Term::Kind::Symbol && t.kind != Term::Kind::Compound)
     throw ParseError(t.loc, "expected an attribute term, got '" + toString(t) + "'");
-  Resolver res(work);
-  AttributeTerm a = res.toAttr(t);
+  AttributeTerm a = resolveAttributeTerm(work, t);
   for (const auto& x : a.args)
     if (!x.isGround()) throw ParseError(t.loc, "attribute term must be ground");
   return a;

@@ -235,6 +235,7 @@ bool Reasoner::countPr(const PrAtom& p, int delta) {
 
 bool Reasoner::countRule(const Rule& r, int delta) {
   if (!r.head) return true;  // constraints always enter cones
+  if (r.consistency_restoring) return true;  // a fresh grounding refuses it (ASP only)
   auto it = attr_idx_.find(r.head->attr.name);
   if (it == attr_idx_.end()) return true;
   bool changed = !r.body.empty();  // rules with bodies: relations between attributes
@@ -265,7 +266,7 @@ void Reasoner::loadFile(const std::string& path, Dialect dialect) {
 }
 
 void Reasoner::loadString(const std::string& text, const std::string& name, Dialect dialect) {
-  program_ = parseProgram(text, name, dialect);
+  program_ = parseProgram(text, name, dialect, parse_options_);
   rule_ids_.clear();
   pr_ids_.clear();
   structuralChange();
@@ -287,7 +288,8 @@ size_t Reasoner::addStatements(const std::string& text, const std::string& tag,
   work.queries.resize(program_.queries.size());
   const size_t nr = work.rules.size(), nrr = work.random_rules.size(),
                np = work.pr_atoms.size(), nq = work.queries.size();
-  parseInto(work, text, name, Dialect::Auto);
+  parseInto(work, text, name, Dialect::Auto, parse_options_);
+  program_.warnings.insert(program_.warnings.end(), work.warnings.begin(), work.warnings.end());
   // Declarations, selection rules and program-level evidence change the structure.
   const bool structural =
       work.sorts.size() != program_.sorts.size() ||

@@ -5,6 +5,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <functional>
 #include <sstream>
 #include <unordered_map>
 
@@ -325,26 +326,11 @@ class Parser {
   void parseR();
   void setT(Idx a, Idx s, Idx s1, double p, const Token& where);
   void setZ(Idx a, Idx s1, Idx o, double p, const Token& where);
-  /// @brief Accept a distribution summing to within the tolerance of 1 (recording the
-  /// deviation); false if it is off by more.
+  /// @brief The readers' shared rule (checkDistributionSum): false if sum is off by more than
+  /// the tolerance; else *divisor is what the entries are divided by (1: kept as written).
   template <typename Where>
-  bool acceptSum(double sum, Where where) {
-    const double dev = std::abs(sum - 1.0);
-    if (!(dev <= sumTolerance_)) return false;
-    if (dev > stats_->max_sum_deviation) {
-      stats_->max_sum_deviation = dev;
-      stats_->max_deviation_where = where();
-    }
-    return true;
-  }
-  /// @brief Rows within kExact of 1 are floating-point noise of exact decimals (0.1 + 0.2 +
-  /// 0.7): kept as written, so that read -> write -> read is exact. Others are renormalised.
-  static constexpr double kExact = 1e-9;
-  template <typename Row>
-  void renormalise(Row&& row, double sum) {
-    if (std::abs(sum - 1.0) <= kExact) return;
-    row /= sum;
-    ++stats_->renormalised_rows;
+  bool acceptSum(double sum, Where where, double* divisor) {
+    return checkDistributionSum(sum, sumTolerance_, *stats_, where, divisor);
   }
 
   std::string file_;
@@ -490,9 +476,10 @@ void Parser::parseStart() {
   }
   start_.resize(S);
   for (Eigen::Index i = 0; i < S; ++i) start_(i) = probability("start probability");
-  if (!acceptSum(start_.sum(), [] { return std::string("start vector"); }))
+  double divisor = 1.0;
+  if (!acceptSum(start_.sum(), [] { return std::string("start vector"); }, &divisor))
     fail(t, "start probabilities sum to " + std::to_string(start_.sum()) + " (expected 1)");
-  renormalise(start_, start_.sum());
+  start_ /= divisor;
 }
 
 void Parser::parseT() {
@@ -643,10 +630,9 @@ Model Parser::parse() {
     for (const auto& e : row) sum += e.second;
     return sum;
   };
-  auto scale = [this](std::vector<Model::Entry>& row, double sum) {
-    if (std::abs(sum - 1.0) <= kExact) return;
-    for (auto& e : row) e.second /= sum;
-    ++stats_->renormalised_rows;
+  auto scale = [](std::vector<Model::Entry>& row, double divisor) {
+    if (divisor != 1.0)
+      for (auto& e : row) e.second /= divisor;
   };
   for (std::size_t a = 0; a < actions_.n; ++a) {
     for (std::size_t s = 0; s < states_.n; ++s) {
@@ -656,26 +642,28 @@ Model Parser::parse() {
       };
       auto& trow = tRows_[a * states_.n + s];
       const double ts = rowSum(trow);
+      double tDiv = 1.0;
       if (ts != 1.0 && !acceptSum(ts, [&] {
             return "T row of action '" + name(actions_, a) + "' from state '" +
                    name(states_, s) + "'";
-          }))
+          }, &tDiv))
         fail(tLoc_[a * states_.n + s].line ? tLoc_[a * states_.n + s] : eof_,
              "transition probabilities of action '" + name(actions_, a) + "' from state '" +
                  name(states_, s) + "' sum to " + formatNumber(ts, 10) +
                  " (expected 1 within " + formatNumber(sumTolerance_, 3) + ")");
-      scale(trow, ts);
+      scale(trow, tDiv);
       auto& zrow = zRows_[a * states_.n + s];
       const double zs = rowSum(zrow);
+      double zDiv = 1.0;
       if (zs != 1.0 && !acceptSum(zs, [&] {
             return "O row of action '" + name(actions_, a) + "' in state '" + name(states_, s) +
                    "'";
-          }))
+          }, &zDiv))
         fail(zLoc_[a * states_.n + s].line ? zLoc_[a * states_.n + s] : eof_,
              "observation probabilities of action '" + name(actions_, a) + "' in state '" +
                  name(states_, s) + "' sum to " + formatNumber(zs, 10) +
                  " (expected 1 within " + formatNumber(sumTolerance_, 3) + ")");
-      scale(zrow, zs);
+      scale(zrow, zDiv);
     }
   }
   const std::size_t S = states_.n, A = actions_.n, O = obs_.n;
@@ -787,6 +775,20 @@ std::string fmt(double v) {
 }
 
 }  // namespace
+
+bool checkDistributionSum(double sum, double tolerance, CassandraStats& stats,
+                          const std::function<std::string()>& where, double* divisor) {
+  const double dev = std::abs(sum - 1.0);
+  if (!(dev <= tolerance)) return false;
+  if (dev > stats.max_sum_deviation) {
+    stats.max_sum_deviation = dev;
+    stats.max_deviation_where = where();
+  }
+  const bool exact = dev <= kExactSumNoise;
+  if (!exact) ++stats.renormalised_rows;
+  if (divisor) *divisor = exact ? 1.0 : sum;
+  return true;
+}
 
 std::size_t estimateModelBytes(std::size_t states, std::size_t actions, std::size_t observations) {
   const std::size_t as = saturatingMul(actions, states);

@@ -30,6 +30,26 @@ std::size_t lookup(const std::vector<std::string>& names, const std::string& nam
   throw UnknownSymbolError(std::string("unknown ") + kind + " '" + name + "'");
 }
 
+/// @brief Checks row s of a dense T[a] (isT) or O[a]: entries are probabilities (scanned only
+/// when the caller's vectorised test `allOk` failed, to name the offending entry) and the row
+/// sums to 1 within Model::kTolerance. @throws ConfigError naming action, state and value.
+void checkDenseRow(const Eigen::MatrixXd& m, bool allOk, const Eigen::VectorXd& sums,
+                   std::size_t a, std::size_t s, bool isT) {
+  const auto r = static_cast<Eigen::Index>(s);
+  if (!allOk)
+    for (Eigen::Index k = 0; k < m.cols(); ++k)
+      if (!(m(r, k) >= 0.0 && m(r, k) <= 1.0 + Model::kTolerance))
+        throw ConfigError(std::string("POMDP model: ") + (isT ? "T(action " : "O(action ") +
+                          std::to_string(a) + (isT ? ", state " : ", next state ") +
+                          std::to_string(s) + (isT ? ", next " : ", obs ") + std::to_string(k) +
+                          ") = " + num(m(r, k)) + " is not a probability");
+  const double sum = sums(r);
+  if (std::abs(sum - 1.0) > Model::kTolerance)
+    throw ConfigError(std::string("POMDP model: ") + (isT ? "transition" : "observation") +
+                      " row of action " + std::to_string(a) + (isT ? ", state " : ", next state ") +
+                      std::to_string(s) + " sums to " + num(sum) + " (expected 1)");
+}
+
 }  // namespace
 
 Model::Model(std::vector<Eigen::MatrixXd> transitions, std::vector<Eigen::MatrixXd> observations,
@@ -76,28 +96,8 @@ Model::Model(std::vector<Eigen::MatrixXd> transitions, std::vector<Eigen::Matrix
     const bool zOk = (z.array() >= 0.0).all() && (z.array() <= 1.0 + kTolerance).all();
     const Eigen::VectorXd tSum = t.rowwise().sum(), zSum = z.rowwise().sum();
     for (std::size_t s = 0; s < s_; ++s) {
-      if (!tOk)
-        for (std::size_t k = 0; k < s_; ++k)
-          if (!(t(s, k) >= 0.0 && t(s, k) <= 1.0 + kTolerance))
-            throw ConfigError("POMDP model: T(action " + std::to_string(a) + ", state " +
-                              std::to_string(s) + ", next " + std::to_string(k) + ") = " +
-                              num(t(s, k)) + " is not a probability");
-      double sum = tSum(static_cast<Eigen::Index>(s));
-      if (std::abs(sum - 1.0) > kTolerance)
-        throw ConfigError("POMDP model: transition row of action " + std::to_string(a) +
-                          ", state " + std::to_string(s) + " sums to " + num(sum) +
-                          " (expected 1)");
-      if (!zOk)
-        for (std::size_t o = 0; o < o_; ++o)
-          if (!(z(s, o) >= 0.0 && z(s, o) <= 1.0 + kTolerance))
-            throw ConfigError("POMDP model: O(action " + std::to_string(a) + ", next state " +
-                              std::to_string(s) + ", obs " + std::to_string(o) + ") = " +
-                              num(z(s, o)) + " is not a probability");
-      double zs = zSum(static_cast<Eigen::Index>(s));
-      if (std::abs(zs - 1.0) > kTolerance)
-        throw ConfigError("POMDP model: observation row of action " + std::to_string(a) +
-                          ", next state " + std::to_string(s) + " sums to " + num(zs) +
-                          " (expected 1)");
+      checkDenseRow(t, tOk, tSum, a, s, true);
+      checkDenseRow(z, zOk, zSum, a, s, false);
     }
   }
   // Sparse rows of T, from the transpose's columns (contiguous), and of O.
@@ -355,38 +355,42 @@ Eigen::VectorXd Model::observationColumn(std::size_t a, std::size_t o) const {
 }
 
 void Model::predict(std::size_t a, const Eigen::VectorXd& b, Eigen::VectorXd& out) const {
-  if (identity_[a]) {
-    out = b;
-  } else if (denseT_) {
-    out.noalias() = tt_[a] * b;
-  } else {
-    out.setZero(static_cast<Eigen::Index>(s_));
-    const SparseRows& t = tRows_[a];
-    const Entry* e = t.entries.data();
-    double* o = out.data();
-    for (std::size_t s = 0; s < s_; ++s) {
-      const double bs = b.data()[s];
-      if (bs == 0.0) continue;
-      for (std::size_t k = t.start[s], end = t.start[s + 1]; k < end; ++k)
-        o[e[k].first] += bs * e[k].second;
-    }
-  }
+  applyTransition(a, b, out, true);
 }
 
 void Model::expectNext(std::size_t a, const Eigen::VectorXd& v, Eigen::VectorXd& out) const {
+  applyTransition(a, v, out, false);
+}
+
+void Model::applyTransition(std::size_t a, const Eigen::VectorXd& v, Eigen::VectorXd& out,
+                            bool transposed) const {
   if (identity_[a]) {
     out = v;
-  } else if (denseT_) {
-    out.noalias() = t_[a] * v;
-  } else {
-    out.resize(static_cast<Eigen::Index>(s_));
-    const SparseRows& t = tRows_[a];
-    const Entry* e = t.entries.data();
+    return;
+  }
+  if (denseT_) {
+    out.noalias() = (transposed ? tt_[a] : t_[a]) * v;
+    return;
+  }
+  const SparseRows& t = tRows_[a];
+  const Entry* e = t.entries.data();
+  const double* x = v.data();
+  if (transposed) {  // out(s1) = sum_s T(s, s1) v(s): scatter, skipping v(s) = 0
+    out.setZero(static_cast<Eigen::Index>(s_));
+    double* o = out.data();
     for (std::size_t s = 0; s < s_; ++s) {
-      double x = 0.0;
+      const double vs = x[s];
+      if (vs == 0.0) continue;
       for (std::size_t k = t.start[s], end = t.start[s + 1]; k < end; ++k)
-        x += e[k].second * v.data()[e[k].first];
-      out.data()[s] = x;
+        o[e[k].first] += vs * e[k].second;
+    }
+  } else {  // out(s) = sum_s1 T(s, s1) v(s1): gather
+    out.resize(static_cast<Eigen::Index>(s_));
+    for (std::size_t s = 0; s < s_; ++s) {
+      double acc = 0.0;
+      for (std::size_t k = t.start[s], end = t.start[s + 1]; k < end; ++k)
+        acc += e[k].second * x[e[k].first];
+      out.data()[s] = acc;
     }
   }
 }
@@ -408,28 +412,23 @@ bool Model::hasTerminalStates() const {
   return false;
 }
 
-std::tuple<std::size_t, std::size_t, double> Model::sampleSOR(std::size_t s, std::size_t a,
-                                                              Rng& rng) const {
-  const EntryRange row = tRows_[a].row(s);
+namespace {
+/// @brief Inverse-CDF draw of a column of a sparse distribution row (the last entry absorbs
+/// rounding), one uniform draw per call.
+std::size_t sampleRow(EntryRange row, Rng& rng) {
   double u = uniform01(rng);
-  std::size_t s1 = row.back().first;
   for (const auto& e : row) {
-    if (u < e.second) {
-      s1 = e.first;
-      break;
-    }
+    if (u < e.second) return e.first;
     u -= e.second;
   }
-  const EntryRange orow = zRows_[a].row(s1);
-  double v = uniform01(rng);
-  std::size_t o = orow.back().first;
-  for (const auto& e : orow) {
-    if (v < e.second) {
-      o = e.first;
-      break;
-    }
-    v -= e.second;
-  }
+  return row.back().first;
+}
+}  // namespace
+
+std::tuple<std::size_t, std::size_t, double> Model::sampleSOR(std::size_t s, std::size_t a,
+                                                              Rng& rng) const {
+  const std::size_t s1 = sampleRow(tRows_[a].row(s), rng);
+  const std::size_t o = sampleRow(zRows_[a].row(s1), rng);
   return {s1, o, r_(s, a)};
 }
 

@@ -4,10 +4,6 @@
 #include <cmath>
 #include <limits>
 
-#if defined(__x86_64__) && defined(__GNUC__)
-#include <immintrin.h>
-#endif
-
 #include "krr_core/common/errors.h"
 #include "krr_core/common/random.h"
 #include "krr_core/common/resources.h"
@@ -18,69 +14,23 @@ namespace pomdp {
 namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-/*
- * Sawtooth scan: best = min(best, min over points i (in `order`, by increasing improvement)
- * of improve[i] * ratio_i), ratio_i = min_s (b(s) inv_i(s) + pen_i(s)) over sp (padded)
- * entries. Points are visited most negative improvement first; a point contributes at least
- * its improvement (ratio <= 1), so the scan stops at the first one that cannot beat `best`.
- */
-double sawtoothGeneric(const double* b, const double* inv, const double* pen, std::size_t sp,
-                       const std::size_t* order, std::size_t n, const double* improve,
-                       double best) {
-  for (std::size_t j = 0; j < n; ++j) {
-    const std::size_t i = order[j];
-    const double imp = improve[i];
-    if (imp >= best) break;
-    const double* iv = inv + i * sp;
-    const double* pe = pen + i * sp;
-    double m0 = 1.0, m1 = 1.0, m2 = 1.0, m3 = 1.0;
-    for (std::size_t s = 0; s < sp; s += 4) {
-      const double r0 = b[s] * iv[s] + pe[s], r1 = b[s + 1] * iv[s + 1] + pe[s + 1];
-      const double r2 = b[s + 2] * iv[s + 2] + pe[s + 2], r3 = b[s + 3] * iv[s + 3] + pe[s + 3];
-      m0 = r0 < m0 ? r0 : m0;
-      m1 = r1 < m1 ? r1 : m1;
-      m2 = r2 < m2 ? r2 : m2;
-      m3 = r3 < m3 ? r3 : m3;
-    }
-    const double ratio = std::min(std::min(m0, m1), std::min(m2, m3));
-    best = std::min(best, imp * ratio);
-  }
-  return best;
-}
+/// @brief Adds the seconds from construction to destruction to a profile counter.
+class ScopedTimer {
+ public:
+  explicit ScopedTimer(double& sink) : sink_(sink) {}
+  ~ScopedTimer() { sink_ += sw_.seconds(); }
+  ScopedTimer(const ScopedTimer&) = delete;
+  ScopedTimer& operator=(const ScopedTimer&) = delete;
 
-#if defined(__x86_64__) && defined(__GNUC__)
-#define KRR_POMDP_X86_DISPATCH 1
-__attribute__((target("avx2,fma"))) double sawtoothAvx2(
-    const double* b, const double* inv, const double* pen, std::size_t sp,
-    const std::size_t* order, std::size_t n, const double* improve, double best) {
-  for (std::size_t j = 0; j < n; ++j) {
-    const std::size_t i = order[j];
-    const double imp = improve[i];
-    if (imp >= best) break;
-    const double* iv = inv + i * sp;
-    const double* pe = pen + i * sp;
-    __m256d m = _mm256_set1_pd(1.0);
-    for (std::size_t s = 0; s < sp; s += 4) {
-      m = _mm256_min_pd(m, _mm256_fmadd_pd(_mm256_loadu_pd(b + s), _mm256_loadu_pd(iv + s),
-                                           _mm256_loadu_pd(pe + s)));
-    }
-    __m128d h = _mm_min_pd(_mm256_castpd256_pd128(m), _mm256_extractf128_pd(m, 1));
-    const double ratio = _mm_cvtsd_f64(_mm_min_sd(h, _mm_unpackhi_pd(h, h)));
-    best = std::min(best, imp * ratio);
-  }
-  return best;
-}
-
-bool cpuHasAvx2Fma() {
-  static const bool has = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  return has;
-}
-#endif
+ private:
+  double& sink_;
+  Stopwatch sw_;
+};
 }  // namespace
 
 PointBasedSolver::PointBasedSolver(const Model& model, const Belief& b0, SolverOptions options)
     : m_(model), options_(options), s_(model.getS()), a_(model.getA()),
-      gamma_(model.getDiscount()), b0_(b0) {
+      gamma_(model.getDiscount()) {
   if (!(gamma_ < 1.0))
     throw ConfigError("point-based solver: discount " + std::to_string(gamma_) +
                       " must be below 1 for infinite-horizon bounds");
@@ -92,25 +42,31 @@ PointBasedSolver::PointBasedSolver(const Model& model, const Belief& b0, SolverO
                       std::to_string(b0.sum()) + ")");
   if (!(options_.precision > 0.0))
     throw ConfigError("point-based solver: precision must be positive");
-  obsCol_.resize(a_);
+  b0_ = toSparse(b0);
   obsOffset_.assign(1, 0);
+  slotOf_.assign(a_, std::vector<std::uint32_t>(m_.getO(), 0));
   for (std::size_t a = 0; a < a_; ++a) {
-    for (std::size_t o : m_.possibleObservations(a))
-      obsCol_[a].push_back(m_.observationColumn(a, o));
-    obsOffset_.push_back(obsOffset_.back() + obsCol_[a].size());
+    const auto& obs = m_.possibleObservations(a);
+    for (std::size_t k = 0; k < obs.size(); ++k) slotOf_[a][obs[k]] = static_cast<std::uint32_t>(k);
+    obsOffset_.push_back(obsOffset_.back() + obs.size());
     // Does a always lead to terminal (absorbing, zero-reward) states, like serve?
     bool allTerminal = true;
     for (std::size_t s = 0; s < s_ && allTerminal; ++s)
       for (const auto& e : m_.successors(s, a)) allTerminal = allTerminal && m_.isTerminal(e.first);
     toTerminal_.push_back(allTerminal ? 1 : 0);
   }
-  sp_ = (s_ + 3) / 4 * 4;
-  bpad_.assign(sp_, 0.0);
+  std::size_t maxSlots = 0;
+  for (std::size_t a = 0; a < a_; ++a) maxSlots = std::max(maxSlots, obsOffset_[a + 1] - obsOffset_[a]);
+  kids_.resize(maxSlots);
+  probs_.resize(maxSlots);
+  scatter_.assign(s_, 0.0);
+  firstOf_.assign(s_, {});
+  acc_.assign(s_, 0.0);
+  mark_.assign(s_, 0);
   const auto n = static_cast<Eigen::Index>(s_);
-  pred_.resize(n);
-  child_.resize(n);
-  acc_.resize(n);
-  bestAlpha_.resize(n);
+  accVec_.resize(n);
+  nextVec_.resize(n);
+  candidate_.resize(n);
   // Set-up budget: a third to the lower bound, half the rest to the MDP values, the rest
   // (at most initTimeLimit) to FIB. A phase that finishes early leaves its time to the next.
   Stopwatch sw;
@@ -120,10 +76,19 @@ PointBasedSolver::PointBasedSolver(const Model& model, const Belief& b0, SolverO
   initLower(sw.seconds() + share / 3.0);
   setup_.lowerSeconds = sw.seconds();
   initUpper(sw.seconds() + std::max(0.0, limit - sw.seconds()) / 2.0, limit);
-  rootLower_ = lowerRaw(b0_.data());
-  rootUpper_ = upperRaw(b0_.data());
-  elapsed_ = sw.seconds();
-  candidate_.resize(n);
+  rootLower_ = lowerAt(b0_);
+  rootUpper_ = upperAt(b0_);
+  clock_.setElapsed(sw.seconds());
+}
+
+PointBasedSolver::SparseBelief PointBasedSolver::toSparse(const Belief& b) const {
+  SparseBelief out;
+  for (std::size_t s = 0; s < s_; ++s)
+    if (b(static_cast<Eigen::Index>(s)) != 0.0) {
+      out.idx.push_back(static_cast<std::uint32_t>(s));
+      out.val.push_back(b(static_cast<Eigen::Index>(s)));
+    }
+  return out;
 }
 
 void PointBasedSolver::initLower(double deadline) {
@@ -171,7 +136,11 @@ void PointBasedSolver::initLower(double deadline) {
     alpha.array() -= 1e-9 * (1.0 + alpha.cwiseAbs().maxCoeff());
     // Its plan continues with itself after every observation.
     const auto self = static_cast<std::uint32_t>(alphaAction_.size());
-    addAlpha(alpha, a, std::vector<std::uint32_t>(obsCol_[a].size(), self));
+    if (!addAlpha(alpha.data(), a, std::vector<std::uint32_t>(obsOffset_[a + 1] - obsOffset_[a], self)))
+      throw ConfigError("point-based solver: the memory limit of " +
+                        std::to_string(options_.memoryLimit >> 20) +
+                        " MiB does not hold the initial lower bound (" + std::to_string(a_) +
+                        " vectors of " + std::to_string(s_) + " states)");
   }
   setup_.lowerExact = exact;
   setup_.timedOut = setup_.timedOut || !exact;
@@ -343,135 +312,216 @@ void PointBasedSolver::initUpper(double mdpDeadline, double setupEnd) {
   std::vector<Eigen::Index> kept;
   for (std::size_t a = 0; a < a_; ++a)
     if (keep[a]) kept.push_back(static_cast<Eigen::Index>(a));
-  fibMat_.resize(static_cast<Eigen::Index>(kept.size()), S);
-  for (std::size_t k = 0; k < kept.size(); ++k)
-    fibMat_.row(static_cast<Eigen::Index>(k)) = q.col(kept[k]).transpose();
-  fibBuf_.resize(static_cast<Eigen::Index>(kept.size()));
+  fibK_ = kept.size();
+  fib_.assign(s_ * fibK_, 0.0);
+  fibScratch_.assign(fibK_, 0.0);
+  for (std::size_t s = 0; s < s_; ++s)
+    for (std::size_t k = 0; k < fibK_; ++k)
+      fib_[s * fibK_ + k] = q(static_cast<Eigen::Index>(s), kept[k]);
 }
 
-double PointBasedSolver::lowerRaw(const double* b) const {
+double PointBasedSolver::lowerAt(const SparseBelief& b, std::size_t* arg) const {
   double best = -kInf;
-  const std::size_t n = alphaAction_.size();
+  std::size_t bestI = 0;
+  const std::size_t n = alphaAction_.size(), m = b.size();
+  const std::uint32_t* idx = b.idx.data();
+  const double* val = b.val.data();
   for (std::size_t i = 0; i < n; ++i) {
     const double* al = &alpha_[i * s_];
-    double v = 0.0;
-    for (std::size_t s = 0; s < s_; ++s) v += al[s] * b[s];
-    best = std::max(best, v);
+    double v0 = 0.0, v1 = 0.0;
+    std::size_t j = 0;
+    for (; j + 1 < m; j += 2) {
+      v0 += al[idx[j]] * val[j];
+      v1 += al[idx[j + 1]] * val[j + 1];
+    }
+    if (j < m) v0 += al[idx[j]] * val[j];
+    const double v = v0 + v1;
+    if (v > best) {
+      best = v;
+      bestI = i;
+    }
   }
+  if (n > 0) witness_[bestI] = 1;
+  if (arg) *arg = bestI;
   return best;
 }
 
-double PointBasedSolver::upperRaw(const double* b) const {
-  Eigen::Map<const Eigen::VectorXd> bm(b, static_cast<Eigen::Index>(s_));
-  const double base = corner_.dot(bm);
-  // FIB vectors: upper bound max_a Q_FIB(., a) . b (one vectorised matrix-vector product)
-  fibBuf_.noalias() = fibMat_ * bm;
-  const double fib = fibBuf_.maxCoeff();
-  // Sawtooth over the points, relative to the corners; improvements below the FIB value
-  // are what counts.
-  double best = std::min(0.0, fib - base);
+double PointBasedSolver::rewardAt(const SparseBelief& b, std::size_t a) const {
+  const auto& r = m_.rewardMatrix();
+  double v = 0.0;
+  for (std::size_t j = 0; j < b.size(); ++j)
+    v += r(static_cast<Eigen::Index>(b.idx[j]), static_cast<Eigen::Index>(a)) * b.val[j];
+  return v;
+}
+
+double PointBasedSolver::upperAt(const SparseBelief& b) const {
+  // Corners and FIB vectors over the support of b.
+  double base = 0.0;
+  double fibBest = kInf;
+  if (fibK_ > 0) {
+    double* fibv = fibScratch_.data();
+    const std::size_t k0 = fibK_;
+    std::fill(fibv, fibv + k0, 0.0);
+    for (std::size_t j = 0; j < b.size(); ++j) {
+      const std::size_t s = b.idx[j];
+      const double p = b.val[j];
+      base += corner_(static_cast<Eigen::Index>(s)) * p;
+      const double* f = &fib_[s * fibK_];
+      for (std::size_t k = 0; k < k0; ++k) fibv[k] += f[k] * p;
+    }
+    fibBest = -kInf;
+    for (std::size_t k = 0; k < k0; ++k) fibBest = std::max(fibBest, fibv[k]);
+  } else {
+    for (std::size_t j = 0; j < b.size(); ++j)
+      base += corner_(static_cast<Eigen::Index>(b.idx[j])) * b.val[j];
+  }
+  // Sawtooth over the points, relative to the corners: point i lowers the bound by
+  // |improve_i| * min over its support of b(s) / b_i(s), which is 0 as soon as one state of
+  // its support is outside b's (the usual case, found at its first entries). Buckets are
+  // sorted by increasing improvement; a point contributes at least its improvement (the ratio
+  // is at most 1), so a bucket's scan stops at the first one that cannot beat `best`.
+  double best = std::min(0.0, fibBest - base);
   if (!options_.sawtooth) {
-    // Exact values at stored points only (hash lookup), FIB elsewhere.
     const std::size_t i = findPoint(b);
     if (i != kNoPoint) best = std::min(best, improve_[i]);
     return base + best;
   }
-  // ratio_i = min over the support of point i of b(s) / b_i(s), computed as
-  // min_s (b(s) * inv_i(s) + pen_i(s)) with inv = 1 / b_i, pen = 0 on the support and
-  // inv = 0, pen = 2 (neutral: the ratio is at most 1) off it and on the padding.
-  std::copy(b, b + s_, bpad_.begin());
-#ifdef KRR_POMDP_X86_DISPATCH
-  if (cpuHasAvx2Fma()) {
-    best = sawtoothAvx2(bpad_.data(), inv_.data(), pen_.data(), sp_, order_.data(),
-                        order_.size(), improve_.data(), best);
-    return base + best;
+  // Only points whose first support state is in b's support can have a non-zero ratio: they
+  // are found through firstOf_ (for RockSample, the points at the robot's position).
+  for (std::size_t j = 0; j < b.size(); ++j) scatter_[b.idx[j]] = b.val[j];
+  for (std::size_t j = 0; j < b.size(); ++j) {
+    for (std::uint32_t i : firstOf_[b.idx[j]]) {  // by increasing improvement
+      const double imp = improve_[i];
+      if (imp >= best) break;
+      double ratio = 1.0;
+      for (std::size_t e = pointStart_[i], end = pointStart_[i + 1]; e < end; ++e) {
+        const double r = scatter_[pointIdx_[e]] * pointInv_[e];
+        if (r < ratio) {
+          ratio = r;
+          if (ratio == 0.0) break;
+        }
+      }
+      best = std::min(best, imp * ratio);
+    }
   }
-#endif
-  best = sawtoothGeneric(bpad_.data(), inv_.data(), pen_.data(), sp_, order_.data(),
-                         order_.size(), improve_.data(), best);
+  for (std::size_t j = 0; j < b.size(); ++j) scatter_[b.idx[j]] = 0.0;
   return base + best;
 }
 
 double PointBasedSolver::lowerBound(const Belief& b) const {
   if (static_cast<std::size_t>(b.size()) != s_)
     throw ConfigError("lowerBound: belief size " + std::to_string(b.size()));
-  return lowerRaw(b.data());
+  return lowerAt(toSparse(b));
 }
 
 double PointBasedSolver::upperBound(const Belief& b) const {
   if (static_cast<std::size_t>(b.size()) != s_)
     throw ConfigError("upperBound: belief size " + std::to_string(b.size()));
-  return upperRaw(b.data());
+  return upperAt(toSparse(b));
 }
 
-void PointBasedSolver::addAlpha(const Eigen::VectorXd& alpha, std::size_t action,
+std::size_t PointBasedSolver::boundBytes() const {
+  std::size_t bytes = alpha_.size() * sizeof(double) + alphaAction_.size() * sizeof(std::size_t);
+  for (const auto& c : alphaChildren_) bytes += sizeof(c) + c.size() * sizeof(std::uint32_t);
+  bytes += lowerNodeBytes_;
+  bytes += pointIdx_.size() * (sizeof(std::uint32_t) + sizeof(double)) +
+           improve_.size() * (2 * sizeof(double) + 2 * sizeof(std::size_t) + 48);
+  return bytes;
+}
+
+bool PointBasedSolver::addAlpha(const double* alpha, std::size_t action,
                                 std::vector<std::uint32_t> children) {
-  alpha_.insert(alpha_.end(), alpha.data(), alpha.data() + s_);
+  if (options_.memoryLimit > 0 &&
+      boundBytes() + s_ * sizeof(double) + children.size() * 4 + 64 > options_.memoryLimit) {
+    memoryStop_ = true;
+    return false;
+  }
+  alpha_.insert(alpha_.end(), alpha, alpha + s_);
   alphaAction_.push_back(action);
   alphaChildren_.push_back(std::move(children));
+  witness_.push_back(1);
+  ++profile_.alphasAdded;
+  return true;
 }
 
-std::uint64_t PointBasedSolver::beliefKey(const double* b) const {
+std::uint64_t PointBasedSolver::beliefKey(const SparseBelief& b) const {
   std::uint64_t h = 0x9e3779b97f4a7c15ULL;
-  for (std::size_t s = 0; s < s_; ++s) {
-    const auto q = static_cast<std::int64_t>(std::llround(b[s] * 1e9));
-    h = splitMix64(h ^ static_cast<std::uint64_t>(q));
+  for (std::size_t j = 0; j < b.size(); ++j) {
+    const auto q = static_cast<std::int64_t>(std::llround(b.val[j] * 1e9));
+    h = splitMix64(h ^ (static_cast<std::uint64_t>(b.idx[j]) * 0x100000001b3ULL) ^
+                   static_cast<std::uint64_t>(q));
   }
   return h;
 }
 
-std::size_t PointBasedSolver::findPoint(const double* b) const {
+std::size_t PointBasedSolver::findPoint(const SparseBelief& b) const {
   auto it = pointIndex_.find(beliefKey(b));
   if (it == pointIndex_.end()) return kNoPoint;
   for (std::size_t i : it->second) {
-    const double* p = &point_[i * s_];
+    const std::size_t n = pointStart_[i + 1] - pointStart_[i];
+    if (n != b.size()) continue;
     bool same = true;
-    for (std::size_t s = 0; s < s_ && same; ++s) same = std::abs(p[s] - b[s]) < 1e-12;
+    for (std::size_t j = 0; j < n && same; ++j) {
+      const std::size_t e = pointStart_[i] + j;
+      same = pointIdx_[e] == b.idx[j] && std::abs(1.0 / pointInv_[e] - b.val[j]) < 1e-12;
+    }
     if (same) return i;
   }
   return kNoPoint;
 }
 
-void PointBasedSolver::insertOrdered(std::size_t i) {
-  auto pos = std::lower_bound(order_.begin(), order_.end(), improve_[i],
-                              [this](std::size_t k, double v) { return improve_[k] < v; });
-  order_.insert(pos, i);
+void PointBasedSolver::insertByImprovement(std::vector<std::uint32_t>& bucket,
+                                           std::size_t i) const {
+  auto pos = std::lower_bound(bucket.begin(), bucket.end(), improve_[i],
+                              [this](std::uint32_t k, double v) { return improve_[k] < v; });
+  bucket.insert(pos, static_cast<std::uint32_t>(i));
 }
 
-void PointBasedSolver::addPoint(const Eigen::VectorXd& b, double v) {
-  const double imp = v - corner_.dot(b);
+void PointBasedSolver::addPoint(const SparseBelief& b, double v) {
+  double cornerValue = 0.0;
+  for (std::size_t j = 0; j < b.size(); ++j)
+    cornerValue += corner_(static_cast<Eigen::Index>(b.idx[j])) * b.val[j];
+  const double imp = v - cornerValue;
   if (!(imp < 0.0)) return;  // the corners already give this value
   // Replace an identical point rather than duplicating it.
-  const std::size_t found = findPoint(b.data());
+  const std::size_t found = findPoint(b);
   if (found != kNoPoint) {
     if (imp < improve_[found]) {
-      order_.erase(std::find(order_.begin(), order_.end(), found));
+      auto& bucket = firstOf_[b.idx.front()];
+      bucket.erase(std::find(bucket.begin(), bucket.end(), static_cast<std::uint32_t>(found)));
       improve_[found] = imp;
-      insertOrdered(found);
+      insertByImprovement(bucket, found);
     }
     return;
   }
-  pointIndex_[beliefKey(b.data())].push_back(improve_.size());
-  point_.insert(point_.end(), b.data(), b.data() + s_);
-  for (std::size_t s = 0; s < sp_; ++s) {
-    const bool on = s < s_ && b(static_cast<Eigen::Index>(s)) > 0.0;
-    inv_.push_back(on ? 1.0 / b(static_cast<Eigen::Index>(s)) : 0.0);
-    pen_.push_back(on ? 0.0 : 2.0);
+  if (options_.memoryLimit > 0 &&
+      boundBytes() + b.size() * 12 + 96 > options_.memoryLimit) {
+    memoryStop_ = true;
+    return;
   }
+  pointIndex_[beliefKey(b)].push_back(improve_.size());
+  for (std::size_t j = 0; j < b.size(); ++j) {
+    pointIdx_.push_back(b.idx[j]);
+    pointInv_.push_back(1.0 / b.val[j]);
+  }
+  pointStart_.push_back(pointIdx_.size());
   improve_.push_back(imp);
-  insertOrdered(improve_.size() - 1);
+  insertByImprovement(firstOf_[b.idx.front()], improve_.size() - 1);
+  ++profile_.pointsAdded;
 }
 
 void PointBasedSolver::pruneAlphas() {
   // 1. Remove pointwise-dominated vectors (never changes max_i alpha_i . b anywhere).
-  // 2. Once there are belief points, keep only vectors that are the best at b0 or at some
-  //    stored point (SARSOP-style pruning): the bound stays valid everywhere and unchanged
-  //    at b0 and at the points, it may only loosen elsewhere.
+  // 2. Keep only vectors that were the best at some belief the search evaluated since the
+  //    last pruning, or are the best at b0 (SARSOP-style pruning): the bound stays valid
+  //    everywhere and unchanged at b0, it may only loosen elsewhere.
   //    A removed vector's plan is replaced by the one dominating it (`into`).
   // 3. The vectors the kept ones' plans continue with are kept too (closure over
   //    alphaChildren_): every kept vector is then at most the backup of the kept set, so the
   //    greedy policy of the written set earns its bound (SARSOP's invariant; without it the
   //    simulated value fell below the certified bound, test TheLowerBoundNeverExceedsItsOwnBackup).
+  const ScopedTimer timer(profile_.pruneSeconds);
+  ++profile_.prunes;
   const std::size_t n = alphaAction_.size();
   std::vector<char> keep(n, 1);
   std::vector<std::size_t> into(n);
@@ -494,26 +544,13 @@ void PointBasedSolver::pruneAlphas() {
     while (into[i] != i) i = into[i];
     return i;
   };
-  const std::size_t np = improve_.size();
-  if (np > 0 && options_.witnessPruning) {
+  if (options_.witnessPruning && !improve_.empty()) {
     std::vector<char> witness(n, 0);
-    auto mark = [&](const double* b) {
-      std::size_t best = 0;
-      double bv = -kInf;
-      for (std::size_t i = 0; i < n; ++i) {
-        if (!keep[i]) continue;
-        const double* al = &alpha_[i * s_];
-        double v = 0.0;
-        for (std::size_t s = 0; s < s_; ++s) v += al[s] * b[s];
-        if (v > bv) {
-          bv = v;
-          best = i;
-        }
-      }
-      witness[best] = 1;
-    };
-    mark(b0_.data());
-    for (std::size_t k = 0; k < np; ++k) mark(&point_[k * s_]);
+    std::size_t atRoot = 0;
+    lowerAt(b0_, &atRoot);
+    witness[survivor(atRoot)] = 1;
+    for (std::size_t i = 0; i < n; ++i)
+      if (witness_[i]) witness[survivor(i)] = 1;
     std::vector<std::size_t> stack;
     for (std::size_t i = 0; i < n; ++i)
       if (keep[i] && witness[i]) stack.push_back(i);
@@ -534,49 +571,93 @@ void PointBasedSolver::pruneAlphas() {
   std::uint32_t next = 0;
   for (std::size_t i = 0; i < n; ++i)
     if (keep[i]) newIndex[i] = next++;
-  std::vector<double> na;
-  std::vector<std::size_t> nact;
-  std::vector<std::vector<std::uint32_t>> nchild;
+  std::size_t w = 0;
   for (std::size_t i = 0; i < n; ++i)
     if (keep[i]) {
-      na.insert(na.end(), alpha_.begin() + static_cast<long>(i * s_),
-                alpha_.begin() + static_cast<long>((i + 1) * s_));
-      nact.push_back(alphaAction_[i]);
-      std::vector<std::uint32_t> ch = alphaChildren_[i];
-      for (std::uint32_t& c : ch) c = newIndex[survivor(c)];
-      nchild.push_back(std::move(ch));
+      if (w != i) {
+        std::copy(alpha_.begin() + static_cast<long>(i * s_),
+                  alpha_.begin() + static_cast<long>((i + 1) * s_),
+                  alpha_.begin() + static_cast<long>(w * s_));
+        alphaAction_[w] = alphaAction_[i];
+        alphaChildren_[w] = std::move(alphaChildren_[i]);
+      }
+      for (std::uint32_t& c : alphaChildren_[w]) c = newIndex[survivor(c)];
+      ++w;
     }
-  alpha_.swap(na);
-  alphaAction_.swap(nact);
-  alphaChildren_.swap(nchild);
-  prunedAt_ = alphaAction_.size();
+  alpha_.resize(w * s_);
+  alphaAction_.resize(w);
+  alphaChildren_.resize(w);
+  witness_.assign(w, 0);
+  prunedAt_ = w;
+  ++epoch_;  // cached scores refer to the old indices
 }
 
-double PointBasedSolver::successor(const Eigen::VectorXd& b, std::size_t a, std::size_t k,
-                                   Eigen::VectorXd& out) const {
-  m_.predict(a, b, out);
-  out = out.cwiseProduct(obsCol_[a][k]);
-  return out.sum();
+void PointBasedSolver::expand(const SparseBelief& b, std::size_t a) {
+  // pred = T_a^T b over the support of b, then split by observation slot. States are visited
+  // in increasing order, so every child is sorted.
+  SparseBelief& pred = pred_;
+  if (m_.isIdentityTransition(a)) {
+    pred = b;
+  } else {
+    pred.clear();
+    touched_.clear();
+    for (std::size_t j = 0; j < b.size(); ++j) {
+      const double bs = b.val[j];
+      for (const auto& e : m_.successors(b.idx[j], a)) {
+        if (!mark_[e.first]) {
+          mark_[e.first] = 1;
+          touched_.push_back(static_cast<std::uint32_t>(e.first));
+        }
+        acc_[e.first] += bs * e.second;
+      }
+    }
+    std::sort(touched_.begin(), touched_.end());
+    for (std::uint32_t s : touched_) {
+      if (acc_[s] > 0.0) {
+        pred.idx.push_back(s);
+        pred.val.push_back(acc_[s]);
+      }
+      acc_[s] = 0.0;
+      mark_[s] = 0;
+    }
+  }
+  const std::size_t slots = obsOffset_[a + 1] - obsOffset_[a];
+  for (std::size_t k = 0; k < slots; ++k) {
+    kids_[k].clear();
+    probs_[k] = 0.0;
+  }
+  const auto& slotOf = slotOf_[a];
+  for (std::size_t j = 0; j < pred.size(); ++j) {
+    const std::uint32_t s = pred.idx[j];
+    for (const auto& z : m_.observationRow(s, a)) {
+      const double p = pred.val[j] * z.second;
+      if (!(p > 0.0)) continue;
+      const std::size_t k = slotOf[z.first];
+      kids_[k].idx.push_back(s);
+      kids_[k].val.push_back(p);
+      probs_[k] += p;
+    }
+  }
 }
 
-void PointBasedSolver::upperBackup(const Eigen::VectorXd& b, NodeCache& c) {
+void PointBasedSolver::upperBackup(const SparseBelief& b, NodeCache& c) {
   // Q_U(b, a) = R(b, a) + gamma sum_o P(o | b, a) U(b_ao), caching P and U per (a, o) so that
   // the way back up a trial only re-evaluates the child that the trial visited (a cached U
   // was a valid upper bound when computed and bounds only decrease, so it stays valid).
-  const auto& r = m_.rewardMatrix();
+  const ScopedTimer timer(profile_.upperBackupSeconds);
+  ++profile_.upperBackups;
   c.q.resize(a_);
   c.p.resize(obsOffset_.back());
   c.u.resize(obsOffset_.back());
   for (std::size_t a = 0; a < a_; ++a) {
-    m_.predict(a, b, pred_);
-    double qU = r.col(static_cast<Eigen::Index>(a)).dot(b);
-    for (std::size_t k = 0; k < obsCol_[a].size(); ++k) {
-      child_ = obsCol_[a][k].cwiseProduct(pred_);
-      const double p = child_.sum();
+    expand(b, a);
+    double qU = rewardAt(b, a);
+    for (std::size_t k = 0; k < obsOffset_[a + 1] - obsOffset_[a]; ++k) {
+      const double p = probs_[k];
       double u = 0.0;
       if (p > 0.0 && !toTerminal_[a]) {  // terminal successors are worth exactly 0
-        child_ /= p;
-        u = upperRaw(child_.data());
+        for (double& v : kids_[k].val) v /= p;
+        u = upperAt(kids_[k]);
         qU += gamma_ * p * u;
       }
       c.p[obsOffset_[a] + k] = p;
@@ -587,87 +668,185 @@ void PointBasedSolver::upperBackup(const Eigen::VectorXd& b, NodeCache& c) {
   finishUpper(b, c);
 }
 
-void PointBasedSolver::finishUpper(const Eigen::VectorXd& b, NodeCache& c) {
+void PointBasedSolver::finishUpper(const SparseBelief& b, NodeCache& c) {
   double best = -kInf;
   for (std::size_t a = 0; a < a_; ++a)
     if (c.q[a] > best) {
       best = c.q[a];
       c.action = a;
     }
-  if (best < upperRaw(b.data()) - 1e-12) addPoint(b, best);
+  if (best < upperAt(b) - 1e-12) addPoint(b, best);
 }
 
-void PointBasedSolver::refreshUpper(const Eigen::VectorXd& b, NodeCache& c, std::size_t a,
-                                    std::size_t k, const Eigen::VectorXd& child) {
+void PointBasedSolver::refreshUpper(const SparseBelief& b, NodeCache& c, std::size_t a,
+                                    std::size_t k, const SparseBelief& child) {
   const std::size_t idx = obsOffset_[a] + k;
-  if (!toTerminal_[a]) c.u[idx] = std::min(c.u[idx], upperRaw(child.data()));
-  double qU = m_.rewardMatrix().col(static_cast<Eigen::Index>(a)).dot(b);
-  for (std::size_t j = 0; j < obsCol_[a].size(); ++j)
-    qU += gamma_ * c.p[obsOffset_[a] + j] * c.u[obsOffset_[a] + j];
+  if (!toTerminal_[a]) c.u[idx] = std::min(c.u[idx], upperAt(child));
+  double qU = rewardAt(b, a);
+  for (std::size_t j = obsOffset_[a]; j < obsOffset_[a + 1]; ++j) qU += gamma_ * c.p[j] * c.u[j];
   c.q[a] = std::min(c.q[a], qU);
   finishUpper(b, c);
 }
 
-void PointBasedSolver::lowerBackup(const Eigen::VectorXd& b) {
-  // alpha_a = R_a + gamma T_a sum_o (O_ao .* alpha_{k(o)}), alpha_{k(o)} best at b_ao: the
-  // value of the plan "do a, then follow the vector chosen for the observation". The best
-  // vectors of all (action, observation) children come from one matrix product
-  // (alphas x children), which vectorises; dot products with the unnormalised child give the
-  // same argmax as with the normalised one.
-  const auto& r = m_.rewardMatrix();
-  const auto S = static_cast<Eigen::Index>(s_);
-  const std::size_t n = alphaAction_.size();
-  const std::size_t slots = obsOffset_.back();
-  children_.resize(S, static_cast<Eigen::Index>(slots));
-  for (std::size_t a = 0; a < a_; ++a) {
-    m_.predict(a, b, pred_);
-    for (std::size_t k = 0; k < obsCol_[a].size(); ++k)
-      children_.col(static_cast<Eigen::Index>(obsOffset_[a] + k)) =
-          obsCol_[a][k].cwiseProduct(pred_);
+std::size_t PointBasedSolver::lowerNode(const SparseBelief& b) {
+  // max_i alpha_i . x for x = b and for every unnormalised child b_ao, over the vectors added
+  // since the node was last scored (vectors are only appended between prunings, so the best
+  // of the older ones is still the best of them: the result is the same as a full scan).
+  // Children of different actions often share their support (RockSample: every check stays on
+  // b's support), so they are scored together: each vector's entries on a support are read
+  // once per scan, not once per child.
+  const std::uint64_t key = beliefKey(b);
+  std::size_t id = kNoPoint;
+  auto it = lowerIndex_.find(key);
+  if (it != lowerIndex_.end())
+    for (std::size_t c : it->second)
+      if (lowerNodes_[c].b.idx == b.idx && lowerNodes_[c].b.val == b.val) id = c;
+  if (id == kNoPoint) {
+    id = lowerNodes_.size();
+    lowerNodes_.emplace_back();
+    lowerNodes_[id].b = b;
+    lowerIndex_[key].push_back(id);
+    lowerNodeBytes_ += b.size() * 12 + obsOffset_.back() * 12 + sizeof(LowerNode) + 16;
   }
-  Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>
-      alphas(alpha_.data(), static_cast<Eigen::Index>(n), S);
-  scores_.noalias() = alphas * children_;
-  double bestLower = -kInf;
-  std::size_t bestLowerAction = 0;
-  for (std::size_t a = 0; a < a_; ++a) {
-    const bool ident = m_.isIdentityTransition(a);
-    acc_.setZero();
-    candChildren_.assign(obsCol_[a].size(), 0);
-    for (std::size_t k = 0; k < obsCol_[a].size(); ++k) {
-      const auto slot = static_cast<Eigen::Index>(obsOffset_[a] + k);
-      // A zero-probability observation may take any vector (index 0).
-      Eigen::Index bestI = 0;
-      if (children_.col(slot).sum() > 0.0) scores_.col(slot).maxCoeff(&bestI);
-      candChildren_[k] = static_cast<std::uint32_t>(bestI);
-      const double* al = &alpha_[static_cast<std::size_t>(bestI) * s_];
-      acc_ += obsCol_[a][k].cwiseProduct(Eigen::Map<const Eigen::VectorXd>(al, S));
+  const std::size_t n = alphaAction_.size();
+  {
+    LowerNode& nd = lowerNodes_[id];
+    if (nd.epoch != epoch_ || nd.best.empty()) {
+      nd.epoch = epoch_;
+      nd.checked = 0;
+      nd.self = -kInf;
+      nd.selfArg = 0;
+      nd.best.assign(obsOffset_.back(), -kInf);
+      nd.arg.assign(obsOffset_.back(), 0);
     }
-    if (ident) {
-      candidate_ = r.col(static_cast<Eigen::Index>(a)) + gamma_ * acc_;
-    } else {
-      candidate_ = r.col(static_cast<Eigen::Index>(a));
-      if (m_.hasDenseTransitions()) {
-        candidate_.noalias() += gamma_ * (m_.transitionMatrix(a) * acc_);
-      } else {
-        m_.expectNext(a, acc_, child_);
-        candidate_ += gamma_ * child_;
+    if (nd.checked >= n) return id;
+  }
+  std::size_t nk = 0;
+  auto pooled = [&]() -> PooledChild& {
+    if (pool_.size() <= nk) pool_.emplace_back();
+    return pool_[nk++];
+  };
+  {
+    PooledChild& self = pooled();
+    self.kid = b;
+    self.slot = kNoPoint;
+  }
+  for (std::size_t a = 0; a < a_; ++a) {
+    expand(b, a);
+    for (std::size_t k = 0; k < obsOffset_[a + 1] - obsOffset_[a]; ++k) {
+      if (!(probs_[k] > 0.0)) {  // a zero-probability observation may take any vector
+        lowerNodes_[id].best[obsOffset_[a] + k] = 0.0;
+        continue;
+      }
+      PooledChild& c = pooled();
+      c.kid.idx.swap(kids_[k].idx);
+      c.kid.val.swap(kids_[k].val);
+      c.slot = obsOffset_[a] + k;
+    }
+  }
+  LowerNode& nd = lowerNodes_[id];
+  // Group the children by support.
+  groupOf_.assign(nk, 0);
+  std::vector<std::size_t>& heads = groupHeads_;
+  heads.clear();
+  for (std::size_t t = 0; t < nk; ++t) {
+    const auto& idx = pool_[t].kid.idx;
+    std::size_t g = 0;
+    for (; g < heads.size(); ++g)
+      if (pool_[heads[g]].kid.idx == idx) break;
+    if (g == heads.size()) heads.push_back(t);
+    groupOf_[t] = g;
+  }
+  std::vector<std::size_t>& members = members_;
+  for (std::size_t g = 0; g < heads.size(); ++g) {
+    members.clear();
+    for (std::size_t t = 0; t < nk; ++t)
+      if (groupOf_[t] == g) members.push_back(t);
+    const auto& idx = pool_[heads[g]].kid.idx;
+    const std::size_t m = idx.size(), mm = members.size();
+    gather_.resize(m);
+    scores_.resize(mm);
+    args_.resize(mm);
+    for (std::size_t r = 0; r < mm; ++r) {
+      const std::size_t slot = pool_[members[r]].slot;
+      scores_[r] = slot == kNoPoint ? nd.self : nd.best[slot];
+      args_[r] = slot == kNoPoint ? nd.selfArg : nd.arg[slot];
+    }
+    for (std::size_t i = nd.checked; i < n; ++i) {
+      const double* al = &alpha_[i * s_];
+      for (std::size_t j = 0; j < m; ++j) gather_[j] = al[idx[j]];
+      for (std::size_t r = 0; r < mm; ++r) {
+        const double* w = pool_[members[r]].kid.val.data();
+        double v0 = 0.0, v1 = 0.0, v2 = 0.0, v3 = 0.0;
+        std::size_t j = 0;
+        for (; j + 3 < m; j += 4) {
+          v0 += gather_[j] * w[j];
+          v1 += gather_[j + 1] * w[j + 1];
+          v2 += gather_[j + 2] * w[j + 2];
+          v3 += gather_[j + 3] * w[j + 3];
+        }
+        for (; j < m; ++j) v0 += gather_[j] * w[j];
+        const double v = (v0 + v1) + (v2 + v3);
+        if (v > scores_[r]) {
+          scores_[r] = v;
+          args_[r] = i;
+        }
       }
     }
-    const double qL = candidate_.dot(b);
-    if (qL > bestLower) {
-      bestLower = qL;
-      bestLowerAction = a;
-      bestAlpha_.swap(candidate_);
-      bestChildren_.swap(candChildren_);
+    for (std::size_t r = 0; r < mm; ++r) {
+      const std::size_t slot = pool_[members[r]].slot;
+      if (slot == kNoPoint) {
+        nd.self = scores_[r];
+        nd.selfArg = args_[r];
+      } else {
+        nd.best[slot] = scores_[r];
+        nd.arg[slot] = static_cast<std::uint32_t>(args_[r]);
+      }
+      witness_[args_[r]] = 1;
     }
   }
-  if (bestLower > lowerRaw(b.data()) + 1e-12)
-    addAlpha(bestAlpha_, bestLowerAction, bestChildren_);
-  if (alphaAction_.size() > 2 * prunedAt_ + 32) pruneAlphas();
+  nd.checked = n;
+  return id;
 }
 
-double PointBasedSolver::now() const { return clockOffset_ + clock_.seconds(); }
+void PointBasedSolver::lowerBackup(const SparseBelief& b) {
+  // alpha_a = R_a + gamma T_a sum_o (O_ao .* alpha_{k(o)}), alpha_{k(o)} best at b_ao: the
+  // value of the plan "do a, then follow the vector chosen for the observation". The action is
+  // chosen by its value at b, R(b, a) + gamma sum_o max_i alpha_i . (unnormalised b_ao), from
+  // the node's cached scores; only the winner's vector is built over all S states.
+  const ScopedTimer timer(profile_.lowerBackupSeconds);
+  ++profile_.lowerBackups;
+  const LowerNode& nd = lowerNodes_[lowerNode(b)];
+  double bestQ = -kInf;
+  std::size_t bestA = 0;
+  for (std::size_t a = 0; a < a_; ++a) {
+    double q = rewardAt(b, a);
+    for (std::size_t j = obsOffset_[a]; j < obsOffset_[a + 1]; ++j) q += gamma_ * nd.best[j];
+    if (q > bestQ) {
+      bestQ = q;
+      bestA = a;
+    }
+  }
+  const std::size_t a = bestA;
+  bestChildren_.assign(nd.arg.begin() + static_cast<long>(obsOffset_[a]),
+                       nd.arg.begin() + static_cast<long>(obsOffset_[a + 1]));
+  const double current = nd.self;
+  // The vector of the best action: acc(s1) = sum_o O(o | s1, a) alpha_{k(o)}(s1).
+  const auto& slotOf = slotOf_[a];
+  for (std::size_t s = 0; s < s_; ++s) {
+    double x = 0.0;
+    for (const auto& z : m_.observationRow(s, a))
+      x += z.second * alpha_[static_cast<std::size_t>(bestChildren_[slotOf[z.first]]) * s_ + s];
+    accVec_(static_cast<Eigen::Index>(s)) = x;
+  }
+  m_.expectNext(a, accVec_, nextVec_);
+  candidate_ = m_.rewardMatrix().col(static_cast<Eigen::Index>(a)) + gamma_ * nextVec_;
+  double value = 0.0;
+  for (std::size_t j = 0; j < b.size(); ++j)
+    value += candidate_(static_cast<Eigen::Index>(b.idx[j])) * b.val[j];
+  if (value > current + 1e-12) addAlpha(candidate_.data(), a, bestChildren_);
+  if (alphaAction_.size() > 2 * prunedAt_ + 32) pruneAlphas();
+}
 
 void PointBasedSolver::trial() {
   const double eps =
@@ -682,56 +861,73 @@ void PointBasedSolver::trial() {
   // Weight of the current node in the root's value: P(observations so far) gamma^depth.
   double weight = 1.0;
   const double rootGap = rootUpper_ - rootLower_;
+  // SARSOP's upper target: the value U(b) must come down to for the parent's target to be met
+  // (at the root: L(b0) + eps). A node whose best Q_U is already at its target stops the trial,
+  // even if its own gap is still above thr / gamma^depth.
+  double targetU = -kInf;
   std::vector<std::size_t>& chosenObs = chosenObs_;
   chosenObs.clear();
   while (true) {
     NodeCache& c = cache_[depth];
     upperBackup(path_[depth], c);
     const std::size_t a = c.action;
-    const double* bd = path_[depth].data();
-    const double gap = upperRaw(bd) - lowerRaw(bd);
-    if (gap <= thr || depth + 1 >= options_.maxDepth || now() >= deadline_) break;
+    const SparseBelief& bd = path_[depth];
+    const std::size_t node = lowerNode(bd);
+    const double gap = upperAt(bd) - lowerNodes_[node].self;
+    if (gap <= thr || depth + 1 >= options_.maxDepth || cut()) break;
+    const double curTargetU = std::max(targetU, lowerNodes_[node].self + thr);
+    if (c.q[a] <= curTargetU) break;
     // A node whose weighted gap is a negligible share of the root gap cannot move the root.
     if (weight * gap < cutoffScale_ * options_.trialWeightCutoff * rootGap) break;
+    const ScopedTimer timer(profile_.sampleSeconds);
     const double childThr = thr / gamma_;
     double bestScore = 0.0;
-    std::size_t bestK = obsCol_[a].size();
-    for (std::size_t k = 0; k < obsCol_[a].size(); ++k) {
-      const double p = c.p[obsOffset_[a] + k];
+    const std::size_t slots = obsOffset_[a + 1] - obsOffset_[a];
+    std::size_t bestK = slots;
+    expand(bd, a);
+    for (std::size_t k = 0; k < slots; ++k) {
+      const double p = probs_[k];
       if (!(p > 0.0)) continue;
-      successor(path_[depth], a, k, child_);
-      child_ /= p;
-      const double score = p * (c.u[obsOffset_[a] + k] - lowerRaw(child_.data()) - childThr);
+      // L(b_ao) = (max_i alpha_i . unnormalised child) / p, from the node's cache.
+      const double lower = lowerNodes_[node].best[obsOffset_[a] + k] / p;
+      const double score = p * (c.u[obsOffset_[a] + k] - lower - childThr);
       if (score > bestScore) {
         bestScore = score;
         bestK = k;
       }
     }
-    if (bestK == obsCol_[a].size()) break;
-    weight *= gamma_ * c.p[obsOffset_[a] + bestK];  // before cache_ may reallocate
+    if (bestK == slots) break;
+    const double pChosen = c.p[obsOffset_[a] + bestK];  // before cache_ may reallocate
+    double others = 0.0;  // gamma-free sum over the other observations of P(o) U(b_ao)
+    for (std::size_t k = 0; k < slots; ++k)
+      if (k != bestK) others += c.p[obsOffset_[a] + k] * c.u[obsOffset_[a] + k];
+    targetU = ((curTargetU - rewardAt(bd, a)) / gamma_ - others) / pChosen;
+    weight *= gamma_ * pChosen;
     if (path_.size() < depth + 2) {
       path_.emplace_back();
       cache_.emplace_back();
     }
-    const double p = successor(path_[depth], a, bestK, path_[depth + 1]);
-    path_[depth + 1] /= p;
+    path_[depth + 1] = kids_[bestK];
+    for (double& v : path_[depth + 1].val) v /= pChosen;
     chosenObs.push_back(bestK);
     ++depth;
     thr = childThr;
   }
+  profile_.depthSum += depth;
+  profile_.maxDepth = std::max(profile_.maxDepth, depth);
   // Backups are optional for the bounds' validity: past the deadline, the rest are skipped,
   // so that a deep trial cannot overrun the budget by its own length.
   lowerBackup(path_[depth]);
   for (std::size_t d = depth; d-- > 0;) {
-    if (now() >= deadline_) break;
+    if (cut()) break;
     NodeCache& c = cache_[d];
     refreshUpper(path_[d], c, c.action, chosenObs[d], path_[d + 1]);
     lowerBackup(path_[d]);
   }
   ++trials_;
   const double lowerBefore = rootLower_;
-  rootLower_ = std::max(rootLower_, lowerRaw(b0_.data()));
-  rootUpper_ = std::min(rootUpper_, upperRaw(b0_.data()));
+  rootLower_ = std::max(rootLower_, lowerAt(b0_));
+  rootUpper_ = std::min(rootUpper_, upperAt(b0_));
   // Trials that stop at the weight cutoff may stop improving the root (its gap then sits in
   // many light nodes): after kStallTrials trials without progress, halve the cutoff. The lower
   // bound is watched on its own too: on RockSample the upper bound kept shrinking (so the gap
@@ -752,14 +948,10 @@ void PointBasedSolver::trial() {
   }
 }
 
-bool PointBasedSolver::runUntil(double untilSeconds) {
-  clockOffset_ = elapsed_;
-  clock_.reset();
-  deadline_ = untilSeconds;
-  while (!converged() && now() < deadline_ &&
-         (options_.maxTrials == 0 || trials_ < options_.maxTrials))
-    trial();
-  elapsed_ = now();
+bool PointBasedSolver::runUntil(double untilSeconds, double cutSeconds) {
+  cutAt_ = std::max(untilSeconds, cutSeconds);
+  runTrials(clock_, untilSeconds, options_.maxTrials, trials_,
+            [this] { return converged() || memoryStop_; }, [this] { trial(); });
   return converged();
 }
 
@@ -769,12 +961,13 @@ bool PointBasedSolver::converged() const {
 
 BoundsReport PointBasedSolver::report() const {
   BoundsReport r;
-  r.time = elapsed_;
+  r.time = clock_.elapsed();
   r.lower = rootLower_;
   r.upper = rootUpper_;
   r.alphas = alphaAction_.size();
   r.points = improve_.size();
   r.trials = trials_;
+  r.bytes = boundBytes();
   return r;
 }
 

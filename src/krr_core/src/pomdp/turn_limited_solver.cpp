@@ -63,7 +63,7 @@ TurnLimitedSolver::TurnLimitedSolver(const Model& model, const Belief& b0, int t
   initBounds();
   rootLower_ = lowerRaw(b0_.data(), 0);
   rootUpper_ = upperRaw(b0_.data(), 0);
-  elapsed_ = sw.seconds();
+  clock_.setElapsed(sw.seconds());
 }
 
 void TurnLimitedSolver::initBounds() {
@@ -392,16 +392,14 @@ double TurnLimitedSolver::improveAt(const Belief& b, int turns, double precision
   const int t0 = std::clamp(turns, 0, limit_);
   double gap = upperRaw(b.data(), t0) - lowerRaw(b.data(), t0);
   if (gap <= precision || maxTrials == 0) return gap;
-  const double savedDeadline = deadline_;
-  clockOffset_ = elapsed_;
-  clock_.reset();
-  deadline_ = std::numeric_limits<double>::infinity();
+  const double savedDeadline = clock_.deadline();
+  clock_.start(std::numeric_limits<double>::infinity());
   for (std::size_t k = 0; k < maxTrials && gap > precision; ++k) {
     trialFrom(b, t0, std::max(precision, options_.trialGapFactor * gap));
     gap = upperRaw(b.data(), t0) - lowerRaw(b.data(), t0);
   }
-  elapsed_ = now();
-  deadline_ = savedDeadline;
+  clock_.stop();
+  clock_.setDeadline(savedDeadline);
   rootLower_ = std::max(rootLower_, lowerRaw(b0_.data(), 0));
   rootUpper_ = std::min(rootUpper_, upperRaw(b0_.data(), 0));
   return gap;
@@ -446,7 +444,7 @@ void TurnLimitedSolver::trialFrom(const Eigen::VectorXd& root, int t0, double th
     if (lowerGuided) c.action = lowerGreedy(b, t, c);
     const std::size_t a = c.action;
     const double gap = upperRaw(b.data(), t) - lowerRaw(b.data(), t);
-    if (gap <= thr || ending_[a] || now() >= deadline_) break;
+    if (gap <= thr || ending_[a] || clock_.expired()) break;
     const double childThr = thr / gamma_;
     double bestScore = 0.0;
     std::size_t bestK = obsCol_[a].size();
@@ -477,19 +475,14 @@ void TurnLimitedSolver::trialFrom(const Eigen::VectorXd& root, int t0, double th
 }
 
 bool TurnLimitedSolver::runUntil(double untilSeconds) {
-  clockOffset_ = elapsed_;
-  clock_.reset();
-  deadline_ = untilSeconds;
-  while (!converged() && now() < deadline_ &&
-         (options_.maxTrials == 0 || trials_ < options_.maxTrials))
-    trial();
-  elapsed_ = now();
+  runTrials(clock_, untilSeconds, options_.maxTrials, trials_, [this] { return converged(); },
+            [this] { trial(); });
   return converged();
 }
 
 BoundsReport TurnLimitedSolver::report() const {
   BoundsReport r;
-  r.time = elapsed_;
+  r.time = clock_.elapsed();
   r.lower = rootLower_;
   r.upper = rootUpper_;
   for (const Stage& st : stages_) {

@@ -29,6 +29,10 @@ TEST(DialogConfig, BundledConfigHasThePapersNumbers) {
   EXPECT_NO_THROW(krr::readFile(c.speech_plog));
   EXPECT_EQ(c.rmaxParams().known_threshold, c.known_threshold);
   EXPECT_DOUBLE_EQ(c.rmaxParams().rmax, c.rmax);
+  // The time of day and R-Max's M come from navigation.yaml (context.time, rmax_learning).
+  EXPECT_EQ(c.time, "morning");
+  EXPECT_EQ(c.known_threshold, 5u);
+  EXPECT_FALSE(c.refine_known);
 }
 
 TEST(DialogConfig, DefaultsWhenSectionsAreMissing) {
@@ -83,8 +87,9 @@ TEST(DialogConfig, BadValuesNameTheField) {
       {"navigation: {shop: [a, b]}\n", "navigation.shop"},
       {"solver: {precision: 0}\n", "solver.precision"},
       {"solver: {max_trials: -5}\n", "solver.max_trials"},
-      {"learning: {known_threshold: 0}\n", "learning.known_threshold"},
-      {"learning: {refine_known: maybe}\n", "learning.refine_known"},
+      // R-Max's M and the time of day have one home, navigation.yaml: not fields here.
+      {"learning: {known_threshold: 30}\n", "unknown field 'learning.known_threshold'"},
+      {"navigation: {time: noon}\n", "unknown field 'navigation.time'"},
       {"learning: {rounds: 0}\n", "learning.rounds"},
       {"knowledge: {office: ''}\n", "knowledge.office"},
       {"dialog: 3\n", "dialog"},

@@ -114,7 +114,9 @@ TEST(NavTransfer, OptionsFileIsReadAndValidated) {
            {"rmax_learning: {known_threshold: 0}\n", "rmax_learning.known_threshold"},
            {"rmax_learning: {speed: 1}\n", "unknown field 'rmax_learning.speed'"},
            {"nav_transfer: {target: room1}\n", "same as source"},
-           {"rmax_learning: [1, 2\n", "not valid YAML"}}) {
+           // The time of day is a base setting (context.time), not the experiment's own.
+           {"nav_transfer: {time: noon}\n", "unknown field 'nav_transfer.time'"},
+           {"rmax_learning: [1, 2\n", "broken YAML"}}) {
     try {
       load(text);
       ADD_FAILURE() << "no ConfigError for " << text;
@@ -133,6 +135,8 @@ TEST(NavTransfer, OptionsFileIsReadAndValidated) {
   EXPECT_EQ(shipped.rmax.discount, 0.95);
   EXPECT_EQ(shipped.rmax.replan_every, 10u);
   EXPECT_EQ(shipped.blocking_rate, 0.3);
+  EXPECT_EQ(shipped.time, "morning");  // navigation.yaml's context.time
+  EXPECT_EQ(load("context: {time: noon}\n").time, "noon");
 }
 
 TEST(NavTransfer, InvalidOptionsAreRefused) {

@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include "krr_core/common/errors.h"
+#include "krr_core/examples/grid_world.h"
 #include "krr_core/mdp/environment.h"
 #include "krr_core/mdp/solvers.h"
 

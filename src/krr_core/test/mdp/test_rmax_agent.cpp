@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "krr_core/common/errors.h"
+#include "krr_core/examples/grid_world.h"
 #include "krr_core/mdp/environment.h"
 #include "krr_core/mdp/navigation_task.h"
 #include "krr_core/mdp/rmax_agent.h"

@@ -3,7 +3,7 @@
 
 #include <string>
 
-#include "krr_core/plog/grid_program.h"
+#include "krr_core/examples/grid_program.h"
 #include "krr_core/plog/parser.h"
 #include "krr_core/plog/reasoner.h"
 
@@ -54,24 +54,8 @@ TEST(PlogExport, RoundTripIsAFixpointAndEquivalent) {
 
 TEST(PlogExport, Plog2ProgramExportsToClassic) {
   Reasoner a;
-  a.loadString(R"(sorts
-#door = {1,2,3}.
-attributes
-open: #door.
-selected: #door.
-prize: #door.
-can_open: #door -> #boolean.
-statements
-can_open(D) = false :- selected = D.
-can_open(D) = false :- prize = D.
-can_open(D) = true :- not can_open(D) = false.
-random(prize).
-random(selected).
-random(open, can_open).
-obs(selected, 1).
-obs(open, 2).
-? prize = 3.
-)");
+  // Monty Hall in the plog2.0 dialect; its first query is P(prize = 3 | ...) = 2/3.
+  a.loadFile(std::string(KRR_TEST_DATA_DIR) + "/plog/monty_hall_plog2.plog");
   std::string text = a.exportProgram();
   Program p = parseProgram(text, "exported");
   EXPECT_EQ(p.dialect, Dialect::Classic);

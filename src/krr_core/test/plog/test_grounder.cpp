@@ -3,7 +3,7 @@
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/resources.h"
-#include "krr_core/plog/grid_program.h"
+#include "krr_core/examples/grid_program.h"
 #include "krr_core/plog/grounder.h"
 #include "krr_core/plog/parser.h"
 

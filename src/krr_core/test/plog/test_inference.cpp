@@ -5,7 +5,7 @@
 #include <string>
 
 #include "krr_core/common/errors.h"
-#include "krr_core/plog/grid_program.h"
+#include "krr_core/examples/grid_program.h"
 #include "krr_core/plog/reasoner.h"
 
 using namespace krr;

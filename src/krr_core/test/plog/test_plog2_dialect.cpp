@@ -139,9 +139,8 @@ checked = false :- not obs(alarm, true, true).
   Reasoner r;
   r.loadString(base, "prog.plog");
   EXPECT_THROW(r.probability("?{checked} | obs(alarm)"), Error);
-  // do(...) in a body and a conditional observation are refused with their location
-  expectParseErrorAt(base + "checked :- do(alarm, true, true).\n", 10, 12,
-                     "do(...) in a rule body");
+  // do(...) in a body is read (see DoInRuleBodies); a conditional observation is refused
+  // with its location
   expectParseErrorAt(base + "obs(alarm, true, true) :- alarm.\n", 10, 24, "must be a fact");
 }
 
@@ -247,14 +246,81 @@ TEST(Plog2Dialect, ErrorsNameTheirLocation) {
   EXPECT_NO_THROW(parseProgram("s = {a}.\nx : s.\ny.\n", "ok.plog"));
 }
 
-// Consistency-restoring rules need CR-Prolog's minimal abduction, which no back end has:
-// refused by name, never read as something else.
-TEST(Plog2Dialect, ConsistencyRestoringRulesAreRefused) {
+// `h :+ body.` is read as a consistency-restoring rule (semantics in test_cr_rules.cpp), also
+// right after the attributes where `a :` could start a declaration.
+TEST(Plog2Dialect, ConsistencyRestoringRulesAreRead) {
   const std::string head = "sorts\n#bool = {true, false}.\nattributes\na: #bool.\nb: #bool.\n"
                            "statements\n";
-  expectParseErrorAt(head + "a :+ b.\n", 7, 3, "consistency-restoring rules");
-  expectParseErrorAt(head + "a:+.\n", 7, 2, "consistency-restoring rules");
-  expectParseErrorAt(head + "random(a) :+.\n", 7, 11, "consistency-restoring rules");
+  Program p = parseProgram(head + "a :+ b.\na:+.\nrandom(a) :+.\n", "cr.plog");
+  ASSERT_EQ(p.rules.size(), 2u);
+  EXPECT_TRUE(p.rules[0].consistency_restoring);
+  EXPECT_EQ(p.rules[0].body.size(), 1u);
+  EXPECT_TRUE(p.rules[1].consistency_restoring);
+  EXPECT_TRUE(p.rules[1].body.empty());
+  ASSERT_EQ(p.random_rules.size(), 1u);
+  EXPECT_TRUE(p.random_rules[0].consistency_restoring);
+  expectParseErrorAt(head + "a :+ b\n", 8, 1, "'.'");
+}
+
+// do(...) tested in a rule body (plog2.0's section3_notpublished/example6): the body literal
+// holds for the argument tuples of the program's do statements; do(agent, f, y) with a
+// first argument that is no attribute is the agent form: the agent sets f = y.
+TEST(Plog2Dialect, DoInRuleBodies) {
+  const std::string head =
+      "sorts\n#boolean = {true, false}.\n#attribute_term = {f, g}.\n#agent = {a, b}.\n"
+      "attributes\nalarm: #boolean.\nauthorized: #agent, #attribute_term -> #boolean.\n"
+      "f: #boolean.\ng: #boolean.\nstatements\n"
+      "alarm :- do(A, f, true), not authorized(A, f).\nrandom(f).\nrandom(g).\n";
+  // do(a, f, true): f = true by intervention, and the body test holds for A = a (a is not
+  // authorized): alarm in every world.
+  EXPECT_NEAR(both(head + "do(a, f, true).\n", "?{alarm = true}"), 1.0, kEps);
+  EXPECT_NEAR(both(head + "do(a, f, true).\n", "?{f = true}"), 1.0, kEps);
+  // authorized(a, f): the rule never fires.
+  EXPECT_NEAR(both(head + "do(a, f, true).\nauthorized(a, f).\n", "?{alarm = true}"), 0.0, kEps);
+  // An action on g does not match do(A, f, true); f stays random (1/2).
+  EXPECT_NEAR(both(head + "do(b, g, true).\n", "?{alarm = true}"), 0.0, kEps);
+  EXPECT_NEAR(both(head + "do(b, g, true).\n", "?{f = true}"), 0.5, kEps);
+}
+
+// A fact whose constant is outside the declared sort (nasa/F.plog's misspelt
+// `streering_sensor2`) has no well-sorted ground instance: P-log's sorted grounding, and
+// plog2.0, leave it out. We do too, never silently: a warning names file:line:col and the value;
+// strict sorts make it an error.
+TEST(Plog2Dialect, IllSortedFactsAreLeftOutWithAWarning) {
+  const std::string p =
+      "sorts\n#boolean = {true, false}.\n#c = {x, y}.\n#k = 1..2.\nattributes\n"
+      "link: #c, #c -> #boolean.\nkind: #c -> #k.\nup: #boolean.\nstatements\n"
+      "link(x, y).\nlink(x, zz).\nkind(x) = 3.\nkind(y) = 2.\nrandom(up).\n";
+  Reasoner r;
+  r.loadString(p, "sorted.plog");
+  ASSERT_EQ(r.warnings().size(), 2u);
+  EXPECT_EQ(r.warnings()[0].rfind("sorted.plog:11:9: warning:", 0), 0u) << r.warnings()[0];
+  EXPECT_NE(r.warnings()[0].find("'zz'"), std::string::npos) << r.warnings()[0];
+  EXPECT_EQ(r.warnings()[1].rfind("sorted.plog:12:11: warning:", 0), 0u) << r.warnings()[1];
+  EXPECT_NE(r.warnings()[1].find("'3'"), std::string::npos) << r.warnings()[1];
+  // The well-sorted facts stay; kind(x) has no value (its only fact is left out).
+  EXPECT_NEAR(both(p, "?{link(x, y)}"), 1.0, kEps);
+  EXPECT_NEAR(both(p, "?{kind(y) = 2}"), 1.0, kEps);
+  EXPECT_NEAR(both(p, "?{kind(x) = 1}"), 0.0, kEps);
+  EXPECT_NEAR(both(p, "?{kind(x) = 2}"), 0.0, kEps);
+  // Added statements warn too.
+  r.addStatements("kind(y) = 7.\n", "", "more.plog");
+  ASSERT_EQ(r.warnings().size(), 3u);
+  EXPECT_EQ(r.warnings()[2].rfind("more.plog:1:11: warning:", 0), 0u) << r.warnings()[2];
+  // Strict sorts: an error at the value.
+  Reasoner strict;
+  strict.setStrictSorts(true);
+  try {
+    strict.loadString(p, "sorted.plog");
+    ADD_FAILURE() << "ill-sorted fact accepted with strict sorts";
+  } catch (const UnknownSymbolError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("sorted.plog:11:9:", 0), 0u) << e.what();
+  }
+  ParseOptions o;
+  o.strict_sorts = true;
+  EXPECT_THROW(parseProgram(p, "sorted.plog", Dialect::Auto, o), UnknownSymbolError);
+  // Values outside their sort elsewhere (queries) are still errors.
+  EXPECT_THROW(r.probability("?{kind(zz) = 1}"), UnknownSymbolError);
 }
 
 // The classic dialect as the classic solver's examples write it (issue 13, part 3): #domain and

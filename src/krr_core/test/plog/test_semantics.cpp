@@ -17,6 +17,14 @@ double valueOf(const std::vector<ValueProb>& d, const std::string& v) {
     if (x.value == v) return x.probability;
   return 0.0;
 }
+
+/// @brief The native engine alone refuses the query as outside its fragment.
+void expectNativeRefuses(const std::string& text, const std::string& query) {
+  Reasoner native;
+  native.setBackend(Backend::Native);
+  native.loadString(text);
+  EXPECT_THROW(native.probability(query), OutsideFragmentError) << query;
+}
 }  // namespace
 
 // Monty Hall (Baral, Gelfond & Rushton 2009). prize and selected are uniform over 3 doors;
@@ -402,10 +410,7 @@ path(X, Z) :- path(X, Y), edge(Y, Z).
 TEST(PlogSemantics, OddLoopAwayFromTheQueryRemovesWorlds) {
   const std::string text =
       "a : boolean.\ne : boolean.\nrandom(a).\ne :- a.\ne :- not e.\n?{a}.\n";
-  Reasoner native;
-  native.setBackend(Backend::Native);
-  native.loadString(text);
-  EXPECT_THROW(native.probability("?{a}"), OutsideFragmentError);
+  expectNativeRefuses(text, "?{a}");
   Reasoner r;  // default back end: auto
   EXPECT_EQ(r.backend(), Backend::Auto);
   r.loadString(text);
@@ -423,10 +428,7 @@ TEST(PlogSemantics, EvenLoopAwayFromTheQuerySplitsWorlds) {
   const std::string text =
       "a : boolean.\nb : boolean.\nc : boolean.\nrandom(a).\n"
       "b :- not c, a.\nc :- not b, a.\n";
-  Reasoner native;
-  native.setBackend(Backend::Native);
-  native.loadString(text);
-  EXPECT_THROW(native.probability("?{a = false}"), OutsideFragmentError);
+  expectNativeRefuses(text, "?{a = false}");
   Reasoner r;
   r.loadString(text);
   EXPECT_NEAR(r.probability("?{a = false}"), 1.0 / 3.0, kEps);
@@ -453,10 +455,7 @@ TEST(PlogSemantics, EvenLoopAwayFromTheQuerySplitsWorlds) {
 // P(b) = (1/4) / (3/4) = 1/3. The native engine refuses the rule; auto answers through clingo.
 TEST(PlogSemantics, RuleDefiningARandomAttributeGoesToClingo) {
   const std::string text = "a : boolean.\nb : boolean.\nrandom(a).\nrandom(b).\na :- b.\n";
-  Reasoner native;
-  native.setBackend(Backend::Native);
-  native.loadString(text);
-  EXPECT_THROW(native.probability("?{b}"), OutsideFragmentError);
+  expectNativeRefuses(text, "?{b}");
   Reasoner r;
   r.loadString(text);
   EXPECT_NEAR(r.probability("?{b}"), 1.0 / 3.0, kEps);

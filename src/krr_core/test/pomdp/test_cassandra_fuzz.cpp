@@ -13,7 +13,7 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/pomdp/cassandra_io.h"
-#include "krr_core/pomdp/tiger.h"
+#include "krr_core/examples/tiger.h"
 
 namespace krr {
 namespace pomdp {

@@ -7,8 +7,10 @@
 
 #include "krr_core/common/errors.h"
 #include "krr_core/pomdp/cassandra_io.h"
-#include "krr_core/pomdp/dialog_pomdp.h"
-#include "krr_core/pomdp/tiger.h"
+#include "krr_core/dialog/dialog_pomdp.h"
+#include "krr_core/examples/tiger.h"
+
+#include "../support/pomdp_expect.h"
 
 namespace krr {
 namespace pomdp {
@@ -16,23 +18,7 @@ namespace {
 
 const std::string kData = std::string(KRR_TEST_DATA_DIR) + "/pomdp/";
 
-void expectSameModel(const Model& a, const Model& b, double tol = 0.0) {
-  ASSERT_EQ(a.getS(), b.getS());
-  ASSERT_EQ(a.getA(), b.getA());
-  ASSERT_EQ(a.getO(), b.getO());
-  EXPECT_EQ(a.getDiscount(), b.getDiscount());
-  EXPECT_EQ(a.stateNames(), b.stateNames());
-  EXPECT_EQ(a.actionNames(), b.actionNames());
-  EXPECT_EQ(a.observationNames(), b.observationNames());
-  EXPECT_EQ(a.initialBelief(), b.initialBelief());
-  EXPECT_LE((a.rewardMatrix() - b.rewardMatrix()).cwiseAbs().maxCoeff(), tol);
-  for (std::size_t k = 0; k < a.getA(); ++k) {
-    EXPECT_LE((a.denseTransition(k) - b.denseTransition(k)).cwiseAbs().maxCoeff(), tol)
-        << "action " << k;
-    EXPECT_LE((a.denseObservation(k) - b.denseObservation(k)).cwiseAbs().maxCoeff(), tol)
-        << "action " << k;
-  }
-}
+using test::expectSameModel;
 
 std::string errorAt(const std::string& text) {
   try {

@@ -6,7 +6,7 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/common/random.h"
 #include "krr_core/pomdp/model.h"
-#include "krr_core/pomdp/tiger.h"
+#include "krr_core/examples/tiger.h"
 
 namespace krr {
 namespace pomdp {

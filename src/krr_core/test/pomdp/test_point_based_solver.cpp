@@ -11,7 +11,7 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/pomdp/belief.h"
 #include "krr_core/pomdp/point_based_solver.h"
-#include "krr_core/pomdp/tiger.h"
+#include "krr_core/examples/tiger.h"
 
 namespace krr {
 namespace pomdp {

@@ -2,9 +2,9 @@
 // it only changes where trials stop, so the bounds stay valid and keep converging.
 #include <gtest/gtest.h>
 
-#include "krr_core/pomdp/dialog_pomdp.h"
+#include "krr_core/dialog/dialog_pomdp.h"
 #include "krr_core/pomdp/point_based_solver.h"
-#include "krr_core/pomdp/tiger.h"
+#include "krr_core/examples/tiger.h"
 
 namespace krr {
 namespace pomdp {

@@ -16,7 +16,7 @@
 #include "krr_core/pomdp/alpha_policy.h"
 #include "krr_core/pomdp/cassandra_io.h"
 #include "krr_core/pomdp/point_based_solver.h"
-#include "krr_core/pomdp/tiger.h"
+#include "krr_core/examples/tiger.h"
 
 namespace krr {
 namespace pomdp {

@@ -84,7 +84,6 @@ struct LearnerParams {
     // What extraction writes back: per blocking area (the default, as in the experiments) or
     // per (cell, move) pair.
     o.extraction = krr::kb::extractionFromString(r.str("extraction", "areas", {"areas", "pairs"}));
-    o.time = r.str("time", "morning");
     o.blocking_rate = r.number("blocking_rate", -1, -1, 1);
     o.max_episodes_per_task = static_cast<std::size_t>(r.integer("max_episodes_per_task", 300, 1, 1000000));
     o.convergence_episodes = static_cast<std::size_t>(r.integer("convergence_episodes", 20, 1, 1000000));
@@ -92,6 +91,7 @@ struct LearnerParams {
     // R-Max: the navigation task's reward (navigation.yaml planning) and learning settings
     // (rmax_learning); the parameters below only override them (learner_node.yaml sets none).
     const krr::nav::NavigationConfig nav = p.kb.loadConfig();
+    o.time = r.str("time", nav.time);  // context.time of navigation.yaml unless overridden
     o.rmax.known_threshold = static_cast<std::uint32_t>(
         r.integer("known_threshold", nav.rmax_learning.known_threshold, 1, 1000000));
     o.rmax.rmax = r.number("rmax", nav.planning.rmax, 1e-6, 1e9);

@@ -68,11 +68,13 @@ struct NavigationParams {
     p.model_timeout = r.number("model_timeout", 30, 0.1, 3600);
     p.learned_file = r.path("learned_file", "", false);
     p.start_place = r.str("start_place", "shop");
-    p.time = r.str("time", "morning");
     p.blocking_rate = r.number("blocking_rate", -1, -1, 1);
     p.sim_rate = r.number("sim_rate", 0, 0, 1000);
     p.step_limit = r.integer("step_limit", 0, 0, 1000000);
-    const krr::nav::PlanningConfig planning = p.kb.loadConfig().planning;
+    // Defaults from the one home of these settings, navigation.yaml (context, planning).
+    const krr::nav::NavigationConfig nav = p.kb.loadConfig();
+    const krr::nav::PlanningConfig& planning = nav.planning;
+    p.time = r.str("time", nav.time);
     p.discount = r.number("discount", planning.discount, 0.01, 1.0);
     p.step_cost = r.number("step_cost", planning.step_cost, 0.0, 1e6);
     p.rmax = r.number("rmax", planning.rmax, 1e-6, 1e9);

@@ -27,7 +27,7 @@
 #include "krr_core/dialog/dialog_config.h"
 #include "krr_core/dialog/dialog_session.h"
 #include "krr_core/dialog/language.h"
-#include "krr_core/pomdp/dialog_pomdp.h"
+#include "krr_core/dialog/dialog_pomdp.h"
 #include "krr_core/pomdp/turn_limited_policy.h"
 
 namespace krr {

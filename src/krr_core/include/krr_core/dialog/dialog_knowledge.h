@@ -53,7 +53,7 @@
 #include "krr_core/dialog/delivery_navigation.h"
 #include "krr_core/dialog/dialog_config.h"
 #include "krr_core/plog/reasoner.h"
-#include "krr_core/pomdp/dialog_pomdp.h"
+#include "krr_core/dialog/dialog_pomdp.h"
 
 namespace krr {
 namespace dialog {

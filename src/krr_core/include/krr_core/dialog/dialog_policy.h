@@ -17,7 +17,7 @@
 #include <string>
 
 #include "krr_core/dialog/dialog_config.h"
-#include "krr_core/pomdp/dialog_pomdp.h"
+#include "krr_core/dialog/dialog_pomdp.h"
 #include "krr_core/pomdp/turn_limited_policy.h"
 #include "krr_core/pomdp/turn_limited_solver.h"
 

@@ -25,7 +25,7 @@
 
 #include "krr_core/dialog/language.h"
 #include "krr_core/pomdp/belief.h"
-#include "krr_core/pomdp/dialog_pomdp.h"
+#include "krr_core/dialog/dialog_pomdp.h"
 #include "krr_core/pomdp/turn_limited_policy.h"
 
 namespace krr {

@@ -54,7 +54,7 @@
 #include <string>
 #include <vector>
 
-#include "krr_core/pomdp/dialog_pomdp.h"
+#include "krr_core/dialog/dialog_pomdp.h"
 
 namespace krr {
 namespace dialog {

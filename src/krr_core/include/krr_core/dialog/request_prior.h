@@ -13,7 +13,7 @@
 #include <string>
 
 #include "krr_core/plog/reasoner.h"
-#include "krr_core/pomdp/dialog_pomdp.h"
+#include "krr_core/dialog/dialog_pomdp.h"
 
 namespace krr {
 namespace dialog {

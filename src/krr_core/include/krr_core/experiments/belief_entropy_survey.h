@@ -24,7 +24,7 @@
 #include <vector>
 
 #include "krr_core/pomdp/turn_limited_policy.h"
-#include "krr_core/pomdp/dialog_pomdp.h"
+#include "krr_core/dialog/dialog_pomdp.h"
 
 namespace krr {
 namespace dialog {

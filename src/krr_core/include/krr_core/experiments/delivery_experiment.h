@@ -43,7 +43,7 @@
 #include "krr_core/dialog/dialog_knowledge.h"
 #include "krr_core/dialog/dialog_policy.h"
 #include "krr_core/experiments/nav_transfer.h"
-#include "krr_core/pomdp/dialog_pomdp.h"
+#include "krr_core/dialog/dialog_pomdp.h"
 #include "krr_core/pomdp/turn_limited_policy.h"
 
 namespace krr {

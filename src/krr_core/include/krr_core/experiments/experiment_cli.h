@@ -19,6 +19,14 @@
 namespace krr {
 namespace dialog {
 
+/**
+ * @brief What the delivery experiments run on: config/dialog.yaml (with its base,
+ * config/navigation.yaml) and the changes of config/experiments/delivery_trials.yaml
+ * (`planning` {step_cost, rmax}, `rmax_learning` {known_threshold, discount, replan_every,
+ * optimism, refine_known}). @throws ConfigError naming file and field.
+ */
+DialogConfig loadDeliveryExperimentConfig(const ExperimentPaths& paths);
+
 struct ExperimentCli {
   DeliveryExperimentOptions experiment;  ///< --br --condition --seed --outdated-br --learned-cache
   std::string root;                      ///< --root
@@ -38,7 +46,7 @@ struct ExperimentCli {
   void finish();
   /// @brief The input paths of the domain.
   ExperimentPaths paths() const { return ExperimentPaths::find(root, experiment.domain_name); }
-  /// @brief config/dialog.yaml with the overrides applied (validated).
+  /// @brief loadDeliveryExperimentConfig() with the overrides applied (validated).
   DialogConfig config(const ExperimentPaths& paths) const;
 
  private:

@@ -17,6 +17,8 @@ namespace dialog {
 struct ExperimentPaths {
   std::string root;             ///< repository root
   std::string dialog_yaml;      ///< root/config/dialog.yaml
+  /// root/config/experiments/delivery_trials.yaml: what the delivery experiments change
+  std::string delivery_yaml;
   std::string navigation_yaml;  ///< root/config/navigation.yaml
   std::string navigation_plog;  ///< root/config/navigation.plog
   std::string geometry;         ///< root/maps/<domain>_geometry.plog

@@ -46,10 +46,10 @@ struct NavTransferOptions {
 /**
  * @brief Load options from an experiment YAML (config/experiments/nav_transfer.yaml; every
  * field optional, unknown fields are errors). Its own section nav_transfer {start, source,
- * target, time, source_episodes, convergence_episodes, target_episodes}; overrides of its base
+ * target, source_episodes, convergence_episodes, target_episodes}; overrides of its base
  * (../navigation.yaml when the file is in an `experiments` directory, else `defaults`):
  * planning {step_cost, rmax}, rmax_learning {known_threshold, discount, replan_every, optimism,
- * refine_known}, simulator {blocking_rate}.
+ * refine_known}, simulator {blocking_rate}, context {time}.
  * @throws ConfigError naming file, field and value; IoError when unreadable.
  */
 NavTransferOptions loadNavTransferOptions(const std::string& path,

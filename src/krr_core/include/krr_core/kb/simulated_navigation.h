@@ -13,6 +13,7 @@
 
 #include "krr_core/kb/navigation_knowledge.h"
 #include "krr_core/mdp/environment.h"
+#include "krr_core/mdp/navigation_task.h"
 #include "krr_core/nav/blockage_simulator.h"
 
 namespace krr {

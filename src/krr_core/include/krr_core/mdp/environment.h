@@ -2,10 +2,10 @@
  * @file environment.h
  * @brief Environment and agent interfaces, and the episode runner of the RL experiments.
  *
- * The real navigation simulator (module nav) is adapted to Environment by the integration
- * layer; GridWorldEnvironment is a small simulator with a known true model, for tests and
- * benchmarks. The runner applies the paper's step limit (200 / 300 steps) and its -Rmax
- * penalty when the limit is hit.
+ * The real navigation simulator (module nav) is adapted to Environment by the knowledge-base
+ * layer (kb/simulated_navigation.h); the toy grid world of the tests and benchmarks is
+ * examples/grid_world.h. The runner applies the paper's step limit (200 / 300 steps) and its
+ * -Rmax penalty when the limit is hit.
  */
 #pragma once
 
@@ -13,7 +13,6 @@
 #include <vector>
 
 #include "krr_core/common/random.h"
-#include "krr_core/mdp/navigation_task.h"
 #include "krr_core/mdp/sparse_model.h"
 
 namespace krr {
@@ -58,35 +57,6 @@ class FixedPolicyAgent : public Agent {
 
  private:
   std::vector<ActionId> policy_;
-};
-
-/**
- * @brief A navigation grid simulated from its true dynamics. States are cells plus the failure
- * state W*H; rewards are realised: -step_cost per move, +Rmax on entering a goal, -Rmax on
- * being trapped.
- */
-class GridWorldEnvironment : public Environment {
- public:
-  /// @throws ConfigError when the dynamics are invalid or start/goals are out of range,
-  /// blocked, or the start is a goal.
-  GridWorldEnvironment(GridDynamics dynamics, StateId start, std::vector<StateId> goals,
-                       const NavigationReward& reward);
-  StateId reset() override;
-  StepResult step(ActionId a, Rng& rng) override;
-  std::size_t numStates() const override { return dyn_.numCells() + 1; }
-  std::size_t numActions() const override { return 4; }
-  const GridDynamics& dynamics() const { return dyn_; }
-  StateId failureState() const { return static_cast<StateId>(dyn_.numCells()); }
-  const std::vector<StateId>& goals() const { return goals_; }
-  StateId start() const { return start_; }
-
- private:
-  GridDynamics dyn_;
-  StateId start_;
-  std::vector<StateId> goals_;
-  std::vector<std::uint8_t> goal_;
-  NavigationReward reward_;
-  StateId state_;
 };
 
 /**

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "krr_core/mdp/environment.h"
+#include "krr_core/mdp/navigation_task.h"
 #include "krr_core/mdp/rmax_model.h"
 #include "krr_core/mdp/solvers.h"
 

@@ -29,6 +29,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "krr_core/mdp/model_concept.h"
 #include "krr_core/mdp/navigation_task.h"
 #include "krr_core/mdp/sparse_model.h"
 #include "krr_core/mdp/visit_counts.h"
@@ -158,6 +159,10 @@ class RMaxModel {
   std::vector<StateId> changed_;
   std::vector<std::uint8_t> changed_flag_;
 };
+
+// R-Max plans on this view with the generic solvers (valueIterationView, bellmanBackup).
+static_assert(is_successor_model_v<RMaxModel>,
+              "RMaxModel must satisfy mdp::SuccessorModel (krr_core/mdp/model_concept.h)");
 
 }  // namespace mdp
 }  // namespace krr

@@ -39,6 +39,7 @@
 #include "krr_core/common/errors.h"
 
 #include "krr_core/mdp/grid_model.h"
+#include "krr_core/mdp/model_concept.h"
 #include "krr_core/mdp/sparse_model.h"
 
 namespace krr {
@@ -69,6 +70,15 @@ struct Solution {
   std::size_t iterations = 0;      ///< sweeps (VI) or policy improvements (PI)
   double residual = 0.0;           ///< last sweep's max |V_new - V_old| (VI) / Bellman residual (PI)
   bool converged = false;          ///< residual below the stopping threshold
+
+  /// @brief Record sweep `it` with residual `res` (the one stopping rule of every sweep loop);
+  /// true when it converged (res < threshold).
+  bool recordSweep(std::size_t it, double res, double threshold) {
+    iterations = it;
+    residual = res;
+    converged = res < threshold;
+    return converged;
+  }
 };
 
 /// @brief The residual threshold epsilon (1 - gamma) / (2 gamma) (epsilon when gamma = 1).
@@ -132,6 +142,10 @@ double bellmanResidual(const SparseModel& model, const std::vector<double>& valu
 template <class Model>
 double bellmanBackup(const Model& model, const std::vector<double>& values, StateId s,
                      ActionId* best_action = nullptr) {
+  static_assert(is_successor_model_v<Model>,
+                "bellmanBackup: the model must satisfy mdp::SuccessorModel (getS, getA, "
+                "getDiscount, getTransitionProbability, getExpectedReward, isTerminal, "
+                "successors; see krr_core/mdp/model_concept.h)");
   double best = -std::numeric_limits<double>::infinity();
   ActionId arg = 0;
   const double g = model.getDiscount();
@@ -155,6 +169,10 @@ double bellmanBackup(const Model& model, const std::vector<double>& values, Stat
 template <class Model>
 Solution valueIterationView(const Model& model, const SolverOptions& options,
                             const std::vector<double>* warm_start = nullptr) {
+  static_assert(is_successor_model_v<Model>,
+                "valueIterationView: the model must satisfy mdp::SuccessorModel (getS, getA, "
+                "getDiscount, getTransitionProbability, getExpectedReward, isTerminal, "
+                "successors; see krr_core/mdp/model_concept.h)");
   options.validate();
   const std::size_t ns = model.getS();
   if (warm_start != nullptr && warm_start->size() != ns) {
@@ -185,12 +203,7 @@ Solution valueIterationView(const Model& model, const SolverOptions& options,
       res = std::max(res, std::fabs(v - sol.values[s]));
       sol.values[s] = v;
     }
-    sol.iterations = it;
-    sol.residual = res;
-    if (res < threshold) {
-      sol.converged = true;
-      break;
-    }
+    if (sol.recordSweep(it, res, threshold)) break;
   }
   for (StateId s = 0; s < ns; ++s) {
     if (!model.isTerminal(s)) bellmanBackup(model, sol.values, s, &sol.policy[s]);

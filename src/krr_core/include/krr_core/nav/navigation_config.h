@@ -94,6 +94,9 @@ struct NavigationConfig {
   PlannerConfig planner;
   PlanningConfig planning;
   RMaxLearningConfig rmax_learning;
+  /// @brief context.time: the time of day of tasks, learning and deliveries that name none
+  /// (one of simulator.time_of_day): the one home of the robot's default context.
+  std::string time = "morning";
 
   /// @brief The domain called `name`; UnknownSymbolError if absent.
   const DomainConfig& domain(const std::string& name) const;

@@ -82,6 +82,9 @@ using AspModel = std::vector<std::string>;
 struct ClingoResult {
   bool satisfiable = false;       ///< result of the (last, with a multi-shot script) solve
   std::vector<AspModel> models;   ///< every answer set printed, in clingo's order
+  /// @brief With a #minimize statement: the optimisation value clingo printed after each
+  /// model (costs[i] belongs to models[i]); empty otherwise.
+  std::vector<std::vector<long long>> costs;
 };
 
 /// @brief A shown atom split into its predicate name and argument texts.

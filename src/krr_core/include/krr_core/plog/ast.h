@@ -131,6 +131,9 @@ struct Rule {
   VariableSorts variable_sorts;
   std::string tag;           ///< optional user tag (set by Reasoner::addStatements)
   SourceLocation loc;
+  /// @brief Consistency-restoring rule `head :+ body.` (plog2.0): applied only in the
+  /// cardinality-minimal numbers of ground instances that make the program consistent.
+  bool consistency_restoring = false;
   bool isConstraint() const { return !head.has_value(); }
 };
 
@@ -146,6 +149,8 @@ struct RandomRule {
   std::vector<Literal> body;
   VariableSorts variable_sorts;
   SourceLocation loc;
+  /// @brief `random(a) :+ body.`: a consistency-restoring random selection (see Rule).
+  bool consistency_restoring = false;
 };
 
 /// @brief `[r] pr(a(t) = y | body) = v.`: causal probability v of a(t) = y when body holds.
@@ -200,6 +205,9 @@ struct Program {
   std::vector<Observation> observations;
   std::vector<Intervention> interventions;
   std::vector<Query> queries;
+  /// @brief What the parser left out or read in a lenient way, one "file:line:col: warning:
+  /// ..." line each (e.g. a fact with a value outside its sort, which sorted grounding drops).
+  std::vector<std::string> warnings;
 
   /// @brief Declaration of a sort, nullptr when absent.
   const SortDecl* findSort(const std::string& name) const;
@@ -207,6 +215,8 @@ struct Program {
   const AttributeDecl* findAttribute(const std::string& name) const;
   /// @brief Sort of a #domain-typed variable ("" when untyped).
   std::string domainSortOf(const std::string& variable) const;
+  /// @brief True when some rule or random selection is consistency-restoring (`:+`).
+  bool hasConsistencyRestoringRules() const;
 };
 
 /// @brief Text of a term in classic syntax (`f(a,1)`, `C+1`, `X`).

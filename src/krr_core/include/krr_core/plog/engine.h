@@ -15,6 +15,7 @@
 #pragma once
 
 #include <chrono>
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -86,6 +87,9 @@ class ExactEngine {
   void liveItems(int inst, std::vector<Item>& out) const;
   const std::vector<Item>& liveItemsCached(int inst);
   void scopeOfLit(const GLit& l, std::vector<int>& out);
+  /// @brief Appends the random instances that the live selection rules and pr-atoms of inst
+  /// read (its parents in the factor graph; duplicates possible).
+  void scopeOfItems(int inst, std::vector<int>& out);
   void scopeOfInstance(int inst, std::vector<int>& out);
   bool holds(const GLit& l);
   bool atomHolds(int inst, int value);
@@ -103,6 +107,14 @@ class ExactEngine {
   };
   void checkPendingErrors(const std::vector<Factor>& factors);
   void buildCpt(int inst, Factor& f);
+  /// @brief Measure of each state of the random, unfixed instance inst together with the
+  /// evidence (states_[inst] order; one entry when the instance is not in the result scope).
+  std::vector<double> unnormalisedMarginal(int inst, const std::vector<GCondition>& evidence);
+  /// @brief 0/1 factor over scope (sorted and made unique here): 1 where holds() is true for
+  /// the assignment of the scope's instances (set in assign_ while holds() runs).
+  /// @throws OutsideFragmentError with message too_large when the table exceeds kMaxFactor.
+  Factor indicatorFactor(std::vector<int> scope, const std::string& too_large,
+                         const std::function<bool()>& holds);
   void buildIndicator(const std::vector<GCondition>& conds, bool constraint_style,
                       const std::vector<GLit>* constraint_body, std::vector<Factor>& out);
   std::vector<double> eliminate(std::vector<Factor> factors, int keep);

@@ -11,6 +11,16 @@
 namespace krr {
 namespace plog {
 
+/// @brief Settings of the parser that change what it accepts.
+struct ParseOptions {
+  /// @brief A rule or fact whose head has a ground argument or value outside the declared
+  /// sort (`connected(batteryB, streering_sensor2).`, a misspelling) has no properly sorted
+  /// ground instance: P-log's grounding (and plog2.0) leaves it out. By default it is left out
+  /// with a warning in Program::warnings naming file:line:col and the value; when true it is
+  /// an UnknownSymbolError instead.
+  bool strict_sorts = false;
+};
+
 /// @brief Parse and resolve a whole program; the dialect is detected from the presence of the
 /// plog2.0 section keywords (`sorts`, `attributes`, `statements`).
 /// @throws ParseError (file:line:col, offending and expected token), UnknownSymbolError
@@ -25,6 +35,12 @@ Program parseProgram(const std::string& text, const std::string& file_name, Dial
 /// already declared. Used to add learned knowledge at run time. On error `program` is unchanged.
 void parseInto(Program& program, const std::string& text, const std::string& file_name,
                Dialect dialect = Dialect::Auto);
+
+/// @brief parseProgram / parseInto with parser settings (see ParseOptions).
+Program parseProgram(const std::string& text, const std::string& file_name, Dialect dialect,
+                     const ParseOptions& options);
+void parseInto(Program& program, const std::string& text, const std::string& file_name,
+               Dialect dialect, const ParseOptions& options);
 
 /// @brief Parse one query (`?{a=y} | obs(b=z), do(c=w)`, the leading `?` and braces optional,
 /// trailing `.` optional) against a program's declarations.

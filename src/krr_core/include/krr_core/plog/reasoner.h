@@ -31,6 +31,7 @@
 
 #include "krr_core/plog/ast.h"
 #include "krr_core/plog/budget.h"
+#include "krr_core/plog/parser.h"
 
 namespace krr {
 namespace plog {
@@ -113,6 +114,12 @@ class Reasoner {
   /// @return number of statements added or updated.
   size_t addStatements(const std::string& text, const std::string& tag = "",
                        const std::string& name = "<statements>");
+  /// @brief Warnings of the parser about the loaded and added statements ("file:line:col:
+  /// warning: ..."), e.g. facts left out because a value is outside its sort.
+  const std::vector<std::string>& warnings() const { return program_.warnings; }
+  /// @brief Make ill-sorted facts an error (UnknownSymbolError) instead of a warning in the
+  /// programs and statements parsed from now on (see ParseOptions::strict_sorts).
+  void setStrictSorts(bool strict) { parse_options_.strict_sorts = strict; }
   /// @brief Remove every rule and pr-atom added with this tag; returns how many.
   size_t removeStatementsWithTag(const std::string& tag);
 
@@ -264,6 +271,7 @@ class Reasoner {
   std::pair<std::uint64_t, std::uint64_t> known_version_{0, 0};
   bool known_symbols_valid_ = false;
   Backend backend_ = Backend::Auto;
+  ParseOptions parse_options_;
   double race_delay_ = 0.25;
   /// @brief Set while racing once clingo has answered: the native computation stops.
   std::atomic<bool> asp_won_{false};

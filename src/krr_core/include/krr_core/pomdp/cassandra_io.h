@@ -22,6 +22,7 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <string>
 
 #include "krr_core/pomdp/model.h"
@@ -58,6 +59,20 @@ struct CassandraStats {
   /// Rows (and start vector) divided by their sum because it differed from 1.
   std::size_t renormalised_rows = 0;
 };
+
+/// @brief Sums within this of 1 are floating-point noise of exact decimals (0.1 + 0.2 + 0.7):
+/// such distributions are kept as written, so that read -> write -> read is exact.
+constexpr double kExactSumNoise = 1e-9;
+
+/// @brief The readers' one rule for a probability distribution whose entries sum to `sum`
+/// (a .pomdp T or O row or start vector, a .pomdpx CondProb row), shared by the .pomdp and
+/// .pomdpx readers so that both accept and repair exactly the same files.
+/// @return false when |sum - 1| > tolerance (the caller reports the error at its location);
+/// otherwise records |sum - 1| in stats (with where() when it is the largest so far), sets
+/// *divisor to what the entries must be divided by (1 within kExactSumNoise, else sum, counted
+/// in stats.renormalised_rows) and returns true.
+bool checkDistributionSum(double sum, double tolerance, CassandraStats& stats,
+                          const std::function<std::string()>& where, double* divisor);
 
 /// @brief The least bytes a Model with S states, A actions and O observations needs while it
 /// is read and built, known from the declarations alone: per (state, action) the reader's row

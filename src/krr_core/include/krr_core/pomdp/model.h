@@ -201,6 +201,9 @@ class Model {
   /// @brief Checks, derived flags and the choice of storage, shared by both constructors.
   void finish(ModelStorage storage, double timeLimit, double startSeconds);
   void validateRows(double timeLimit, double startSeconds) const;
+  /// @brief out = T[a]^T v (transposed) or T[a] v, in whichever form T is kept.
+  void applyTransition(std::size_t a, const Eigen::VectorXd& v, Eigen::VectorXd& out,
+                       bool transposed) const;
   bool denseT_ = false, denseZ_ = false;
   std::vector<Eigen::MatrixXd> t_, tt_, z_;  // empty when the form is sparse
   Eigen::MatrixXd r_;

@@ -11,12 +11,17 @@
  *  - an upper bound: corner values from the fast informed bound (FIB, tighter than QMDP) plus
  *    belief points with sawtooth interpolation, improved by Bellman backups at the points.
  * Trials start at the initial belief, follow the action of the best upper bound and the
- * observation with the largest weighted excess gap, and back up both bounds on the way back.
- * Trial precision adapts to the current gap at the root (anytime). Both bounds are valid for
- * every discounted POMDP; the dialog structure is exploited without being assumed: identity
- * transitions (questions) skip the prediction step, absorbing zero-reward states (after serve)
- * get exact zero bounds and end trials, and the per-action observation support limits
- * branching to the answers a question can produce.
+ * observation with the largest weighted excess gap, and stop by HSVI's depth rule (trial
+ * precision half the root gap, as SARSOP) or SARSOP's upper target; both bounds are backed up
+ * on the way back. Beliefs are sparse (sorted state / probability pairs), so a bound evaluation
+ * or backup costs the belief's support, not S; the best vector at each visited belief and at
+ * each of its children is cached and only re-scored against vectors added since (what made
+ * RockSample 7,8, 12,545 states, reach SARSOP's 60 s lower bound within 10 s). Both bounds are
+ * valid for every discounted POMDP; the dialog structure is exploited without being assumed:
+ * identity transitions (questions) skip the prediction step, absorbing zero-reward states
+ * (after serve) get exact zero bounds and end trials, and the per-action observation support
+ * limits branching to the answers a question can produce. With a trial budget (maxTrials) the
+ * search is deterministic: it makes no random choice.
  */
 #pragma once
 
@@ -28,6 +33,7 @@
 #include "krr_core/pomdp/alpha_policy.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/pomdp/model.h"
+#include "krr_core/pomdp/solver_clock.h"
 
 namespace krr {
 namespace pomdp {
@@ -40,13 +46,18 @@ struct SolverOptions {
   /// the result reproducible (with initTimeLimit not reached, the run is deterministic).
   std::size_t maxTrials = 0;
   std::size_t maxDepth = 1000;     ///< cap on trial depth
-  double trialGapFactor = 0.95;    ///< trial precision = max(precision, factor * root gap)
+  /// Trial precision = max(precision, factor * root gap), and a trial goes on while the gap
+  /// at depth t exceeds that precision / gamma^t (HSVI's rule). 0.5, SARSOP's default: with
+  /// 0.95 trials stopped after about 6 steps on RockSample, too shallow for the plans that
+  /// raise the lower bound (RockSample 5,7 at 10 s: 23.5 with 0.95, 24.4 with 0.5).
+  double trialGapFactor = 0.5;
   /// A trial also stops at a node whose weighted gap P(path) gamma^depth (U - L) is below this
-  /// fraction of the root gap (0: pure HSVI depth rule). With discounts close to 1, HSVI's
-  /// rule alone sends trials deep into improbable branches (the dialog model certifies its
-  /// bounds about 10x faster with 0.1). Halved after 16 trials without progress at the root,
-  /// so the bounds keep converging. Exploration only: the bounds stay valid.
-  double trialWeightCutoff = 0.1;
+  /// fraction of the root gap (0: pure HSVI depth rule, the default). Halved after 16 trials
+  /// without progress at the root, so the bounds keep converging. Exploration only: the bounds
+  /// stay valid. With 0.1, RockSample trials stopped after 6 steps (Tag at 10 s: -6.71 with
+  /// 0.01, -6.21 with 0); models with discounts close to 1 whose bounds converge (the dialog)
+  /// may still gain from it.
+  double trialWeightCutoff = 0.0;
   std::size_t initIterations = 100000;  ///< cap on FIB iterations (every iterate is valid)
   double initTimeLimit = 1.0;      ///< seconds allowed for the FIB iterations
   /// Sawtooth interpolation at beliefs that are not stored points. Off: the upper bound at a
@@ -59,6 +70,20 @@ struct SolverOptions {
   /// and keeps what it has when it is spent: at worst the blind-policy bound started at
   /// min_s R(s, a) / (1 - gamma) and the trivial upper bound max R / (1 - gamma), both valid.
   double setupTimeLimit = 0.0;
+  /// Bytes the bounds (alpha vectors, their plans, belief points) may hold (0: no limit). The
+  /// constructor throws ConfigError when the initial bounds alone exceed it; during the search,
+  /// a vector or point that would exceed it is not added and the search stops, keeping valid
+  /// bounds (memoryLimited() then says so).
+  std::size_t memoryLimit = 0;
+};
+
+/// @brief Where the search's time went (pomdp_solve --verbose prints it): seconds per kind of
+/// work and how often it ran, so that a slow run says which part to speed up.
+struct SearchProfile {
+  double upperBackupSeconds = 0.0, lowerBackupSeconds = 0.0, pruneSeconds = 0.0;
+  double sampleSeconds = 0.0;  ///< choosing the next observation along a trial
+  std::size_t upperBackups = 0, lowerBackups = 0, prunes = 0, alphasAdded = 0, pointsAdded = 0;
+  std::size_t depthSum = 0, maxDepth = 0;  ///< over all trials
 };
 
 /// @brief Where the constructor's set-up time went and how far each phase got, so that a run
@@ -85,6 +110,7 @@ struct BoundsReport {
   std::size_t alphas = 0;    ///< alpha vectors in the lower bound
   std::size_t points = 0;    ///< belief points in the upper bound
   std::size_t trials = 0;    ///< trials run
+  std::size_t bytes = 0;     ///< bytes held by the bounds (see SolverOptions::memoryLimit)
   double gap() const { return upper - lower; }
 };
 
@@ -96,7 +122,11 @@ class PointBasedSolver {
 
   /// @brief Run trials until the solver has used untilSeconds in total or has converged.
   /// @return true when the root gap is <= precision.
-  bool runUntil(double untilSeconds);
+  /// A trial that is under way at untilSeconds is finished, unless it reaches cutSeconds
+  /// (default: untilSeconds), where it stops and skips its remaining backups. A caller that
+  /// reports at checkpoints (pomdp_solve) passes its final deadline as cutSeconds, so that the
+  /// checkpoints do not change the result: with a trial budget the run is then deterministic.
+  bool runUntil(double untilSeconds, double cutSeconds = -1.0);
   /// @brief runUntil(options.timeout).
   bool solve() { return runUntil(options_.timeout); }
 
@@ -113,6 +143,10 @@ class PointBasedSolver {
   const Eigen::VectorXd& cornerUpper() const { return corner_; }
   /// @brief How the set-up went (phase times, whether each phase finished).
   const SetupReport& setupReport() const { return setup_; }
+  /// @brief Time per kind of work in the search so far.
+  const SearchProfile& profile() const { return profile_; }
+  /// @brief True when the memory limit stopped the search (the bounds stay valid).
+  bool memoryLimited() const { return memoryStop_; }
 
   /// @brief Models with at most this many states get exact dense (LU) evaluations in the
   /// set-up; larger ones sparse sweeps that stop at the set-up deadline (an O(S^3) LU of a
@@ -120,6 +154,18 @@ class PointBasedSolver {
   static constexpr std::size_t kDenseSetupStates = 500;
 
  private:
+  /// @brief A belief or unnormalised successor as sorted (state, probability) pairs: beliefs
+  /// of RockSample or Tag have a few hundred non-zero entries out of thousands of states, so
+  /// every bound evaluation and backup costs the support, not S.
+  struct SparseBelief {
+    std::vector<std::uint32_t> idx;
+    std::vector<double> val;
+    std::size_t size() const { return idx.size(); }
+    void clear() {
+      idx.clear();
+      val.clear();
+    }
+  };
   void initLower(double deadline);
   void initUpper(double mdpDeadline, double setupEnd);
   void trial();
@@ -128,31 +174,38 @@ class PointBasedSolver {
     std::vector<double> q, p, u;
     std::size_t action = 0;  ///< greedy w.r.t. the upper bound
   };
+  SparseBelief toSparse(const Belief& b) const;
+  /// kids_[k] = unnormalised successor for observation slot k of a; probs_[k] its mass.
+  void expand(const SparseBelief& b, std::size_t a);
   /// Full upper-bound backup at b (fills c, adds a point when it improves).
-  void upperBackup(const Eigen::VectorXd& b, NodeCache& c);
+  void upperBackup(const SparseBelief& b, NodeCache& c);
   /// Re-evaluate one child (action a, observation slot k) and redo the max.
-  void refreshUpper(const Eigen::VectorXd& b, NodeCache& c, std::size_t a, std::size_t k,
-                    const Eigen::VectorXd& child);
-  void finishUpper(const Eigen::VectorXd& b, NodeCache& c);
+  void refreshUpper(const SparseBelief& b, NodeCache& c, std::size_t a, std::size_t k,
+                    const SparseBelief& child);
+  void finishUpper(const SparseBelief& b, NodeCache& c);
   /// Point-based backup of the lower bound at b (adds a vector when it improves).
-  void lowerBackup(const Eigen::VectorXd& b);
-  double lowerRaw(const double* b) const;
-  double upperRaw(const double* b) const;
+  void lowerBackup(const SparseBelief& b);
+  /// max_i alpha_i . b; `arg` receives the maximiser.
+  double lowerAt(const SparseBelief& b, std::size_t* arg = nullptr) const;
+  double upperAt(const SparseBelief& b) const;
+  double rewardAt(const SparseBelief& b, std::size_t a) const;
   /// children[k]: the vector the plan of `alpha` follows after observation slot k of action.
-  void addAlpha(const Eigen::VectorXd& alpha, std::size_t action,
-                std::vector<std::uint32_t> children);
-  void addPoint(const Eigen::VectorXd& b, double v);
+  /// Returns false (and adds nothing) when the memory limit would be exceeded.
+  bool addAlpha(const double* alpha, std::size_t action, std::vector<std::uint32_t> children);
+  void addPoint(const SparseBelief& b, double v);
+  void insertByImprovement(std::vector<std::uint32_t>& bucket, std::size_t i) const;
   void pruneAlphas();
-  /// Unnormalised successor O_ao .* (T_a^T b); returns its mass.
-  double successor(const Eigen::VectorXd& b, std::size_t a, std::size_t o,
-                   Eigen::VectorXd& out) const;
+  /// Bytes held by the bounds (alpha vectors, plans, belief points): what the memory limit caps.
+  std::size_t boundBytes() const;
+  std::uint64_t beliefKey(const SparseBelief& b) const;
+  std::size_t findPoint(const SparseBelief& b) const;
 
   const Model& m_;
   SolverOptions options_;
   std::size_t s_, a_;
   double gamma_;
-  Eigen::VectorXd b0_;
-  std::vector<std::vector<Eigen::VectorXd>> obsCol_;  // obsCol_[a][k] = O_a column of obs k
+  SparseBelief b0_;
+  std::vector<std::vector<std::uint32_t>> slotOf_;  // slotOf_[a][o]: slot of obs o after a
   // Lower bound: flat alpha storage (N x S), action per vector.
   std::vector<double> alpha_;
   std::vector<std::size_t> alphaAction_;
@@ -160,44 +213,72 @@ class PointBasedSolver {
   // Pruning keeps them (or a vector dominating them): then every vector is at most the backup
   // of the set at every belief, so the greedy policy of the set earns the lower bound.
   std::vector<std::vector<std::uint32_t>> alphaChildren_;
-  std::vector<std::uint32_t> bestChildren_, candChildren_;
+  // Vectors that were the best at some belief the search evaluated since the last pruning:
+  // the witnesses that pruning keeps (SARSOP keeps the vectors that are best somewhere in its
+  // belief tree; re-scoring every stored belief at each pruning cost more than the search).
+  mutable std::vector<char> witness_;
   std::size_t prunedAt_ = 0;
-  // Upper bound: corner values and sawtooth points.
+  // Upper bound: corner values, FIB action vectors and sawtooth points.
   Eigen::VectorXd corner_;
-  std::vector<double> point_;     // N x S beliefs
+  std::vector<double> fib_;       // S x K, state-major: the kept FIB vectors
+  std::size_t fibK_ = 0;
+  mutable std::vector<double> fibScratch_;
+  std::vector<std::size_t> pointStart_{0};  // point i: entries [start[i], start[i + 1])
+  std::vector<std::uint32_t> pointIdx_;
+  std::vector<double> pointInv_;  // 1 / b_i(s) on the support
   std::vector<double> improve_;   // v_i - corner . b_i (<= 0)
-  std::vector<std::size_t> order_;  // point indices by increasing improvement
-  void insertOrdered(std::size_t i);
-  std::vector<double> inv_, pen_; // 1 / b_i(s) on the support; 2 off it (see upperRaw)
-  std::size_t sp_ = 0;            // S rounded up to a multiple of 4: stride of inv_ / pen_
-  mutable std::vector<double> bpad_;  // scratch: the belief padded to sp_
+  std::vector<std::vector<std::uint32_t>> firstOf_;  // [s]: points whose support starts at s
   std::unordered_map<std::uint64_t, std::vector<std::size_t>> pointIndex_;
   static constexpr std::size_t kNoPoint = static_cast<std::size_t>(-1);
-  std::uint64_t beliefKey(const double* b) const;
-  std::size_t findPoint(const double* b) const;
-  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> fibMat_;  // K x S
-  mutable Eigen::VectorXd fibBuf_;  // scratch for fibMat_ * b
+  mutable std::vector<double> scatter_;  // scratch: a belief scattered to S entries (else 0)
   double rootUpper_ = 0.0;
   double rootLower_ = 0.0;
-  double elapsed_ = 0.0;
   std::size_t trials_ = 0;
+  std::size_t backups_ = 0;
+  bool memoryStop_ = false;       // the memory limit stopped the search
   double cutoffScale_ = 1.0;    // multiplies options_.trialWeightCutoff (halved on stalls)
   std::size_t stalled_ = 0;     // consecutive trials without progress at the root
   std::size_t lowerStalled_ = 0;  // consecutive trials without progress of the root's lower bound
   // Scratch buffers (no per-step allocation in the hot loop).
-  Eigen::VectorXd pred_, child_, acc_, bestAlpha_, candidate_;
-  Eigen::MatrixXd children_, scores_;  // lowerBackup: S x slots children, N x slots scores
-  double now() const;
+  std::vector<SparseBelief> kids_;
+  struct PooledChild {
+    SparseBelief kid;
+    std::size_t slot = 0;
+  };
+  std::vector<PooledChild> pool_;  // lowerBackup: the children of every action
+  std::vector<std::size_t> groupOf_, groupHeads_, args_, members_;
+  std::vector<double> gather_, scores_;
+  /// A belief the search backed up or evaluated, with the best vector at it and at each of its
+  /// unnormalised children (slot order), over vectors [0, checked) of pruning epoch `epoch`.
+  struct LowerNode {
+    SparseBelief b;
+    std::size_t epoch = 0, checked = 0, selfArg = 0;
+    double self = 0.0;
+    std::vector<double> best;
+    std::vector<std::uint32_t> arg;
+  };
+  std::vector<LowerNode> lowerNodes_;
+  std::unordered_map<std::uint64_t, std::vector<std::size_t>> lowerIndex_;
+  std::size_t epoch_ = 0, lowerNodeBytes_ = 0;
+  /// The up-to-date LowerNode of b (created when new); returns its index.
+  std::size_t lowerNode(const SparseBelief& b);
+  std::vector<double> probs_;
+  SparseBelief pred_;
+  std::vector<double> acc_;
+  std::vector<char> mark_;
+  std::vector<std::uint32_t> touched_;
+  Eigen::VectorXd accVec_, nextVec_, candidate_;
+  std::vector<std::uint32_t> bestChildren_, candChildren_;
   SetupReport setup_;
-  Stopwatch clock_;
-  double clockOffset_ = 0.0;
-  double deadline_ = 0.0;
-  std::vector<Eigen::VectorXd> path_;
+  SolverClock clock_;
+  double cutAt_ = 0.0;  // solver seconds at which a trial under way is cut (runUntil)
+  bool cut() const { return clock_.now() >= cutAt_; }
+  std::vector<SparseBelief> path_;
   std::vector<NodeCache> cache_;
   std::vector<std::size_t> chosenObs_;
   std::vector<std::size_t> obsOffset_;  // obsOffset_[a] = first slot of action a
   std::vector<char> toTerminal_;        // action leads only to terminal states (serve)
-  std::vector<std::size_t> support_;
+  SearchProfile profile_;
 };
 
 }  // namespace pomdp

@@ -40,6 +40,7 @@
 #include "krr_core/common/resources.h"
 #include "krr_core/pomdp/model.h"
 #include "krr_core/pomdp/point_based_solver.h"
+#include "krr_core/pomdp/solver_clock.h"
 #include "krr_core/pomdp/turn_limited_policy.h"
 
 namespace krr {
@@ -134,7 +135,6 @@ class TurnLimitedSolver {
   void trialFrom(const Eigen::VectorXd& root, int t0, double thr, bool lowerGuided = false);
   /// The action greedy w.r.t. the lower bound at b (one-step lookahead), using c's P(o).
   std::size_t lowerGreedy(const Eigen::VectorXd& b, int t, const NodeCache& c);
-  double now() const { return clockOffset_ + clock_.seconds(); }
 
   const Model& m_;
   TurnLimitedSolverOptions options_;
@@ -149,8 +149,7 @@ class TurnLimitedSolver {
   std::vector<Stage> stages_;                         // 0..L
   double rootLower_ = 0.0, rootUpper_ = 0.0;
   std::size_t trials_ = 0;
-  double elapsed_ = 0.0, clockOffset_ = 0.0, deadline_ = 0.0;
-  Stopwatch clock_;
+  SolverClock clock_;
   std::vector<Eigen::VectorXd> path_;
   std::vector<NodeCache> cache_;
   std::vector<std::size_t> chosen_;

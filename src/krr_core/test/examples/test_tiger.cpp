@@ -1,7 +1,7 @@
 // Tests of the Tiger factory against the problem statement (Kaelbling et al. 1998).
 #include <gtest/gtest.h>
 
-#include "krr_core/pomdp/tiger.h"
+#include "krr_core/examples/tiger.h"
 
 namespace krr {
 namespace pomdp {

@@ -1,4 +1,4 @@
-#include "krr_core/plog/grid_program.h"
+#include "krr_core/examples/grid_program.h"
 
 #include <set>
 #include <sstream>

@@ -1,4 +1,4 @@
-#include "krr_core/pomdp/dialog_pomdp.h"
+#include "krr_core/dialog/dialog_pomdp.h"
 
 #include <cmath>
 #include <set>

@@ -6,6 +6,8 @@
  * tiger-left / tiger-right (what is heard). Listening costs 1 and reports the tiger's side
  * correctly with the given accuracy; opening the tiger's door costs 100, the other door gives
  * +10, and opening resets the problem (uniform state, uninformative observation).
+ * A toy problem for tests and benchmarks (examples library; it keeps the namespace of the
+ * module whose interface it instantiates).
  */
 #pragma once
 

@@ -13,6 +13,10 @@
  * item / room / person names (answers to general questions, correct with p_general, otherwise
  * uniform over the other values), yes / no (answers to confirming questions, correct with
  * p_yesno) and none (after serving). All numbers are inputs: the KB feeds them later.
+ *
+ * Domain code of the dialog module (the generic POMDP machinery is pomdp/); the class keeps
+ * the pomdp namespace, as pomdp::DialogPomdp, because the solvers' tests and benchmarks use it
+ * as their structured test model.
  */
 #pragma once
 

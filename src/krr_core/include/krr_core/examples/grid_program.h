@@ -1,7 +1,8 @@
 /**
  * @file grid_program.h
- * @brief Generator of the grid-navigation P-log program of the paper (Section III), used by the
- * benchmark and the tests, and a template for the programs the robot builds at run time.
+ * @brief Generator of the grid-navigation P-log program of the paper (Section III), a toy
+ * problem for the benchmark and the tests (examples library; the robot's own programs are the
+ * knowledge base, kb/). It keeps the namespace of the module it exercises.
  */
 #pragma once
 

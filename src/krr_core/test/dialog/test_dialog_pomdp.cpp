@@ -6,7 +6,7 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/common/random.h"
 #include "krr_core/pomdp/belief.h"
-#include "krr_core/pomdp/dialog_pomdp.h"
+#include "krr_core/dialog/dialog_pomdp.h"
 #include "krr_core/pomdp/turn_limited_solver.h"
 
 namespace krr {

@@ -1,0 +1,762 @@
+/**
+ * @file resolver.cpp
+ * @brief Resolution of raw P-log statements into a Program: attribute atoms vs comparisons,
+ * booleans, sorts of variables, implicit declarations, obs/do tested in rule bodies, sorted
+ * grounding of ill-sorted heads (ast.h describes the resolved form).
+ */
+#include "parser_syntax.h"
+
+#include "krr_core/plog/arith.h"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <map>
+#include <set>
+#include <unordered_set>
+
+#include "krr_core/common/errors.h"
+
+namespace krr {
+namespace plog {
+namespace syntax {
+namespace {
+
+class Resolver {
+ public:
+  explicit Resolver(Program& p) : prog_(p) {}
+
+  bool isAttributeTerm(const Term& t) const {
+    if (t.kind != Term::Kind::Symbol && t.kind != Term::Kind::Compound) return false;
+    return prog_.findAttribute(t.name) != nullptr;
+  }
+
+  AttributeTerm toAttr(const Term& t) {
+    AttributeTerm a;
+    a.name = t.name;
+    a.args = t.args;
+    a.loc = t.loc;
+    const AttributeDecl* d = prog_.findAttribute(t.name);
+    if (!d) throw UnknownSymbolError(t.loc.str() + ": unknown attribute '" + t.name + "'");
+    if (d->arg_sorts.size() != a.args.size())
+      throw UnknownSymbolError(t.loc.str() + ": attribute '" + t.name + "' expects " +
+                               std::to_string(d->arg_sorts.size()) + " argument(s), got " +
+                               std::to_string(a.args.size()));
+    for (size_t i = 0; i < a.args.size(); ++i) {
+      checkValue(a.args[i], d->arg_sorts[i], "argument " + std::to_string(i + 1) + " of '" +
+                                                 t.name + "'");
+    }
+    return a;
+  }
+
+  void checkValue(const Term& v, const std::string& sort, const std::string& what) {
+    if (sort.empty()) return;
+    if (v.kind != Term::Kind::Symbol && v.kind != Term::Kind::Integer &&
+        v.kind != Term::Kind::Compound)
+      return;
+    if (!v.isGround()) return;
+    const SortDecl* s = prog_.findSort(sort);
+    if (!s) throw UnknownSymbolError(v.loc.str() + ": unknown sort '" + sort + "'");
+    auto& cache = sort_cache_[sort];
+    if (cache.size() != s->values.size()) {
+      cache.clear();
+      for (const auto& x : s->values) cache.insert(toString(x));
+    }
+    if (cache.count(toString(v))) return;
+    throw IllSortedValue(v.loc.str() + ": unknown value '" + toString(v) + "' for " + what +
+                             " (not in sort " + sort + ")",
+                         "value '" + toString(v) + "' for " + what + " is not in sort " + sort,
+                         v.loc);
+  }
+
+  /// @brief A ground value outside the sort of its position (see ParseOptions::strict_sorts).
+  struct IllSortedValue : UnknownSymbolError {
+    IllSortedValue(const std::string& message, std::string what_value, SourceLocation where)
+        : UnknownSymbolError(message), description(std::move(what_value)), loc(std::move(where)) {}
+    std::string description;
+    SourceLocation loc;
+  };
+
+  Atom makeAtom(const Term& attr_term, const Term& value) {
+    Atom a;
+    a.attr = toAttr(attr_term);
+    a.value = value;
+    a.loc = attr_term.loc;
+    const AttributeDecl* d = prog_.findAttribute(attr_term.name);
+    checkValue(value, d->range_sort, "the value of '" + attr_term.name + "'");
+    return a;
+  }
+
+  Term freshVar() { return Term::variable("_V" + std::to_string(fresh_++)); }
+
+  /// @brief plog2.0 lets rule bodies test observations: `not obs(s, true, true)` holds when the
+  /// program does not observe s = true. They are read as the hidden boolean attribute
+  /// `obs(a(t), y, flag)` (untyped arguments), made true by one fact per observation.
+  bool usesObsLiterals() const {
+    const AttributeDecl* d = prog_.findAttribute("obs");
+    return d && d->implicit && d->arg_sorts.size() == 3;
+  }
+
+  static bool rawUsesObs(const std::vector<RawLit>& body) {
+    for (const auto& l : body)
+      if (!l.has_op && l.lhs.kind == Term::Kind::Compound && l.lhs.name == "obs") return true;
+    return false;
+  }
+
+  void declareObsAttribute(const std::vector<RawStmt>& stmts) {
+    if (prog_.findAttribute("obs")) return;
+    for (const auto& s : stmts) {
+      if (!rawUsesObs(s.body) && !rawUsesObs(s.range_body)) continue;
+      AttributeDecl d;
+      d.name = "obs";
+      d.arg_sorts.assign(3, "");
+      d.range_sort = "boolean";
+      d.implicit = true;
+      d.loc = s.loc;
+      prog_.attributes.push_back(d);
+      return;
+    }
+  }
+
+  /// @brief `obs(a(t), y)` / `obs(a(t), y, true|false)` in a body as the atom
+  /// obs(a(t), y, flag) = true, after checking a(t) and y against a's declaration.
+  Atom obsAtom(const Term& t) {
+    if (t.args.size() != 2 && t.args.size() != 3)
+      throw ParseError(t.loc, "obs(a, y) or obs(a, y, true|false) expected in a rule body");
+    const Term& a = t.args[0];
+    if ((a.kind != Term::Kind::Symbol && a.kind != Term::Kind::Compound) ||
+        !prog_.findAttribute(a.name) || a.name == "obs")
+      throw UnknownSymbolError(a.loc.str() + ": obs(...) needs an attribute term, got '" +
+                               toString(a) + "'");
+    makeAtom(a, t.args[1]);  // arity, argument sorts and value sort
+    Term flag = t.args.size() == 3 ? t.args[2] : Term::symbol("true", t.loc);
+    if (flag.kind != Term::Kind::Symbol || (flag.name != "true" && flag.name != "false"))
+      throw ParseError(flag.loc, "expected 'true' or 'false' as third argument of obs");
+    Atom o;
+    o.attr.name = "obs";
+    o.attr.args = {a, t.args[1], flag};
+    o.attr.loc = t.loc;
+    o.value = Term::symbol("true", t.loc);
+    o.loc = t.loc;
+    return o;
+  }
+
+  /// @brief plog2.0 programs test actions in rule bodies: `alarm :- do(A, f, true), not
+  /// authorized(A, f).` Read as the hidden boolean attribute `do` with as many untyped
+  /// arguments as the body uses, true for the argument tuples of the program's do statements
+  /// (one fact each, doFact). The intervention itself is made as usual.
+  void declareDoAttribute(const std::vector<RawStmt>& stmts) {
+    if (prog_.findAttribute("do")) return;
+    for (const auto& s : stmts) {
+      for (const auto* body : {&s.body, &s.range_body}) {
+        for (const auto& l : *body) {
+          if (l.has_op || l.lhs.kind != Term::Kind::Compound || l.lhs.name != "do") continue;
+          AttributeDecl d;
+          d.name = "do";
+          d.arg_sorts.assign(l.lhs.args.size(), "");
+          d.range_sort = "boolean";
+          d.implicit = true;
+          d.loc = l.loc;
+          prog_.attributes.push_back(d);
+          return;
+        }
+      }
+    }
+  }
+
+  /// @brief The fact do(t1, ..., tn) for a do statement whose arguments match the arity that
+  /// rule bodies test (none otherwise: no body can refer to it).
+  void addDoFact(const std::vector<Term>& args, const SourceLocation& loc) {
+    const AttributeDecl* d = prog_.findAttribute("do");
+    if (!d || !d->implicit || d->arg_sorts.size() != args.size()) return;
+    Rule r;
+    r.loc = loc;
+    Atom h;
+    h.attr.name = "do";
+    h.attr.args = args;
+    h.attr.loc = loc;
+    h.value = Term::symbol("true", loc);
+    h.loc = loc;
+    r.head = h;
+    prog_.rules.push_back(r);
+  }
+
+  /// @brief The fact obs(a(t), y, flag) that makes body tests of an observation true.
+  Rule obsFact(const Observation& o) {
+    Term a;
+    a.kind = o.literal.atom.attr.args.empty() ? Term::Kind::Symbol : Term::Kind::Compound;
+    a.name = o.literal.atom.attr.name;
+    a.args = o.literal.atom.attr.args;
+    a.loc = o.loc;
+    Rule r;
+    r.loc = o.loc;
+    Atom h;
+    h.attr.name = "obs";
+    h.attr.args = {a, o.literal.atom.value, Term::symbol(o.truth ? "true" : "false", o.loc)};
+    h.attr.loc = o.loc;
+    h.value = Term::symbol("true", o.loc);
+    h.loc = o.loc;
+    r.head = h;
+    return r;
+  }
+
+  // Resolve one raw literal into zero or more literals (rewrites may add literals).
+  void resolveLit(const RawLit& r, std::vector<Literal>& out) {
+    Literal l;
+    l.naf = r.naf;
+    l.loc = r.loc;
+    if (!r.has_op && r.lhs.kind == Term::Kind::Compound && r.lhs.name == "obs" &&
+        usesObsLiterals()) {
+      l.kind = Literal::Kind::Atom;
+      l.atom = obsAtom(r.lhs);
+      out.push_back(l);
+      return;
+    }
+    if (!r.has_op) {
+      const Term* t = &r.lhs;
+      bool neg = false;
+      if (t->kind == Term::Kind::Negate) {
+        neg = true;
+        t = &t->args[0];
+      }
+      if (t->kind != Term::Kind::Symbol && t->kind != Term::Kind::Compound)
+        throw ParseError(r.loc, "expected a literal, got '" + toString(r.lhs) + "'");
+      const AttributeDecl* d = prog_.findAttribute(t->name);
+      if (!d) throw UnknownSymbolError(t->loc.str() + ": unknown predicate '" + t->name + "'");
+      if (d->range_sort != "boolean")
+        throw ParseError(r.loc, "attribute '" + t->name + "' has range " + d->range_sort +
+                                    " and needs a value: " + t->name + "=...");
+      l.kind = Literal::Kind::Atom;
+      l.atom = makeAtom(*t, Term::symbol(neg ? "false" : "true", t->loc));
+      out.push_back(l);
+      return;
+    }
+    bool la = isAttributeTerm(r.lhs), ra = isAttributeTerm(r.rhs);
+    if (la && ra && (r.op == CompareOp::Eq || r.op == CompareOp::Ne)) {
+      // a(t) = y where y is also a declared 0-ary attribute name: prefer the value reading.
+      const AttributeDecl* d = prog_.findAttribute(r.lhs.name);
+      const SortDecl* s = prog_.findSort(d->range_sort);
+      bool is_value = false;
+      if (s)
+        for (const auto& x : s->values)
+          if (x == r.rhs) is_value = true;
+      if (is_value) ra = false;
+    }
+    if ((la || ra) && r.naf && (la && ra))
+      throw Error(r.loc.str() + ": 'not' before an equality of two attribute terms is not "
+                                "supported; bind them to variables first");
+    if (la && !ra && (r.op == CompareOp::Eq || r.op == CompareOp::Ne)) {
+      l.kind = Literal::Kind::Atom;
+      l.negated = r.op == CompareOp::Ne;
+      l.atom = makeAtom(r.lhs, r.rhs);
+      out.push_back(l);
+      return;
+    }
+    if (ra && !la && (r.op == CompareOp::Eq || r.op == CompareOp::Ne)) {
+      l.kind = Literal::Kind::Atom;
+      l.negated = r.op == CompareOp::Ne;
+      l.atom = makeAtom(r.rhs, r.lhs);
+      out.push_back(l);
+      return;
+    }
+    if (la && ra && r.op == CompareOp::Eq && !r.naf) {
+      Term v = freshVar();
+      for (const Term* side : {&r.lhs, &r.rhs}) {
+        Literal a;
+        a.kind = Literal::Kind::Atom;
+        a.loc = r.loc;
+        a.atom = makeAtom(*side, v);
+        out.push_back(a);
+      }
+      return;
+    }
+    Term lhs = r.lhs, rhs = r.rhs;
+    if (la || ra) {
+      if (r.naf)
+        throw Error(r.loc.str() + ": 'not' before a comparison of attribute terms is not "
+                                  "supported; bind the attribute to a variable first");
+      if (la) {
+        Term v = freshVar();
+        Literal a;
+        a.kind = Literal::Kind::Atom;
+        a.loc = r.loc;
+        a.atom = makeAtom(r.lhs, v);
+        out.push_back(a);
+        lhs = v;
+      }
+      if (ra) {
+        Term v = freshVar();
+        Literal a;
+        a.kind = Literal::Kind::Atom;
+        a.loc = r.loc;
+        a.atom = makeAtom(r.rhs, v);
+        out.push_back(a);
+        rhs = v;
+      }
+    }
+    checkArith(lhs);
+    checkArith(rhs);
+    l.kind = Literal::Kind::Comparison;
+    l.op = r.op;
+    l.lhs = lhs;
+    l.rhs = rhs;
+    out.push_back(l);
+  }
+
+  void checkArith(const Term& t) {
+    if (t.kind == Term::Kind::Compound || t.kind == Term::Kind::Symbol) {
+      if (prog_.findAttribute(t.name) && t.kind == Term::Kind::Compound)
+        throw Error(t.loc.str() + ": attribute term '" + toString(t) +
+                    "' inside an arithmetic expression is not supported");
+    }
+    for (const auto& a : t.args) checkArith(a);
+  }
+
+  std::vector<Literal> resolveBody(const std::vector<RawLit>& raw) {
+    std::vector<Literal> out;
+    for (const auto& r : raw) resolveLit(r, out);
+    return out;
+  }
+
+  Atom resolveHeadAtom(const RawLit& r, const char* what) {
+    if (r.naf) throw ParseError(r.loc, std::string("'not' is not allowed in ") + what);
+    const Term* h = &r.lhs;
+    if (h->kind == Term::Kind::Negate) h = &h->args[0];
+    if ((h->kind == Term::Kind::Symbol || h->kind == Term::Kind::Compound) &&
+        !prog_.findAttribute(h->name))
+      throw UnknownSymbolError(h->loc.str() + ": undeclared attribute '" + h->name + "' in " +
+                               what);
+    std::vector<Literal> tmp;
+    resolveLit(r, tmp);
+    if (tmp.size() != 1 || tmp[0].kind != Literal::Kind::Atom || tmp[0].negated)
+      throw ParseError(r.loc, std::string("expected an atom a(t)=y or p(t) as ") + what);
+    return tmp[0].atom;
+  }
+
+  void typeTerm(const Term& t, const std::string& sort, VariableSorts& vs) {
+    if (t.kind == Term::Kind::Variable && !sort.empty() && t.name != "_") vs.emplace(t.name, sort);
+    if (t.kind == Term::Kind::Compound && !sort.empty())
+      for (size_t i = 0; i < t.args.size(); ++i)
+        if (!t.args[i].isGround())
+          typeTerm(t.args[i], projectionSort(sort, t.name, t.args.size(), i), vs);
+  }
+
+  /// @brief Sort of the i-th argument of the records f(...) of `sort`, so that a variable
+  /// nested in a value (`genotype_of(X) = g(g_a, Y)`) ranges over what can stand there. The
+  /// sort is hidden (builtin: not exported; a re-parse derives it again).
+  std::string projectionSort(const std::string& sort, const std::string& f, size_t arity,
+                             size_t i) {
+    const SortDecl* s = prog_.findSort(sort);
+    if (!s) return "";
+    std::string name = "arg_" + sort + "_" + f + std::to_string(arity) + "_" + std::to_string(i);
+    if (const SortDecl* old = prog_.findSort(name)) return old->builtin ? name : "";
+    SortDecl p;
+    p.name = name;
+    p.builtin = true;
+    p.loc = s->loc;
+    std::set<std::string> seen;
+    for (const auto& v : s->values)
+      if (v.kind == Term::Kind::Compound && v.name == f && v.args.size() == arity &&
+          seen.insert(toString(v.args[i])).second)
+        p.values.push_back(v.args[i]);
+    if (p.values.empty()) return "";
+    prog_.sorts.push_back(p);
+    return name;
+  }
+
+  void typeAtom(const Atom& a, VariableSorts& vs) {
+    const AttributeDecl* d = prog_.findAttribute(a.attr.name);
+    if (!d) return;
+    for (size_t i = 0; i < a.attr.args.size() && i < d->arg_sorts.size(); ++i)
+      typeTerm(a.attr.args[i], d->arg_sorts[i], vs);
+    typeTerm(a.value, d->range_sort, vs);
+  }
+
+  void typeBody(const std::vector<Literal>& b, VariableSorts& vs) {
+    for (const auto& l : b)
+      if (l.kind == Literal::Kind::Atom) typeAtom(l.atom, vs);
+  }
+
+  void typeDomains(const std::vector<std::string>& vars, VariableSorts& vs) {
+    for (const auto& v : vars) {
+      std::string s = prog_.domainSortOf(v);
+      if (!s.empty()) vs[v] = s;
+    }
+  }
+
+  static void varsOfBody(const std::vector<Literal>& b, std::vector<std::string>& out) {
+    for (const auto& l : b) {
+      if (l.kind == Literal::Kind::Atom) {
+        for (const auto& a : l.atom.attr.args) a.collectVariables(out);
+        l.atom.value.collectVariables(out);
+      } else {
+        l.lhs.collectVariables(out);
+        l.rhs.collectVariables(out);
+      }
+    }
+  }
+  static void varsOfAtom(const Atom& a, std::vector<std::string>& out) {
+    for (const auto& x : a.attr.args) x.collectVariables(out);
+    a.value.collectVariables(out);
+  }
+
+  void requireGround(const Atom& a, const char* what) {
+    if (!a.value.isGround()) throw ParseError(a.loc, std::string(what) + " must be ground");
+    for (const auto& x : a.attr.args)
+      if (!x.isGround()) throw ParseError(a.loc, std::string(what) + " must be ground");
+  }
+
+  Observation resolveObs(const RawObs& o) {
+    Observation r;
+    r.loc = o.loc;
+    r.truth = o.truth;
+    std::vector<Literal> tmp;
+    resolveLit(o.lit, tmp);
+    if (tmp.size() != 1 || tmp[0].kind != Literal::Kind::Atom || tmp[0].naf)
+      throw ParseError(o.loc, "obs(...) needs an attribute atom a(t)=y or p(t)");
+    r.literal = tmp[0];
+    if (r.literal.negated) {
+      r.literal.negated = false;
+      r.truth = !r.truth;
+    }
+    requireGround(r.literal.atom, "observed atom");
+    return r;
+  }
+
+  Intervention resolveDo(const RawLit& l) {
+    Intervention d;
+    d.loc = l.loc;
+    d.atom = resolveHeadAtom(l, "do(...)");
+    requireGround(d.atom, "do(...) atom");
+    return d;
+  }
+
+  // A query/obs/do literal that did not resolve to an attribute atom names an unknown attribute.
+  void requireKnownAttribute(const RawLit& r) {
+    const Term* t = &r.lhs;
+    if (t->kind == Term::Kind::Negate) t = &t->args[0];
+    if ((t->kind == Term::Kind::Symbol || t->kind == Term::Kind::Compound) &&
+        !prog_.findAttribute(t->name))
+      throw UnknownSymbolError(t->loc.str() + ": unknown attribute '" + t->name + "'");
+  }
+
+  Query resolveQuery(const RawQuery& rq) {
+    if (usesObsLiterals() && !rq.obs.empty())
+      throw Error(rq.loc.str() + ": a query that observes is not supported for a program whose "
+                                 "rules test obs(...); write the observation as a fact");
+    for (const auto& l : rq.formula) requireKnownAttribute(l);
+    for (const auto& o : rq.obs) requireKnownAttribute(o.lit);
+    for (const auto& d : rq.dos) requireKnownAttribute(d);
+    Query q;
+    q.loc = rq.loc;
+    q.text = rq.text;
+    q.formula = resolveBody(rq.formula);
+    for (const auto& l : q.formula) {
+      if (l.kind != Literal::Kind::Atom)
+        throw ParseError(l.loc, "query formula must consist of attribute atoms");
+      requireGround(l.atom, "query atom");
+    }
+    for (const auto& o : rq.obs) q.observations.push_back(resolveObs(o));
+    for (const auto& d : rq.dos) q.interventions.push_back(resolveDo(d));
+    return q;
+  }
+
+  // Declare implicit predicates for undeclared heads of rules/facts.
+  void declareImplicit(const std::vector<RawStmt>& stmts) {
+    // plog2.0 requires every attribute to be declared in its `attributes` section
+    if (plog2_) return;
+    for (const auto& s : stmts) {
+      if (s.kind != RawStmt::Kind::Rule || !s.head) continue;
+      const RawLit& h = *s.head;
+      if (h.has_op && !(h.op == CompareOp::Eq && h.rhs.kind == Term::Kind::Symbol &&
+                        (h.rhs.name == "true" || h.rhs.name == "false")))
+        continue;
+      const Term* t = &h.lhs;
+      if (t->kind == Term::Kind::Negate) t = &t->args[0];
+      if (t->kind != Term::Kind::Symbol && t->kind != Term::Kind::Compound) continue;
+      if (prog_.findAttribute(t->name)) continue;
+      if (prog_.findSort(t->name) == nullptr || true) {
+        AttributeDecl d;
+        d.name = t->name;
+        d.arg_sorts.assign(t->args.size(), "");
+        d.range_sort = "boolean";
+        d.implicit = true;
+        d.loc = t->loc;
+        prog_.attributes.push_back(d);
+      }
+    }
+  }
+
+  /// @brief Give each classic range-only attribute `a : s.` that the statements use with
+  /// arguments (`random(place(B))`) that arity; an argument's sort is the #domain sort of a
+  /// variable written there, untyped otherwise. The classic solver reads its examples so.
+  void inferClassicArity(const std::vector<RawStmt>& stmts) {
+    if (range_only_.empty()) return;
+    std::map<std::string, std::vector<std::string>> seen;  // name -> argument sorts
+    std::function<void(const Term&)> visit = [&](const Term& t) {
+      if (t.kind == Term::Kind::Compound && range_only_.count(t.name)) {
+        auto it = seen.find(t.name);
+        if (it == seen.end()) it = seen.emplace(t.name, std::vector<std::string>(t.args.size())).first;
+        if (it->second.size() == t.args.size())
+          for (size_t i = 0; i < t.args.size(); ++i)
+            if (it->second[i].empty() && t.args[i].kind == Term::Kind::Variable)
+              it->second[i] = prog_.domainSortOf(t.args[i].name);
+      }
+      for (const auto& a : t.args) visit(a);
+    };
+    auto lit = [&](const RawLit& l) {
+      visit(l.lhs);
+      if (l.has_op) visit(l.rhs);
+    };
+    for (const auto& s : stmts) {
+      if (s.head) lit(*s.head);
+      for (const auto& l : s.body) lit(l);
+      for (const auto& l : s.range_body) lit(l);
+      lit(s.pr_atom);
+      lit(s.obs.lit);
+      lit(s.do_lit);
+      for (const auto& l : s.query.formula) lit(l);
+      for (const auto& o : s.query.obs) lit(o.lit);
+      for (const auto& l : s.query.dos) lit(l);
+    }
+    for (auto& a : prog_.attributes)
+      if (a.arg_sorts.empty() && seen.count(a.name)) a.arg_sorts = seen[a.name];
+  }
+
+  /// @brief Classic programs overload undeclared predicate names by arity, as ASP does
+  /// (Poker: pair(K, S) and pair(K)). One attribute has one arity here, so every arity but the
+  /// first one used is renamed `name_<arity>` (a free name) throughout the statements.
+  std::vector<RawStmt> splitOverloadedPredicates(const std::vector<RawStmt>& stmts) {
+    if (plog2_) return stmts;
+    std::map<std::string, std::vector<size_t>> arities;  // first-use order
+    auto top = [](const RawLit& l) -> const Term* {
+      const Term* t = &l.lhs;
+      if (t->kind == Term::Kind::Negate) t = &t->args[0];
+      return (t->kind == Term::Kind::Symbol || t->kind == Term::Kind::Compound) ? t : nullptr;
+    };
+    auto note = [&](const RawLit& l) {
+      const Term* t = top(l);
+      if (!t || prog_.findAttribute(t->name) || t->name == "obs" || t->name == "do") return;
+      auto& v = arities[t->name];
+      if (std::find(v.begin(), v.end(), t->args.size()) == v.end()) v.push_back(t->args.size());
+    };
+    for (const auto& s : stmts) {
+      if (s.kind == RawStmt::Kind::Rule && s.head) note(*s.head);
+      for (const auto& l : s.body) note(l);
+    }
+    std::map<std::pair<std::string, size_t>, std::string> rename;
+    for (const auto& a : arities) {
+      for (size_t k = 1; k < a.second.size(); ++k) {
+        std::string n = a.first + "_" + std::to_string(a.second[k]);
+        while (prog_.findAttribute(n) || arities.count(n)) n += "_";
+        rename[{a.first, a.second[k]}] = n;
+      }
+    }
+    if (rename.empty()) return stmts;
+    std::vector<RawStmt> out = stmts;
+    auto fix = [&](RawLit& l) {
+      Term* t = &l.lhs;
+      if (t->kind == Term::Kind::Negate) t = &t->args[0];
+      if (t->kind != Term::Kind::Symbol && t->kind != Term::Kind::Compound) return;
+      auto it = rename.find({t->name, t->args.size()});
+      if (it != rename.end()) t->name = it->second;
+    };
+    for (auto& s : out) {
+      if (s.head) fix(*s.head);
+      for (auto& l : s.body) fix(l);
+      for (auto& l : s.range_body) fix(l);
+      fix(s.pr_atom);
+      fix(s.obs.lit);
+      for (auto& l : s.query.formula) fix(l);
+      for (auto& o : s.query.obs) fix(o.lit);
+    }
+    return out;
+  }
+
+  void resolveAll(const std::vector<RawStmt>& raw) {
+    const std::vector<RawStmt> stmts = splitOverloadedPredicates(raw);
+    inferClassicArity(stmts);
+    declareObsAttribute(stmts);
+    declareDoAttribute(stmts);
+    declareImplicit(stmts);
+    for (const auto& s : stmts) {
+      switch (s.kind) {
+        case RawStmt::Kind::Rule: {
+          Rule r;
+          r.loc = s.loc;
+          r.consistency_restoring = s.consistency_restoring;
+          if (s.head) {
+            try {
+              r.head = resolveHeadAtom(*s.head, "a rule head");
+            } catch (const IllSortedValue& e) {
+              // Sorted grounding: the statement has no properly sorted ground instance.
+              if (strict_sorts_) throw;
+              prog_.warnings.push_back(
+                  e.loc.str() + ": warning: " + e.description +
+                  ": the statement has no well-sorted ground instance and is left out, as in "
+                  "P-log's sorted grounding (strict sorts make this an error)");
+              break;
+            }
+          }
+          r.body = resolveBody(s.body);
+          std::vector<std::string> vars;
+          if (r.head) {
+            typeAtom(*r.head, r.variable_sorts);
+            varsOfAtom(*r.head, vars);
+          }
+          typeBody(r.body, r.variable_sorts);
+          varsOfBody(r.body, vars);
+          typeDomains(vars, r.variable_sorts);
+          prog_.rules.push_back(std::move(r));
+          break;
+        }
+        case RawStmt::Kind::Random: {
+          RandomRule r;
+          r.loc = s.loc;
+          r.label = s.label;
+          r.consistency_restoring = s.consistency_restoring;
+          const Term& t = s.head->lhs;
+          if (t.kind != Term::Kind::Symbol && t.kind != Term::Kind::Compound)
+            throw ParseError(s.head->loc, "random(...) needs an attribute term");
+          r.attr = toAttr(t);
+          const AttributeDecl* d = prog_.findAttribute(t.name);
+          r.has_range = s.has_range;
+          if (s.has_range) {
+            if (!s.range_pred.empty()) {
+              r.range_var = "_R" + std::to_string(fresh_++);
+              RawLit pl;
+              pl.loc = s.head->loc;
+              pl.lhs.kind = Term::Kind::Compound;
+              pl.lhs.name = s.range_pred;
+              pl.lhs.loc = s.head->loc;
+              pl.lhs.args.push_back(Term::variable(r.range_var, s.head->loc));
+              r.range_body = resolveBody({pl});
+            } else {
+              r.range_var = s.range_var;
+              r.range_body = resolveBody(s.range_body);
+            }
+            r.variable_sorts.emplace(r.range_var, d->range_sort);
+          }
+          r.body = resolveBody(s.body);
+          std::vector<std::string> vars;
+          for (const auto& a : r.attr.args) a.collectVariables(vars);
+          for (size_t i = 0; i < r.attr.args.size(); ++i)
+            typeTerm(r.attr.args[i], d->arg_sorts[i], r.variable_sorts);
+          typeBody(r.body, r.variable_sorts);
+          typeBody(r.range_body, r.variable_sorts);
+          varsOfBody(r.body, vars);
+          varsOfBody(r.range_body, vars);
+          typeDomains(vars, r.variable_sorts);
+          prog_.random_rules.push_back(std::move(r));
+          break;
+        }
+        case RawStmt::Kind::Pr: {
+          PrAtom p;
+          p.loc = s.loc;
+          p.label = s.label;
+          p.atom = resolveHeadAtom(s.pr_atom, "the atom of a pr-atom");
+          p.body = resolveBody(s.body);
+          p.probability = s.prob;
+          p.probability_text = s.prob_text;
+          p.priority = s.priority;
+          if (!(p.probability >= 0.0 && p.probability <= 1.0))
+            throw IncoherentError(s.loc.str() + ": probability " + s.prob_text + " of pr(" +
+                                  toString(p.atom) + ") is outside [0,1]");
+          std::vector<std::string> vars;
+          varsOfAtom(p.atom, vars);
+          varsOfBody(p.body, vars);
+          typeAtom(p.atom, p.variable_sorts);
+          typeBody(p.body, p.variable_sorts);
+          typeDomains(vars, p.variable_sorts);
+          prog_.pr_atoms.push_back(std::move(p));
+          break;
+        }
+        case RawStmt::Kind::Obs:
+          requireKnownAttribute(s.obs.lit);
+          prog_.observations.push_back(resolveObs(s.obs));
+          if (usesObsLiterals()) prog_.rules.push_back(obsFact(prog_.observations.back()));
+          break;
+        case RawStmt::Kind::Do: {
+          const auto& a = s.do_args;
+          auto isTerm = [](const Term& t) {
+            return t.kind == Term::Kind::Symbol || t.kind == Term::Kind::Compound;
+          };
+          if (a.size() == 3 && isTerm(a[0]) && !prog_.findAttribute(a[0].name) && isTerm(a[1]) &&
+              prog_.findAttribute(a[1].name) && a[1].name != "do") {
+            // Agent form do(agent, a(t), y) (plog2.0's do with an agent, flag omitted): the
+            // agent fixes a(t) = y.
+            RawLit l;
+            l.loc = s.do_lit.loc;
+            l.lhs = a[1];
+            l.has_op = true;
+            l.op = CompareOp::Eq;
+            l.rhs = a[2];
+            prog_.interventions.push_back(resolveDo(l));
+          } else {
+            requireKnownAttribute(s.do_lit);
+            prog_.interventions.push_back(resolveDo(s.do_lit));
+          }
+          addDoFact(a, s.loc);
+          break;
+        }
+        case RawStmt::Kind::Query:
+          prog_.queries.push_back(resolveQuery(s.query));
+          break;
+      }
+    }
+  }
+
+  int fresh_ = 0;
+  /// @brief The statements are in the plog2.0 dialect (no implicit predicates).
+  bool plog2_ = false;
+  /// @brief ParseOptions::strict_sorts.
+  bool strict_sorts_ = false;
+  /// @brief Classic attributes declared with their range only (arity taken from use).
+  std::set<std::string> range_only_;
+
+ private:
+  Program& prog_;
+  std::map<std::string, std::unordered_set<std::string>> sort_cache_;
+};
+
+}  // namespace
+
+void ensureBoolean(Program& p) {
+  if (p.findSort("boolean")) return;
+  SortDecl b;
+  b.name = "boolean";
+  b.builtin = true;
+  b.values = {Term::symbol("true"), Term::symbol("false")};
+  p.sorts.insert(p.sorts.begin(), b);
+}
+
+int freshBase(const Program& p) {
+  // Fresh variable numbers must not collide with those of earlier parses into the program.
+  return static_cast<int>(p.rules.size() + p.random_rules.size() + p.pr_atoms.size() +
+                          p.queries.size()) * 4 + 1000;
+}
+
+void resolveStatements(Program& work, const std::vector<RawStmt>& stmts,
+                       const ResolveSettings& settings) {
+  Resolver res(work);
+  res.fresh_ = settings.fresh;
+  res.plog2_ = settings.plog2;
+  res.range_only_ = settings.range_only;
+  res.strict_sorts_ = settings.strict_sorts;
+  res.resolveAll(stmts);
+}
+
+Query resolveRawQuery(Program& work, const RawQuery& query, int fresh) {
+  Resolver res(work);
+  res.fresh_ = fresh;
+  return res.resolveQuery(query);
+}
+
+AttributeTerm resolveAttributeTerm(Program& work, const Term& term) {
+  Resolver res(work);
+  return res.toAttr(term);
+}
+
+}  // namespace syntax
+}  // namespace plog
+}  // namespace krr
