@@ -93,16 +93,22 @@ std::string trimmed(const std::string& s, std::size_t max_len = 4000) {
 }  // namespace
 
 std::vector<std::string> splitAspTerms(const std::string& text, char separator) {
+  // Answer-set lines hold millions of atoms on large programs: cut pieces out of the text by
+  // index rather than copying it character by character.
   std::vector<std::string> out;
-  std::string cur;
+  out.reserve(separator == ' ' ? 64 : 4);
+  std::size_t begin = 0;  // start of the current piece
   int depth = 0;
   bool in_string = false;
+  auto flush = [&](std::size_t end) {
+    if (end > begin) out.emplace_back(text, begin, end - begin);
+    begin = end + 1;
+  };
   for (std::size_t i = 0; i < text.size(); ++i) {
-    char c = text[i];
+    const char c = text[i];
     if (in_string) {
-      cur.push_back(c);
       if (c == '\\' && i + 1 < text.size()) {
-        cur.push_back(text[++i]);
+        ++i;
       } else if (c == '"') {
         in_string = false;
       }
@@ -110,21 +116,15 @@ std::vector<std::string> splitAspTerms(const std::string& text, char separator) 
     }
     if (c == '"') {
       in_string = true;
-      cur.push_back(c);
     } else if (c == '(') {
       ++depth;
-      cur.push_back(c);
     } else if (c == ')') {
       --depth;
-      cur.push_back(c);
     } else if (depth == 0 && (c == separator || (separator == ' ' && (c == '\t' || c == '\r')))) {
-      if (!cur.empty()) out.push_back(cur);
-      cur.clear();
-    } else {
-      cur.push_back(c);
+      flush(i);
     }
   }
-  if (!cur.empty()) out.push_back(cur);
+  flush(text.size());
   return out;
 }
 
