@@ -70,14 +70,7 @@ Model::Model(std::vector<Eigen::MatrixXd> transitions, std::vector<Eigen::Matrix
     throw ConfigError("POMDP model: " + std::to_string(z_.size()) +
                       " observation matrices for " + std::to_string(a_) + " actions");
   o_ = static_cast<std::size_t>(z_[0].cols());
-  if (o_ == 0) throw ConfigError("POMDP model: no observations");
-  if (!(discount > 0.0 && discount <= 1.0))
-    throw ConfigError("POMDP model: discount " + num(discount) + " outside (0, 1]");
-  if (static_cast<std::size_t>(r_.rows()) != s_ || static_cast<std::size_t>(r_.cols()) != a_)
-    throw ConfigError("POMDP model: reward matrix is " + std::to_string(r_.rows()) + "x" +
-                      std::to_string(r_.cols()) + ", expected " + std::to_string(s_) + "x" +
-                      std::to_string(a_) + " (states x actions)");
-  if (!r_.allFinite()) throw ConfigError("POMDP model: reward matrix has non-finite entries");
+  checkSizesAndRewards(discount);
   for (std::size_t a = 0; a < a_; ++a) {
     checkTime();
     const auto& t = t_[a];
@@ -152,6 +145,12 @@ Model::Model(std::vector<SparseRows> transitions, std::vector<SparseRows> observ
     throw ConfigError("POMDP model: " + std::to_string(zRows_.size()) +
                       " observation tables for " + std::to_string(a_) + " actions");
   o_ = zRows_[0].cols;
+  checkSizesAndRewards(discount);
+  validateRows(timeLimit, 0.0);
+  finish(storage, timeLimit, clock.seconds());
+}
+
+void Model::checkSizesAndRewards(double discount) const {
   if (o_ == 0) throw ConfigError("POMDP model: no observations");
   if (!(discount > 0.0 && discount <= 1.0))
     throw ConfigError("POMDP model: discount " + num(discount) + " outside (0, 1]");
@@ -160,8 +159,6 @@ Model::Model(std::vector<SparseRows> transitions, std::vector<SparseRows> observ
                       std::to_string(r_.cols()) + ", expected " + std::to_string(s_) + "x" +
                       std::to_string(a_) + " (states x actions)");
   if (!r_.allFinite()) throw ConfigError("POMDP model: reward matrix has non-finite entries");
-  validateRows(timeLimit, 0.0);
-  finish(storage, timeLimit, clock.seconds());
 }
 
 void Model::validateRows(double timeLimit, double startSeconds) const {

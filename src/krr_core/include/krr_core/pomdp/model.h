@@ -200,6 +200,9 @@ class Model {
   double discount_ = 1.0;
   /// @brief Checks, derived flags and the choice of storage, shared by both constructors.
   void finish(ModelStorage storage, double timeLimit, double startSeconds);
+  /// @brief Observation count, discount range and reward matrix shape and values, the checks
+  /// both constructors (dense and sparse rows) make once the sizes are known.
+  void checkSizesAndRewards(double discount) const;
   void validateRows(double timeLimit, double startSeconds) const;
   /// @brief out = T[a]^T v (transposed) or T[a] v, in whichever form T is kept.
   void applyTransition(std::size_t a, const Eigen::VectorXd& v, Eigen::VectorXd& out,
