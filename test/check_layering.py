@@ -1,5 +1,6 @@
 #!/usr/bin/python3
-"""Check the include layering of the C++ code (issue 14): exit 1 and list every violation.
+"""Check the include layering and module namespaces of the C++ code (issue 14).
+Exit 1 and list every violation.
 
 Layers of krr_core:
   generic      common, plog, mdp, nav, pomdp
@@ -18,6 +19,12 @@ Rules, checked on every #include of every C/C++ file of the repository (outside 
      an examples header, so no library, experiment, app or node code runs on a toy problem.
 Quoted includes are also resolved relative to the including file, so "../experiments/x.h"
 counts as an experiment header.
+And one rule on what a header declares:
+  5. namespace: every header of a module (include/krr_core/<m>/, and the private ones in
+     src/<m>/) declares its code in namespace krr::<m> or a namespace nested in it (common:
+     krr, but not in another module's namespace), so a name's namespace says which library
+     holds it. Explicit specialisations of std or YAML templates (`template <>` in those
+     namespaces, where the language puts them) are allowed.
 
 Usage: check_layering.py [--root REPO]   (default: the repository holding this script)
 """
@@ -31,6 +38,7 @@ GENERIC = {"common", "plog", "mdp", "nav", "pomdp"}
 DOMAIN = {"kb", "dialog"}
 EXPERIMENTS = "experiments"
 EXAMPLES = "examples"
+MODULES = GENERIC | DOMAIN | {EXPERIMENTS, EXAMPLES}
 # Code that may use the experiments (paths relative to the repository root).
 EXPERIMENT_USERS = (CORE + "/src/experiments/", CORE + "/include/krr_core/experiments/",
                     CORE + "/apps/", CORE + "/bench/", CORE + "/test/")
@@ -45,6 +53,9 @@ ROS_PREFIXES = {"ros", "roscpp", "rosbag", "rosconsole", "actionlib", "actionlib
 ROS_SUFFIXES = ("_msgs", "_srvs")
 SOURCE_EXT = (".h", ".hh", ".hpp", ".hxx", ".c", ".cc", ".cpp", ".cxx", ".ipp", ".inl")
 SKIP_DIRS = {".git", "catkin_ws", "node_modules", "__pycache__"}
+HEADER_EXT = (".h", ".hh", ".hpp", ".hxx")
+# Namespaces whose templates a module may specialise (`template <> struct hash<...>`).
+SPECIALISABLE = {"std", "YAML"}
 INCLUDE = re.compile(r'^[ \t]*#[ \t]*include[ \t]*([<"])([^">]+)[">]', re.M)
 BLOCK_COMMENT = re.compile(r"/\*.*?\*/", re.S)
 
@@ -86,6 +97,83 @@ def included_module(root, rel, delim, target):
     return None
 
 
+# Comments, string and character literals (raw strings too) and preprocessor lines, blanked
+# (newlines kept) before the namespaces of a header are read.
+LEXEMES = re.compile(r'//[^\n]*|/\*.*?\*/|R"([^(\s]*)\(.*?\)\1"|"(?:\\.|[^"\\\n])*"'
+                     r"|'(?:\\.|[^'\\\n])*'|^[ \t]*#(?:\\\n|[^\n])*", re.S | re.M)
+NAMESPACE_OPEN = re.compile(r"(?:inline\s+)?namespace\b\s*((?:[A-Za-z_]\w*\s*::\s*)*"
+                            r"[A-Za-z_]\w*)?\s*\{")
+EXTERN_BLOCK = re.compile(r'extern\s*"[^"]*"\s*\{')
+
+
+def blank_lexemes(text):
+    """`text` with comments, literals and preprocessor lines replaced by spaces (lines kept)."""
+    return LEXEMES.sub(lambda m: re.sub(r"[^\n]", " ", m.group(0)), text)
+
+
+def declared_namespaces(text):
+    """(line, namespace path, declaration text) of every declaration at namespace scope.
+
+    The path is a tuple of names ("" for an anonymous namespace); the declaration text is what
+    follows up to the next ';' or '{' (enough to recognise `template <>`)."""
+    code = blank_lexemes(text)
+    stack = []  # per open brace: the namespace names it opened (None: any other brace)
+    out, i, n = [], 0, len(code)
+    while i < n:
+        c = code[i]
+        if c.isspace() or c == ";":
+            i += 1
+            continue
+        at_namespace_scope = all(s is not None for s in stack)
+        if c == "}":
+            if stack:
+                stack.pop()
+            i += 1
+            continue
+        if c == "{":
+            stack.append(None)
+            i += 1
+            continue
+        if not at_namespace_scope:
+            i += 1
+            continue
+        m = NAMESPACE_OPEN.match(code, i)
+        if m:
+            names = re.sub(r"\s", "", m.group(1)).split("::") if m.group(1) else [""]
+            stack.append(names)
+            i = m.end()
+            continue
+        m = EXTERN_BLOCK.match(code, i)
+        if m:  # extern "C" { ... }: declarations stay in the enclosing namespace
+            stack.append([])
+            i = m.end()
+            continue
+        # A declaration: record it, then skip to its end (';' or its first brace, handled above).
+        path = tuple(x for s in stack for x in s)
+        end = i
+        while end < n and code[end] not in ";{}":
+            end += 1
+        out.append((code.count("\n", 0, i) + 1, path, " ".join(code[i:end].split())))
+        i = end
+    return out
+
+
+def namespace_problem(module, path, declaration):
+    """Why a declaration in `path` does not belong in a header of `module`, else None."""
+    if path and path[0] in SPECIALISABLE and re.match(r"template\s*<\s*>", declaration):
+        return None
+    if module == "common":
+        if len(path) >= 1 and path[0] == "krr" and (len(path) == 1 or path[1] not in MODULES):
+            return None
+        want = "krr"
+    else:
+        if path[:2] == ("krr", module):
+            return None
+        want = "krr::" + module
+    return "declares code in %s, not in %s" % (
+        "::".join(x or "(anonymous)" for x in path) if path else "the global namespace", want)
+
+
 def is_ros_header(target):
     first = target.split("/", 1)[0]
     return "/" in target and (first in ROS_PREFIXES or first.endswith(ROS_SUFFIXES))
@@ -112,6 +200,16 @@ def check(root):
                                 "the toy-problem header %s" % target)
             if rel.startswith(CORE + "/") and is_ros_header(target):
                 problems.append(where + "ros: the core includes the ROS header %s" % target)
+        if own is not None and rel.endswith(HEADER_EXT):
+            with open(os.path.join(root, rel), encoding="utf-8", errors="replace") as f:
+                text = f.read()
+            reported = set()
+            for line, path, declaration in declared_namespaces(text):
+                why = namespace_problem(own, path, declaration)
+                if why and path not in reported:  # one line per file and namespace
+                    reported.add(path)
+                    problems.append("%s:%d: namespace: header of module '%s' %s" %
+                                    (rel, line, own, why))
     return problems, checked
 
 

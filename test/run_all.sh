@@ -4,7 +4,8 @@
 #   2. every rostest .test (each starts its own master; run after sourcing devel/setup.bash,
 #      because `catkin_make run_tests` leaves PYTHONPATH empty for Python test nodes),
 #   3. the Python unittest suites of krr_eval (src/krr_eval/test), among them test_layering.py,
-#      which runs test/check_layering.py (no experiment header in library or node code).
+#      which runs test/check_layering.py (no experiment header in library or node code, every
+#      module header in its namespace krr::<module>).
 # Prints one summary line "tests: N passed, N failed" and exits non-zero on any failure.
 set -uo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

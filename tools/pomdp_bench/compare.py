@@ -5,6 +5,10 @@
                [--budgets 1,10] [--problems tiger,rocksample_4_4,...] [--dir DIR]
                [--output docs/pomdp_bench.md]
 
+Problems: tiger, rocksample_<n>_<k>, tag (generated), and dialog_br<rate>_<learned|outdated>: the
+robot's own Table I dialog models, exported by bench_dialog_pomdp (their rows also give the bounds
+of the turn-limited solver the robot uses, at the same budget).
+
 Issue 15 asks for ours >= SARSOP's lower bound at the same budget. Comparing against numbers
 copied from another machine or another rock layout proved misleading, so this script generates
 every problem with gen_pomdp.py into DIR, and runs both solvers one after the other (never in
@@ -27,6 +31,8 @@ ROOT = os.path.dirname(os.path.dirname(HERE))
 GEN = os.path.join(HERE, "gen_pomdp.py")
 DEFAULT_OURS = os.path.join(ROOT, "catkin_ws", "devel", "lib", "krr_core", "pomdp_solve")
 DEFAULT_PROBLEMS = "tiger,rocksample_4_4,rocksample_5_5,rocksample_5_7,tag,rocksample_7_8"
+DEFAULT_OUTPUT = os.path.join(ROOT, "docs", "pomdp_bench.md")
+DIALOG_BENCH = os.path.join(ROOT, "catkin_ws", "devel", "lib", "krr_core", "bench_dialog_pomdp")
 
 # Cassandra's Tiger (Kaelbling, Littman & Cassandra 1998), written here because gen_pomdp.py
 # only generates the grid problems.
@@ -64,6 +70,8 @@ def generate(problem, directory):
         if problem == "tiger":
             with open(path, "w") as f:
                 f.write(TIGER)
+        elif problem.startswith("dialog_"):
+            export_dialog(problem, directory)
         elif problem == "tag":
             subprocess.run([sys.executable, GEN, "tag", "-o", path], check=True,
                            stderr=subprocess.DEVNULL)
@@ -74,6 +82,47 @@ def generate(problem, directory):
             subprocess.run([sys.executable, GEN, "rocksample", m.group(1), m.group(2), "-o", path],
                            check=True, stderr=subprocess.DEVNULL)
     return path, sizes(path)
+
+
+def dialog_model(problem):
+    """dialog_br<rate>_<learned|outdated> -> (rate, condition), else None."""
+    m = re.fullmatch(r"dialog_br([0-9.]+)_(learned|outdated)", problem)
+    return (m.group(1), m.group(2)) if m else None
+
+
+def export_dialog(problem, directory):
+    """The product's Table I dialog model (knowledge base + learned navigation knowledge, with the
+    turn counter in the state), exported by bench_dialog_pomdp as DIR/<problem>.pomdp."""
+    model = dialog_model(problem)
+    if not model:
+        raise SystemExit("compare: unknown problem '%s' (dialog_br<rate>_<learned|outdated>)"
+                         % problem)
+    subprocess.run([DIALOG_BENCH, "--models", "%s:%s" % model, "--timeout", "0.1", "--trials",
+                    "1", "--export", directory], check=True, stdout=subprocess.DEVNULL)
+    os.replace(os.path.join(directory, problem + "_turns.pomdp"),
+               os.path.join(directory, problem + ".pomdp"))
+
+
+def run_product(problem, budget):
+    """The turn-limited solver the robot uses for its dialog policy (bench_dialog_pomdp), on the
+    same model: its bounds at config/dialog.yaml's trial budget (the policy the robot ships) and
+    at its last checkpoint (powers of two seconds) within `budget`."""
+    rate, condition = dialog_model(problem)
+    rc, text, wall, mem = timed([DIALOG_BENCH, "--models", "%s:%s" % (rate, condition),
+                                 "--timeout", str(budget), "--trials", "1"], budget * 3 + 120)
+    shipped, last = None, None
+    for line in text.splitlines():
+        f = line.split()
+        if len(f) >= 6 and not line.startswith("#"):
+            try:
+                t, lo, up = float(f[0]), float(f[1]), float(f[2])
+            except ValueError:
+                continue
+            if "configured budget" in line:
+                shipped = (t, lo, up)
+            if t <= budget * 1.05:
+                last = (t, lo, up)
+    return dict(shipped=shipped, last=last, error=None if shipped else "exit status %d" % rc)
 
 
 def sizes(path):
@@ -175,7 +224,7 @@ def main(argv):
     ap.add_argument("--budgets", default="1,10", help="seconds, comma separated (1,10)")
     ap.add_argument("--problems", default=DEFAULT_PROBLEMS)
     ap.add_argument("--dir", default="/tmp/pomdp_bench", help="where the problem files go")
-    ap.add_argument("--output", default=os.path.join(ROOT, "docs", "pomdp_bench.md"))
+    ap.add_argument("--output", default=DEFAULT_OUTPUT)
     args = ap.parse_args(argv)
     for name, path in (("SARSOP pomdpsol", args.sarsop), ("pomdp_solve", args.ours)):
         if not (os.path.isfile(path) and os.access(path, os.X_OK)):
@@ -195,6 +244,8 @@ def main(argv):
             ours = run_ours(args.ours, path, b)
             row = dict(problem=problem, S=S, A=A, O=O, budget=b, sarsop=sarsop, ours=ours,
                        verdict=verdict(ours, sarsop))
+            if dialog_model(problem):
+                row["product"] = run_product(problem, b)
             rows.append(row)
             print("%-16s %5s s  SARSOP %s / %s (%s s, %s MiB)  ours %s / %s (%s s, %s MiB)  %s%s"
                   % (problem, b, fmt(sarsop["lower"]), fmt(sarsop["upper"]), fmt(sarsop["wall"], 2),
@@ -206,8 +257,9 @@ def main(argv):
 
 
 def write_doc(args, rows):
-    cmd = "tools/pomdp_bench/compare.py --sarsop %s --budgets %s --problems %s" % (
-        args.sarsop, args.budgets, args.problems)
+    cmd = "tools/pomdp_bench/compare.py --sarsop %s --budgets %s --problems %s%s" % (
+        args.sarsop, args.budgets, args.problems,
+        "" if args.output == DEFAULT_OUTPUT else " --output " + os.path.relpath(args.output, ROOT))
     out = ["# POMDP benchmark: pomdp_solve vs SARSOP", "",
            "Generated by `tools/pomdp_bench/compare.py` on %s (%s, %d CPUs); do not edit by hand."
            % (datetime.datetime.now().strftime("%Y-%m-%d %H:%M"), platform.node() or "host",
@@ -232,6 +284,22 @@ def write_doc(args, rows):
             if res["error"]:
                 notes.append("- %s, %s s, %s: `%s`" % (r["problem"], r["budget"], who,
                                                         res["error"].replace("`", "'")))
+    product = [r for r in rows if "product" in r]
+    if product:
+        out += ["", "The dialog rows are the robot's own Table I models (`config/*.plog` and the "
+                "learned navigation knowledge, exported by `bench_dialog_pomdp --export`, with the "
+                "turn counter in the state). The robot solves them with its turn-limited solver "
+                "(`dialog_policy.h`), not with `pomdp_solve`. Its bounds from `bench_dialog_pomdp "
+                "--timeout B`: the policy it ships (config/dialog.yaml's trial budget; the robot "
+                "stops there) and its last checkpoint (1, 2, 4, 8, ... s of solver time, set-up "
+                "not counted) within the budget:", "",
+                "| problem | budget s | shipped policy (dialog.yaml trial budget): s, lower / upper "
+                "| last checkpoint within the budget: s, lower / upper |", "|---|---|---|---|"]
+        for r in product:
+            p = r["product"]
+            cell = lambda c: "—" if c is None else "%.2f s, %s / %s" % (c[0], fmt(c[1]), fmt(c[2]))
+            out.append("| %s | %s | %s | %s |" % (r["problem"], r["budget"], cell(p["shipped"]),
+                                                 cell(p["last"])))
     if notes:
         out += ["", "Failures:", ""] + notes
     out.append("")

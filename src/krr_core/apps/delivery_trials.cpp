@@ -46,7 +46,7 @@ struct Mean {
 
 /// @brief The program; main() runs it under guardedMain so that no exception aborts it.
 static int mainBody(int argc, char** argv) {
-  krr::dialog::ExperimentCli cli;
+  krr::experiments::ExperimentCli cli;
   std::size_t trials = 0;
   std::string exportPomdp;
   bool modelReport = false;
@@ -58,6 +58,7 @@ static int mainBody(int argc, char** argv) {
   if (const auto status = parser.parse(argc, argv, [&] { cli.finish(); })) return *status;
   try {
     using namespace krr::dialog;
+    using namespace krr::experiments;
     const ExperimentPaths paths = cli.paths();
     const DialogConfig config = cli.config(paths);
     krr::Stopwatch clock;

@@ -29,9 +29,9 @@ const char* kSummary =
 
 /// @brief The program; main() runs it under guardedMain so that no exception aborts it.
 static int mainBody(int argc, char** argv) {
-  krr::dialog::ExperimentCli cli;
+  krr::experiments::ExperimentCli cli;
   std::size_t count = 0;
-  krr::dialog::BeliefSamplerOptions sampler;
+  krr::experiments::BeliefSamplerOptions sampler;
   krr::OptionParser parser("dialog_entropy", kSummary);
   parser.add("--samples", "N", "beliefs to sample", &count).required().alias("--trials");
   cli.declare(parser);
@@ -44,6 +44,7 @@ static int mainBody(int argc, char** argv) {
   if (const auto status = parser.parse(argc, argv, check)) return *status;
   try {
     using namespace krr::dialog;
+    using namespace krr::experiments;
     const ExperimentPaths paths = cli.paths();
     const DialogConfig config = cli.config(paths);
     const krr::kb::NavDomain domain = krr::kb::NavDomain::load(

@@ -113,13 +113,13 @@ static int mainBody(int argc, char** argv) {
     if (!a.reach.empty()) {
       trips = TripTable::fromReach(knowledge.base().rooms, a.reach, a.reachBack, config.failure_penalty);
     } else {
-      const ExperimentPaths paths = ExperimentPaths::find(root, a.domain);
+      const auto paths = krr::experiments::ExperimentPaths::find(root, a.domain);
       const krr::kb::NavDomain domain = krr::kb::NavDomain::load(
           paths.navigation_yaml, a.domain, paths.geometry, paths.navigation_plog);
       krr::kb::NavigationKnowledge nav(*domain.grid, domain.knowledge_files);
       trips = deliveryNavigationFromKnowledge(domain, nav, config, knowledge.base().rooms)->trips();
     }
-    const krr::pomdp::DialogPomdp dialog(knowledge.buildSpec(trips, config));
+    const krr::dialog::DialogPomdp dialog(knowledge.buildSpec(trips, config));
     const LanguageFrontEnd language(dialog, loadLanguageConfig(languageFile), languageFile);
     std::fprintf(stderr, "# P^N(shop, room):");
     for (std::size_t r = 0; r < trips.rooms.size(); ++r)

@@ -35,7 +35,8 @@ std::size_t toCount(const std::string& flag, const std::string& v) {
   return krr::parseCountOption(flag, v);
 }
 
-void applyOverride(krr::kb::NavTransferOptions& o, const std::string& f, const std::string& v) {
+void applyOverride(krr::experiments::NavTransferOptions& o, const std::string& f,
+                   const std::string& v) {
   if (f == "--target-episodes") o.target_episodes = toCount(f, v);
   else if (f == "--source-episodes") o.source_episodes = toCount(f, v);
   else if (f == "--convergence-episodes") o.convergence_episodes = toCount(f, v);
@@ -51,7 +52,7 @@ void applyOverride(krr::kb::NavTransferOptions& o, const std::string& f, const s
 }
 
 struct Args {
-  krr::kb::NavExperimentFiles files;
+  krr::experiments::NavExperimentFiles files;
   std::string domain = "office_30x30", out, trials_out;
   std::size_t trials = 1000, begin = 0, threads = std::max(1u, std::thread::hardware_concurrency());
   std::uint64_t seed = 1;
@@ -77,7 +78,7 @@ struct Args {
     for (const auto& [flag, value] : experiment) {
       const std::string f = flag;
       p.add(f, value, "override of the options file", [this, f](const std::string& v) {
-        krr::kb::NavTransferOptions scratch;
+        krr::experiments::NavTransferOptions scratch;
         applyOverride(scratch, f, v);
         overrides.emplace_back(f, v);
       });
@@ -102,9 +103,9 @@ static int mainBody(int argc, char** argv) {
     // Given, the options file must exist; by default, it may be absent.
     const bool givenOptions = !a.files.options.empty();
     a.files.resolveRoot();
-    krr::kb::NavTransferOptions o;
+    krr::experiments::NavTransferOptions o;
     if (givenOptions || std::ifstream(a.files.options).good())
-      o = krr::kb::loadNavTransferOptions(a.files.options);
+      o = krr::experiments::loadNavTransferOptions(a.files.options);
     for (const auto& [f, v] : a.overrides) applyOverride(o, f, v);
     o.validate();
     a.files.resolveInputs(a.domain);
@@ -116,8 +117,9 @@ static int mainBody(int argc, char** argv) {
     krr::Stopwatch clock;
     auto dom =
         krr::kb::NavDomain::load(a.files.config, a.domain, a.files.geometry, a.files.knowledge);
-    const auto trials = krr::kb::runNavTransferTrials(dom, o, a.seed, a.begin, a.trials, a.threads);
-    const auto s = krr::kb::summarizeNavTransfer(trials);
+    const auto trials =
+        krr::experiments::runNavTransferTrials(dom, o, a.seed, a.begin, a.trials, a.threads);
+    const auto s = krr::experiments::summarizeNavTransfer(trials);
     if (!a.out.empty()) {
       std::ostringstream csv;
       csv << "episode,mean_with,ci95_with,mean_without,ci95_without,success_with,success_without\n";

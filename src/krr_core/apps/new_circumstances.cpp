@@ -32,7 +32,7 @@ const char* kSummary =
 
 /// @brief The program; main() runs it under guardedMain so that no exception aborts it.
 static int mainBody(int argc, char** argv) {
-  krr::kb::NavExperimentFiles files;
+  krr::experiments::NavExperimentFiles files;
   std::string domain, out;
   std::size_t trials = 0, threads = std::max(1u, std::thread::hardware_concurrency()), begin = 0;
   std::uint64_t seed = 1;
@@ -72,7 +72,8 @@ static int mainBody(int argc, char** argv) {
   if (const auto status = parser.parse(argc, argv, check)) return *status;
   try {
     files.resolveRoot();
-    krr::kb::NewCircumstancesOptions o = krr::kb::loadNewCircumstancesOptions(files.options);
+    krr::experiments::NewCircumstancesOptions o =
+        krr::experiments::loadNewCircumstancesOptions(files.options);
     for (const auto& [f, v] : overrides) {
       if (f == "--goal") o.goal = v;
       else if (f == "--br") o.blocking_rate = krr::parseNumberOption(f, v);
@@ -91,10 +92,10 @@ static int mainBody(int argc, char** argv) {
     krr::Stopwatch clock;
     const auto dom =
         krr::kb::NavDomain::load(files.config, o.domain, files.geometry, files.knowledge);
-    const auto res = krr::kb::runNewCircumstances(dom, o, seed, begin, trials, threads);
+    const auto res = krr::experiments::runNewCircumstances(dom, o, seed, begin, trials, threads);
     std::ostringstream csv;
-    if (!no_header) csv << krr::kb::newCircumstancesCsvHeader(o) << "\n";
-    for (const auto& t : res) csv << krr::kb::newCircumstancesCsvRow(t) << "\n";
+    if (!no_header) csv << krr::experiments::newCircumstancesCsvHeader(o) << "\n";
+    for (const auto& t : res) csv << krr::experiments::newCircumstancesCsvRow(t) << "\n";
     if (!out.empty()) krr::writeFileAtomic(out, csv.str());
 
     const std::size_t T = o.learn_times.size();
@@ -126,7 +127,7 @@ static int mainBody(int argc, char** argv) {
         for (std::size_t k = 0; k < T; ++k) self[k].push_back(t.p_self[k]);
     }
     auto line = [](const std::string& name, const std::vector<double>& x) {
-      const krr::kb::MeanCi m = krr::kb::meanCi(x);
+      const krr::experiments::MeanCi m = krr::experiments::meanCi(x);
       std::printf("  %-44s %.3f +- %.3f\n", name.c_str(), m.mean, m.ci95);
     };
     std::printf("new circumstances (%s, %s -> %s, br %g): %zu trials, %zu learning run(s); the robot "

@@ -224,11 +224,13 @@ static int mainBody(int argc, char** argv) {
       const krr::pomdp::BoundsReport rep = solver.report();
       std::printf("# search profile: %zu trials (mean depth %.1f, max %zu); upper backups %zu "
                   "(%.3f s); lower backups %zu (%.3f s); sampling %.3f s; prunes %zu (%.3f s); "
-                  "vectors added %zu, kept %zu; points %zu; bounds %.1f MiB\n",
+                  "vectors added %zu, kept %zu; points added %zu, pruned %zu in %zu prunes "
+                  "(%.3f s), kept %zu; bounds %.1f MiB\n",
                   rep.trials, rep.trials ? static_cast<double>(pr.depthSum) / rep.trials : 0.0,
                   pr.maxDepth, pr.upperBackups, pr.upperBackupSeconds, pr.lowerBackups,
                   pr.lowerBackupSeconds, pr.sampleSeconds, pr.prunes, pr.pruneSeconds,
-                  pr.alphasAdded, rep.alphas, rep.points, rep.bytes / 1048576.0);
+                  pr.alphasAdded, rep.alphas, pr.pointsAdded, pr.pointsPruned, pr.pointPrunes,
+                  pr.pointPruneSeconds, rep.points, rep.bytes / 1048576.0);
     }
     if (!policyOut.empty()) {
       solver.policy().writeApplXml(policyOut, file);

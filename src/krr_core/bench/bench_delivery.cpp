@@ -17,6 +17,7 @@
 int main(int argc, char** argv) {
   using namespace krr;
   using namespace krr::dialog;
+  using namespace krr::experiments;
   std::string root;
   double br = 0.3;
   std::size_t trials = 2000, solverTrials = 0;  // 0: the config's budget
@@ -40,7 +41,7 @@ int main(int argc, char** argv) {
     double tKnowledge = 0, tNav = 0, tSpec = 0;
     std::unique_ptr<DialogKnowledge> k;
     std::unique_ptr<DeliveryNavigation> nav;
-    std::unique_ptr<pomdp::DialogPomdp> d;
+    std::unique_ptr<DialogPomdp> d;
     kb::NavigationKnowledge nk(*dom.grid, dom.knowledge_files);
     for (int r = 0; r < reps; ++r) {
       Stopwatch c;
@@ -50,7 +51,7 @@ int main(int argc, char** argv) {
       nav = deliveryNavigationFromKnowledge(dom, nk, cfg, k->base().rooms);
       tNav += c.seconds() / reps;
       c.reset();
-      d = std::make_unique<pomdp::DialogPomdp>(k->buildSpec(nav->trips(), cfg));
+      d = std::make_unique<DialogPomdp>(k->buildSpec(nav->trips(), cfg));
       tSpec += c.seconds() / reps;
     }
     std::printf("dialog knowledge by reasoning (prior + speech model): %8.2f ms\n", 1e3 * tKnowledge);

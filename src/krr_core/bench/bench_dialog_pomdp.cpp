@@ -32,6 +32,7 @@
 
 using namespace krr;
 using namespace krr::dialog;
+using namespace krr::experiments;
 
 int main(int argc, char** argv) {
   double timeout = 8.0;
@@ -84,7 +85,7 @@ int main(int argc, char** argv) {
       o.seed = seed;
       o.cache_dir = haveCache ? (cache == "none" ? "" : cache) : defaultCacheDir();
       DeliveryExperiment ex(dom, cfg, o, false);
-      const pomdp::DialogPomdp& d = ex.dialog();
+      const DialogPomdp& d = ex.dialog();
       const std::string name = "br" + formatNumber(br, 3) + "_" + toString(condition);
       std::printf("\n## %s: %zu states, %zu actions, P^N(shop, room):", name.c_str(),
                   d.model().getS(), d.model().getA());

@@ -18,8 +18,8 @@
 
 namespace {
 
-krr::plog::GridNavigationSpec spec(int n) {
-  krr::plog::GridNavigationSpec s;
+krr::examples::GridNavigationSpec spec(int n) {
+  krr::examples::GridNavigationSpec s;
   s.width = n;
   s.height = n;
   // four blocking areas (corridors near the quarter lines), different rates
@@ -48,15 +48,15 @@ int main(int argc, char** argv) {
   if (sizes.empty()) sizes = {30, 50};
   try {
     for (int n : sizes) {
-      krr::plog::GridNavigationSpec s = spec(n);
-      std::string text = krr::plog::makeGridNavigationProgram(s);
+      krr::examples::GridNavigationSpec s = spec(n);
+      std::string text = krr::examples::makeGridNavigationProgram(s);
       krr::Stopwatch sw;
       krr::plog::Reasoner r;
       r.loadString(text, "grid" + std::to_string(n));
       double t_load = sw.seconds();
       sw.reset();
       // single query: first call grounds the cone (ground time), second is the query time
-      int c = krr::plog::gridCell(s, s.areas[0].x0, s.areas[0].y0);
+      int c = krr::examples::gridCell(s, s.areas[0].x0, s.areas[0].y0);
       std::string q = "?{next_cell=" + std::to_string(c + 1) + "} | do(curr_cell=" +
                       std::to_string(c) + "), do(act_move=right)";
       double p1 = r.probability(q);

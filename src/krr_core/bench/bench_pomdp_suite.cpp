@@ -29,6 +29,9 @@
 
 using namespace krr;
 using namespace krr::pomdp;
+using krr::dialog::DialogPomdp, krr::dialog::DialogSpec, krr::dialog::deliveryMatrix;
+using krr::dialog::ownOfficePrior;
+using krr::examples::makeTiger;
 
 namespace {
 

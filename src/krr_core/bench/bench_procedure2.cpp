@@ -31,7 +31,11 @@
 #include "krr_core/common/random.h"
 #include "krr_core/common/resource_locator.h"
 #include "krr_core/common/resources.h"
-#include "krr_core/experiments/nav_transfer.h"
+#include "krr_core/kb/nav_domain.h"
+#include "krr_core/kb/navigation_knowledge.h"
+#include "krr_core/kb/navigation_learning.h"
+#include "krr_core/kb/simulated_navigation.h"
+#include "krr_core/mdp/rmax_agent.h"
 
 namespace {
 

@@ -20,6 +20,7 @@
 
 using namespace krr;
 using namespace krr::mdp;
+using krr::examples::GridWorldEnvironment;
 
 namespace {
 

@@ -195,6 +195,18 @@ class PolicyReportTest(unittest.TestCase):
         self.assertIn("NOT CERTIFIED", t.note)
         self.assertIn("met in every set", t.note)
         self.assertFalse(ctx.params["exp2"]["policies"]["br 0.7 outdated"]["certified"])
+        self.assertIn("because of --allow-unconverged", t.note)
+
+    def test_quick_runs_report_unconverged_policies_as_such(self):
+        # --quick is a smoke run of the pipeline: it reports uncertified policies (and says so)
+        # instead of failing; a full run still refuses them without --allow-unconverged.
+        prec = experiments.solver_precision()
+        sets = {"br 0.1 learned": self.table(-10.0, -10.0 + 3 * prec, [0] * 10)}
+        ctx = experiments.Context("/tmp", None, quick=True)
+        t = experiments.policy_report(ctx, "exp2", sets)
+        self.assertEqual(t.rows[0][4], "no")
+        self.assertIn("NOT CERTIFIED (reported because of --quick, a smoke run)", t.note)
+        self.assertFalse(ctx.params["exp2"]["policies"]["br 0.1 learned"]["certified"])
 
 
 # ---------------------------------------------------------------------------------------------

@@ -1,7 +1,7 @@
 """The include layering of the C++ code (test/check_layering.py), run with the other suites so
 that test/run_all.sh counts it: no experiment header in library or node code, no domain module
 in a generic one, no ROS header in the core, no toy problem (examples) outside tests and
-benchmarks.
+benchmarks, and every module header declaring its code in the module's namespace (krr::<m>).
 """
 import os
 import subprocess
@@ -17,6 +17,16 @@ SCRIPT = os.path.join(paths.root(), "test", "check_layering.py")
 def run(root=None):
     cmd = [sys.executable, SCRIPT] + (["--root", root] if root else [])
     return subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+
+
+def run_on_tree(files):
+    """The checker on a temporary tree holding `files` ({relative path: text})."""
+    with tempfile.TemporaryDirectory() as root:
+        for rel, text in files.items():
+            os.makedirs(os.path.dirname(os.path.join(root, rel)), exist_ok=True)
+            with open(os.path.join(root, rel), "w") as f:
+                f.write(text)
+        return run(root)
 
 
 class LayeringTest(unittest.TestCase):
@@ -44,12 +54,7 @@ class LayeringTest(unittest.TestCase):
             "src/krr_core/src/experiments/e.cpp": '#include "../../include/krr_core/examples/toy.h"\n',
             "src/krr_core/apps/a.cpp": '#include "krr_core/examples/toy.h"\n',
         }
-        with tempfile.TemporaryDirectory() as root:
-            for rel, text in files.items():
-                os.makedirs(os.path.dirname(os.path.join(root, rel)), exist_ok=True)
-                with open(os.path.join(root, rel), "w") as f:
-                    f.write(text)
-            r = run(root)
+        r = run_on_tree(files)
         self.assertEqual(r.returncode, 1, r.stdout + r.stderr)
         out = r.stdout
         self.assertIn("src/krr_ros/src/nodes/a_node.cpp:1: experiments:", out)
@@ -62,6 +67,48 @@ class LayeringTest(unittest.TestCase):
         # The experiments' own code and apps may use the experiments; tests, benchmarks and the
         # examples library itself the examples.
         self.assertIn("7 violations", out)
+
+    def test_the_namespace_rule_catches_a_header_in_another_namespace(self):
+        # A module's headers declare their code in krr::<module> (common: krr); the checker must
+        # fail on code in another module's namespace or none, and not on comments, strings,
+        # nested namespaces or std specialisations.
+        core = "src/krr_core/"
+        files = {
+            # violations (4)
+            core + "include/krr_core/experiments/trials.h":
+                "namespace krr {\nnamespace dialog {\nstruct Trial {};\n}  // namespace dialog\n}\n",
+            core + "src/experiments/private_yaml.h":
+                "namespace krr {\nnamespace kb {\nnamespace detail {\nint f();\n}\n}\n}\n",
+            core + "include/krr_core/nav/global.h":
+                "#pragma once\nnamespace krr { namespace nav { struct Grid; } }\nint loose();\n",
+            core + "include/krr_core/common/seed.h":
+                "namespace krr {\nint seed();\nnamespace kb {\nint wrong();\n}\n}\n",
+            # fine
+            core + "include/krr_core/kb/domain.h":
+                "// namespace dialog {\n#define OPEN {\nnamespace krr {\nnamespace kb {\n"
+                "const char* k = \"namespace dialog { }\";\nstruct D { void g() { } };\n}\n}\n",
+            core + "include/krr_core/pomdp/nested.h":
+                "namespace krr::pomdp::detail {\nint h();\n}\n",
+            core + "include/krr_core/mdp/hash.h":
+                "namespace krr { namespace mdp { struct S {}; } }\nnamespace std {\n"
+                "template <> struct hash<krr::mdp::S> { int operator()() const; };\n}\n",
+            core + "include/krr_core/common/helpers.h":
+                "namespace krr {\nnamespace detail {\nint g();\n}\n}\n",
+            core + "src/kb/not_a_header.cpp": "int main() { return 0; }\n",
+        }
+        r = run_on_tree(files)
+        self.assertEqual(r.returncode, 1, r.stdout + r.stderr)
+        out = r.stdout
+        self.assertIn(core + "include/krr_core/experiments/trials.h:3: namespace: header of "
+                      "module 'experiments' declares code in krr::dialog, not in "
+                      "krr::experiments", out)
+        self.assertIn(core + "src/experiments/private_yaml.h:4: namespace: header of module "
+                      "'experiments' declares code in krr::kb::detail", out)
+        self.assertIn(core + "include/krr_core/nav/global.h:3: namespace: header of module 'nav' "
+                      "declares code in the global namespace, not in krr::nav", out)
+        self.assertIn(core + "include/krr_core/common/seed.h:4: namespace: header of module "
+                      "'common' declares code in krr::kb, not in krr", out)
+        self.assertIn("4 violations", out)
 
 
 if __name__ == "__main__":

@@ -45,7 +45,7 @@ bool DeliveryRecord::navFailed() const {
   return false;
 }
 
-DeliveryManager::DeliveryManager(const pomdp::DialogPomdp& dialog,
+DeliveryManager::DeliveryManager(const DialogPomdp& dialog,
                                  const pomdp::TurnLimitedPolicy& policy,
                                  const LanguageFrontEnd* language, const DialogConfig& config)
     : dialog_(dialog), language_(language), shop_(config.shop),

@@ -52,6 +52,16 @@ mdp::RMaxParams DialogConfig::rmaxParams() const {
   return p;
 }
 
+void DialogConfig::setRMaxParams(const mdp::RMaxParams& p) {
+  step_cost = p.step_cost;
+  rmax = p.rmax;
+  known_threshold = p.known_threshold;
+  refine_known = p.refine_known;
+  rmax_discount = p.discount;
+  rmax_replan_every = p.replan_every;
+  rmax_optimism = p.optimism;
+}
+
 void DialogConfig::validate() const {
   auto bad = [](const std::string& field, const std::string& value, const std::string& why) {
     throw ConfigError("dialog config: field '" + field + "': value " + value + " " + why);
@@ -169,14 +179,7 @@ DialogConfig loadDialogConfig(const std::string& path) {
       throw ConfigError(path + ": field 'knowledge.navigation': " + e.what());
     }
     c.time = n.time;
-    c.step_cost = n.planning.step_cost;
-    c.rmax = n.planning.rmax;
-    c.known_threshold = static_cast<std::uint32_t>(n.rmax_learning.known_threshold);
-    c.refine_known = n.rmax_learning.refine_known;
-    c.rmax_discount = n.rmax_learning.discount;
-    c.rmax_replan_every = static_cast<std::uint32_t>(n.rmax_learning.replan_every);
-    c.rmax_optimism = n.rmax_learning.optimism == "self_loop" ? mdp::Optimism::kSelfLoop
-                                                              : mdp::Optimism::kTerminalBonus;
+    c.setRMaxParams(nav::rmaxParamsOf(n.planning, n.rmax_learning));
   }
   c.validate();
   return c;

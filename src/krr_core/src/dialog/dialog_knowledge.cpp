@@ -134,11 +134,11 @@ Eigen::MatrixXd DialogKnowledge::serveCosts(const TripTable& trips, ServeCostMod
   return k;
 }
 
-pomdp::DialogSpec DialogKnowledge::buildSpec(const TripTable& trips,
+DialogSpec DialogKnowledge::buildSpec(const TripTable& trips,
                                              const DialogConfig& config) const {
   config.validate();
   checkRooms(trips);
-  pomdp::DialogSpec spec = base_;
+  DialogSpec spec = base_;
   spec.pGeneral = speech_.p_general;
   spec.pYesNo = speech_.p_yesno;
   spec.generalCost = config.general_cost;
@@ -147,7 +147,7 @@ pomdp::DialogSpec DialogKnowledge::buildSpec(const TripTable& trips,
   spec.failureReward = config.failure_reward;
   spec.discount = config.discount;
   spec.turnLimit = config.turn_limit;
-  spec.delivery = pomdp::deliveryMatrix(base_.items.size(), trips.reachFromShop(),
+  spec.delivery = deliveryMatrix(base_.items.size(), trips.reachFromShop(),
                                         base_.persons.size(), trips.reachBack());
   const auto n = static_cast<Eigen::Index>(numRequests());
   spec.serveCost = config.serve_cost_weight * serveCosts(trips, config.serve_cost_mode) +

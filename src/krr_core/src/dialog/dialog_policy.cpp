@@ -26,16 +26,16 @@ bool fileExists(const std::string& path) {
 /// cached by an older one.
 std::uint64_t solverFingerprint() {
   static const std::uint64_t fp = [] {
-    pomdp::DialogSpec spec;
+    DialogSpec spec;
     spec.items = {"a", "b"};
     spec.rooms = {"near", "far"};
     spec.persons = {"p"};
     Eigen::VectorXd reach(2);
     reach << 1.0, 0.5;
-    spec.delivery = pomdp::deliveryMatrix(2, reach, 1);
+    spec.delivery = deliveryMatrix(2, reach, 1);
     spec.serveCost = 40.0 * (Eigen::MatrixXd::Ones(4, 4) - Eigen::MatrixXd::Identity(4, 4));
     spec.turnLimit = 6;
-    const pomdp::DialogPomdp d(spec);
+    const DialogPomdp d(spec);
     pomdp::TurnLimitedSolverOptions o;
     o.precision = 1e-12;
     o.timeout = 1e9;
@@ -84,7 +84,7 @@ pomdp::TurnLimitedSolverOptions dialogSolverOptions(const DialogConfig& config) 
   return o;
 }
 
-pomdp::TurnLimitedPolicy solveDialogPolicy(const pomdp::DialogPomdp& dialog,
+pomdp::TurnLimitedPolicy solveDialogPolicy(const DialogPomdp& dialog,
                                            const DialogConfig& config,
                                            const std::string& cache_dir, PolicyReport* report) {
   config.validate();

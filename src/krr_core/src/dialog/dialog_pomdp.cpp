@@ -7,7 +7,7 @@
 #include "krr_core/pomdp/cassandra_io.h"
 
 namespace krr {
-namespace pomdp {
+namespace dialog {
 
 namespace {
 
@@ -80,7 +80,7 @@ DialogPomdp::DialogPomdp(DialogSpec spec)
       nP_(spec_.persons.size()), nReq_(nI_ * nR_ * nP_), firstServe_(3 + nI_ + nR_ + nP_),
       model_(build()) {}
 
-Model DialogPomdp::build() {
+pomdp::Model DialogPomdp::build() {
   checkNames(spec_.items, "items");
   checkNames(spec_.rooms, "rooms");
   checkNames(spec_.persons, "persons");
@@ -96,7 +96,8 @@ Model DialogPomdp::build() {
   if (spec_.prior.size() != n)
     throw ConfigError("dialog POMDP: prior has " + std::to_string(spec_.prior.size()) +
                       " entries, expected " + std::to_string(nReq_) + " requests");
-  if (spec_.prior.minCoeff() < 0.0 || std::abs(spec_.prior.sum() - 1.0) > Model::kTolerance)
+  if (spec_.prior.minCoeff() < 0.0 ||
+      std::abs(spec_.prior.sum() - 1.0) > pomdp::Model::kTolerance)
     throw ConfigError("dialog POMDP: prior is not a distribution (sum " +
                       std::to_string(spec_.prior.sum()) + ")");
   if (spec_.delivery.size() == 0) spec_.delivery = Eigen::MatrixXd::Ones(n, n);
@@ -174,7 +175,7 @@ Model DialogPomdp::build() {
       }
     }
   }
-  Model m(std::move(t), std::move(z), std::move(r), spec_.discount);
+  pomdp::Model m(std::move(t), std::move(z), std::move(r), spec_.discount);
   std::vector<std::string> sn, an, on;
   for (std::size_t s = 0; s < nReq_; ++s) sn.push_back(requestName(s));
   sn.push_back("terminal");
@@ -188,7 +189,7 @@ Model DialogPomdp::build() {
   for (const auto& i : spec_.persons) on.push_back("person_" + i);
   on.insert(on.end(), {"yes", "no", "none"});
   m.setNames(sn, an, on);
-  Belief b0 = Belief::Zero(S);
+  pomdp::Belief b0 = pomdp::Belief::Zero(S);
   b0.head(static_cast<Eigen::Index>(nReq_)) = spec_.prior;
   m.setInitialBelief(b0);
   return m;
@@ -224,11 +225,12 @@ DialogActionKind DialogPomdp::actionKind(std::size_t a) const {
   throw ConfigError("dialog POMDP: action index " + std::to_string(a) + " out of range");
 }
 
-std::array<Eigen::VectorXd, 3> DialogPomdp::marginals(const Belief& b) const {
-  return {marginal(b, itemOf_, nI_), marginal(b, roomOf_, nR_), marginal(b, personOf_, nP_)};
+std::array<Eigen::VectorXd, 3> DialogPomdp::marginals(const pomdp::Belief& b) const {
+  return {pomdp::marginal(b, itemOf_, nI_), pomdp::marginal(b, roomOf_, nR_),
+          pomdp::marginal(b, personOf_, nP_)};
 }
 
-std::string DialogPomdp::exportCassandra() const { return writeCassandra(model_); }
+std::string DialogPomdp::exportCassandra() const { return pomdp::writeCassandra(model_); }
 
-}  // namespace pomdp
+}  // namespace dialog
 }  // namespace krr

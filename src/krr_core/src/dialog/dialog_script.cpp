@@ -51,13 +51,13 @@ std::string jsonMarginal(const std::vector<std::string>& names, const Eigen::Vec
   return s + "}";
 }
 
-std::string actionName(const pomdp::DialogPomdp& d, long a) {
+std::string actionName(const DialogPomdp& d, long a) {
   return a < 0 ? kNoQuestion : d.model().actionNames()[static_cast<std::size_t>(a)];
 }
 
 }  // namespace
 
-long actionByName(const pomdp::DialogPomdp& dialog, const std::string& name) {
+long actionByName(const DialogPomdp& dialog, const std::string& name) {
   if (name == kNoQuestion) return -1;
   const auto& names = dialog.model().actionNames();
   for (std::size_t a = 0; a < names.size(); ++a)
@@ -68,7 +68,7 @@ long actionByName(const pomdp::DialogPomdp& dialog, const std::string& name) {
                     ", serve_<item>_<room>_<person>)");
 }
 
-ScriptResult runDialogScript(const pomdp::DialogPomdp& dialog, const LanguageFrontEnd& language,
+ScriptResult runDialogScript(const DialogPomdp& dialog, const LanguageFrontEnd& language,
                              const pomdp::TurnLimitedPolicy* policy,
                              const std::vector<std::string>& questions,
                              const std::vector<std::string>& utterances) {
@@ -172,7 +172,7 @@ class ScriptedNavigator : public DeliveryNavigator {
 
 }  // namespace
 
-ScriptedDelivery runScriptedDelivery(const pomdp::DialogPomdp& dialog,
+ScriptedDelivery runScriptedDelivery(const DialogPomdp& dialog,
                                      const LanguageFrontEnd& language,
                                      const pomdp::TurnLimitedPolicy& policy,
                                      const DialogConfig& config, const DeliveryScript& script) {
@@ -188,7 +188,7 @@ ScriptedDelivery runScriptedDelivery(const pomdp::DialogPomdp& dialog,
   return d;
 }
 
-std::string scriptedDeliveryToJson(const pomdp::DialogPomdp& dialog, const ScriptedDelivery& d) {
+std::string scriptedDeliveryToJson(const DialogPomdp& dialog, const ScriptedDelivery& d) {
   const DeliveryRecord& r = d.record;
   std::ostringstream out;
   const bool served = r.attempts > 0;
@@ -207,7 +207,7 @@ std::string scriptedDeliveryToJson(const pomdp::DialogPomdp& dialog, const Scrip
   return out.str();
 }
 
-std::string scriptToCsv(const pomdp::DialogPomdp& dialog, const ScriptResult& r) {
+std::string scriptToCsv(const DialogPomdp& dialog, const ScriptResult& r) {
   const auto& s = dialog.spec();
   std::ostringstream out;
   out << "turn,robot_action,robot_text,user,observations,unknown_words,notes";
@@ -231,7 +231,7 @@ std::string scriptToCsv(const pomdp::DialogPomdp& dialog, const ScriptResult& r)
   return out.str();
 }
 
-std::string scriptToJson(const pomdp::DialogPomdp& dialog, const ScriptResult& r) {
+std::string scriptToJson(const DialogPomdp& dialog, const ScriptResult& r) {
   const auto& s = dialog.spec();
   std::ostringstream out;
   out << "{\"turns\": [";
@@ -258,7 +258,7 @@ std::string scriptToJson(const pomdp::DialogPomdp& dialog, const ScriptResult& r
   return out.str();
 }
 
-std::string scriptToText(const pomdp::DialogPomdp& dialog, const ScriptResult& r) {
+std::string scriptToText(const DialogPomdp& dialog, const ScriptResult& r) {
   const auto& s = dialog.spec();
   std::ostringstream out;
   auto marg = [&](const char* label, const std::vector<std::string>& names,

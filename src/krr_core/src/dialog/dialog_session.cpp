@@ -5,7 +5,7 @@
 namespace krr {
 namespace dialog {
 
-BeliefSummary summarizeBelief(const pomdp::DialogPomdp& dialog, const pomdp::Belief& b) {
+BeliefSummary summarizeBelief(const DialogPomdp& dialog, const pomdp::Belief& b) {
   BeliefSummary s;
   auto m = dialog.marginals(b);  // item, room, person
   s.items = m[0];
@@ -19,7 +19,7 @@ BeliefSummary summarizeBelief(const pomdp::DialogPomdp& dialog, const pomdp::Bel
   return s;
 }
 
-DialogSession::DialogSession(const pomdp::DialogPomdp& dialog, const LanguageFrontEnd* language,
+DialogSession::DialogSession(const DialogPomdp& dialog, const LanguageFrontEnd* language,
                              const pomdp::TurnLimitedPolicy* policy)
     : dialog_(dialog), language_(language), policy_(policy) {
   if (policy_ && policy_->numStates() != dialog_.model().getS())
@@ -40,7 +40,7 @@ void DialogSession::reset() {
   served_ = 0;
 }
 
-std::size_t decideAction(const pomdp::DialogPomdp& d, const pomdp::TurnLimitedPolicy& policy,
+std::size_t decideAction(const DialogPomdp& d, const pomdp::TurnLimitedPolicy& policy,
                          const pomdp::Belief& b, int turns) {
   const std::size_t a = policy.bestAction(b, turns);
   const auto mostLikely = [&] {
@@ -70,7 +70,7 @@ std::size_t decideAction(const pomdp::DialogPomdp& d, const pomdp::TurnLimitedPo
   return best;
 }
 
-std::size_t DecisionMemo::decide(const pomdp::DialogPomdp& d,
+std::size_t DecisionMemo::decide(const DialogPomdp& d,
                                  const pomdp::TurnLimitedPolicy& policy, const pomdp::Belief& b,
                                  int turns) {
   key_.assign(reinterpret_cast<const char*>(&turns), sizeof(turns));

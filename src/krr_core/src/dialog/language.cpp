@@ -62,20 +62,6 @@ std::string printable(const std::string& w) {
   return out;
 }
 
-std::vector<std::string> stringList(const YAML::Node& n, const std::string& key,
-                                    const std::string& name) {
-  std::vector<std::string> out;
-  if (!n.IsSequence())
-    throw ConfigError(name + ": '" + key + "' must be a list of words");
-  for (std::size_t i = 0; i < n.size(); ++i) {
-    if (!n[i].IsScalar())
-      throw ConfigError(name + ": '" + key + "' entry " + std::to_string(i) +
-                        " is not a word");
-    out.push_back(n[i].as<std::string>());
-  }
-  return out;
-}
-
 }  // namespace
 
 const char* factorName(Factor f) {
@@ -90,42 +76,32 @@ const char* factorName(Factor f) {
 namespace {
 
 LanguageConfig parseLanguageConfigNode(const YAML::Node& root, const std::string& name) {
+  static const std::set<std::string> kKeys = {"yes", "no", "ignore", "synonyms",
+                                              "max_utterance_chars"};
+  // Unknown keys are reported as "unknown key" with the expected ones before the shared reader
+  // checks them (its wording is "unknown field").
+  if (root.IsMap()) {
+    for (const auto& kv : root) {
+      const std::string key = kv.first.as<std::string>();
+      if (!kKeys.count(key))
+        throw ConfigError(name + ": unknown key '" + key +
+                          "' (expected yes, no, ignore, synonyms, max_utterance_chars)");
+    }
+  }
+  const YamlSection top(root, name, "", kKeys);  // null = all defaults; not a mapping: error
   LanguageConfig c;
-  if (root.IsNull()) return c;
-  if (!root.IsMap()) throw ConfigError(name + ": expected a mapping at the top level");
-  for (const auto& kv : root) {
-    const std::string key = kv.first.as<std::string>();
-    const YAML::Node& v = kv.second;
-    if (key == "yes") {
-      c.yesWords = stringList(v, key, name);
-    } else if (key == "no") {
-      c.noWords = stringList(v, key, name);
-    } else if (key == "ignore") {
-      c.ignoreWords = stringList(v, key, name);
-    } else if (key == "synonyms") {
-      if (v.IsNull()) continue;
-      if (!v.IsMap()) throw ConfigError(name + ": 'synonyms' must map phrases to value names");
-      for (const auto& s : v) {
-        if (!s.second.IsScalar())
-          throw ConfigError(name + ": synonym '" + s.first.as<std::string>() +
-                            "' must map to one value name");
-        c.synonyms[s.first.as<std::string>()] = s.second.as<std::string>();
-      }
-    } else if (key == "max_utterance_chars") {
-      long n = 0;
-      try {
-        n = v.as<long>();
-      } catch (const YAML::Exception&) {
-        throw ConfigError(name + ": max_utterance_chars = '" + YAML::Dump(v) +
-                          "' is not an integer");
-      }
-      if (n < 1 || n > 100000)
-        throw ConfigError(name + ": max_utterance_chars = " + std::to_string(n) +
-                          " is outside [1, 100000]");
-      c.maxUtteranceChars = static_cast<std::size_t>(n);
-    } else {
-      throw ConfigError(name + ": unknown key '" + key +
-                        "' (expected yes, no, ignore, synonyms, max_utterance_chars)");
+  c.yesWords = top.strings("yes", c.yesWords);
+  c.noWords = top.strings("no", c.noWords);
+  c.ignoreWords = top.strings("ignore", c.ignoreWords);
+  c.maxUtteranceChars = top.count("max_utterance_chars", c.maxUtteranceChars, 1, 100000);
+  const YAML::Node synonyms = top.get("synonyms");
+  if (synonyms && !synonyms.IsNull()) {
+    if (!synonyms.IsMap()) top.fail("synonyms", "must map phrases to value names");
+    for (const auto& kv : synonyms) {
+      if (!kv.second.IsScalar())
+        throw ConfigError(name + ": synonym '" + kv.first.as<std::string>() +
+                          "' must map to one value name");
+      c.synonyms[kv.first.as<std::string>()] = kv.second.as<std::string>();
     }
   }
   return c;
@@ -147,7 +123,7 @@ LanguageConfig loadLanguageConfig(const std::string& path) {
   return parseLanguageConfig(readFile(path), path);
 }
 
-LanguageFrontEnd::LanguageFrontEnd(const pomdp::DialogPomdp& dialog, const LanguageConfig& config,
+LanguageFrontEnd::LanguageFrontEnd(const DialogPomdp& dialog, const LanguageConfig& config,
                                    const std::string& configName)
     : LanguageFrontEnd(dialog.spec().items, dialog.spec().rooms, dialog.spec().persons, config,
                        configName) {}
@@ -273,7 +249,7 @@ ParsedUtterance LanguageFrontEnd::parse(const std::string& text) const {
 }
 
 Interpretation LanguageFrontEnd::interpret(const ParsedUtterance& parsed,
-                                           const pomdp::DialogPomdp& dialog,
+                                           const DialogPomdp& dialog,
                                            long lastQuestion) const {
   const auto& spec = dialog.spec();
   if (spec.items.size() != sizes_[0] || spec.rooms.size() != sizes_[1] ||
@@ -333,27 +309,27 @@ Interpretation LanguageFrontEnd::interpret(const ParsedUtterance& parsed,
 }
 
 Interpretation LanguageFrontEnd::understand(const std::string& text,
-                                            const pomdp::DialogPomdp& dialog,
+                                            const DialogPomdp& dialog,
                                             long lastQuestion) const {
   return interpret(parse(text), dialog, lastQuestion);
 }
 
-std::string robotUtterance(const pomdp::DialogPomdp& dialog, std::size_t action) {
+std::string robotUtterance(const DialogPomdp& dialog, std::size_t action) {
   const auto& s = dialog.spec();
   if (action >= dialog.model().getA())
     throw ConfigError("robotUtterance: action " + std::to_string(action) + " out of range (" +
                       std::to_string(dialog.model().getA()) + " actions)");
   switch (dialog.actionKind(action)) {
-    case pomdp::DialogActionKind::kAskItem: return "Which item is it?";
-    case pomdp::DialogActionKind::kAskRoom: return "Which room should I deliver to?";
-    case pomdp::DialogActionKind::kAskPerson: return "Who is it for?";
-    case pomdp::DialogActionKind::kConfirmItem:
+    case DialogActionKind::kAskItem: return "Which item is it?";
+    case DialogActionKind::kAskRoom: return "Which room should I deliver to?";
+    case DialogActionKind::kAskPerson: return "Who is it for?";
+    case DialogActionKind::kConfirmItem:
       return "Should I deliver a " + s.items[action - dialog.confirmItem(0)] + "?";
-    case pomdp::DialogActionKind::kConfirmRoom:
+    case DialogActionKind::kConfirmRoom:
       return "Should I deliver to " + s.rooms[action - dialog.confirmRoom(0)] + "?";
-    case pomdp::DialogActionKind::kConfirmPerson:
+    case DialogActionKind::kConfirmPerson:
       return "Is it for " + s.persons[action - dialog.confirmPerson(0)] + "?";
-    case pomdp::DialogActionKind::kServe: {
+    case DialogActionKind::kServe: {
       const auto p = dialog.requestParts(dialog.requestOfServe(action));
       return "OK, I am delivering a " + s.items[p[0]] + " for " + s.persons[p[2]] + " to " +
              s.rooms[p[1]] + ".";

@@ -5,8 +5,8 @@
 namespace krr {
 namespace dialog {
 
-pomdp::DialogSpec dialogSpecFromKnowledge(plog::Reasoner& kb, const std::string& kbName) {
-  pomdp::DialogSpec spec;
+DialogSpec dialogSpecFromKnowledge(plog::Reasoner& kb, const std::string& kbName) {
+  DialogSpec spec;
   try {
     spec.items = kb.sortValues("item");
     spec.rooms = kb.sortValues("room");

@@ -6,7 +6,7 @@
 #include "krr_core/common/errors.h"
 
 namespace krr {
-namespace plog {
+namespace examples {
 
 namespace {
 std::string num(double v) {
@@ -113,5 +113,5 @@ std::string makeGridNavigationProgram(const GridNavigationSpec& s) {
   return os.str();
 }
 
-}  // namespace plog
+}  // namespace examples
 }  // namespace krr

@@ -5,7 +5,15 @@
 #include "krr_core/common/errors.h"
 
 namespace krr {
-namespace mdp {
+namespace examples {
+
+using mdp::ActionId;
+using mdp::GridDynamics;
+using mdp::kFail;
+using mdp::kStay;
+using mdp::NavigationReward;
+using mdp::StateId;
+using mdp::StepResult;
 
 GridWorldEnvironment::GridWorldEnvironment(GridDynamics dynamics, StateId start,
                                            std::vector<StateId> goals,
@@ -61,5 +69,5 @@ StepResult GridWorldEnvironment::step(ActionId a, Rng& rng) {
   return r;
 }
 
-}  // namespace mdp
+}  // namespace examples
 }  // namespace krr

@@ -13,7 +13,9 @@
 #include "krr_core/pomdp/belief.h"
 
 namespace krr {
-namespace dialog {
+namespace experiments {
+
+using dialog::DialogPomdp;
 
 void BeliefSamplerOptions::validate() const {
   if (!(alpha_min > 0) || !std::isfinite(alpha_min))
@@ -23,7 +25,7 @@ void BeliefSamplerOptions::validate() const {
                       " must be finite and >= alpha_min");
 }
 
-BeliefEntropySurvey::BeliefEntropySurvey(const pomdp::DialogPomdp& dialog,
+BeliefEntropySurvey::BeliefEntropySurvey(const DialogPomdp& dialog,
                                          const pomdp::TurnLimitedPolicy& policy,
                                          const BeliefSamplerOptions& options, std::uint64_t seed)
     : dialog_(dialog), policy_(policy), options_(options), seed_(seed) {
@@ -59,7 +61,7 @@ EntropySample BeliefEntropySurvey::sample(std::size_t index) const {
   const pomdp::Belief b = belief(index);
   EntropySample s;
   s.index = index;
-  s.action = decideAction(dialog_, policy_, b, 0);  // the robot at the start of a dialog
+  s.action = dialog::decideAction(dialog_, policy_, b, 0);  // the robot at the start of a dialog
   s.serve = dialog_.isServe(s.action);
   if (s.serve) s.request = dialog_.requestOfServe(s.action);
   s.entropy = pomdp::entropy(b, pomdp::EntropyUnit::kNats);
@@ -92,5 +94,5 @@ std::string BeliefEntropySurvey::csvRow(const EntropySample& s) const {
   return buf;
 }
 
-}  // namespace dialog
+}  // namespace experiments
 }  // namespace krr

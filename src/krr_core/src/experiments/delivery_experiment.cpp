@@ -10,7 +10,21 @@
 #include "krr_core/pomdp/belief.h"
 
 namespace krr {
-namespace dialog {
+namespace experiments {
+
+using dialog::DecisionMemo;
+using dialog::DeliveryManager;
+using dialog::DeliveryNavigation;
+using dialog::DeliveryNavigator;
+using dialog::DeliveryOutcome;
+using dialog::DeliveryPerson;
+using dialog::DeliveryRecord;
+using dialog::DialogConfig;
+using dialog::DialogKnowledge;
+using dialog::DialogPomdp;
+using dialog::Leg;
+using dialog::LegRecord;
+using dialog::TripResult;
 
 std::string toString(KnowledgeCondition c) {
   return c == KnowledgeCondition::kLearned ? "learned" : "outdated";
@@ -49,7 +63,7 @@ std::size_t sample(const Eigen::VectorXd& p, Rng& rng) {
 /// The person of a trial: answers through the speech model, knows their request at the room.
 class SimulatedPerson : public DeliveryPerson {
  public:
-  SimulatedPerson(const pomdp::DialogPomdp& d, std::size_t request, Rng& rng)
+  SimulatedPerson(const DialogPomdp& d, std::size_t request, Rng& rng)
       : d_(d), request_(request), rng_(rng) {}
   bool answer(DeliveryManager& m, std::size_t question) override {
     const auto& row = d_.model().observationRow(request_, question);
@@ -71,7 +85,7 @@ class SimulatedPerson : public DeliveryPerson {
   }
 
  private:
-  const pomdp::DialogPomdp& d_;
+  const DialogPomdp& d_;
   std::size_t request_;
   Rng& rng_;
 };
@@ -125,21 +139,23 @@ DeliveryExperiment::DeliveryExperiment(const kb::NavDomain& domain, const Dialog
 
   // 2. Procedure 2 and the navigation side of deliveries.
   clock.reset();
-  nav_ = deliveryNavigationFromKnowledge(domain, *navKnowledge_, config_, knowledge_->base().rooms);
+  nav_ = dialog::deliveryNavigationFromKnowledge(domain, *navKnowledge_, config_,
+                                                 knowledge_->base().rooms);
   prep_.nav_model_seconds = clock.seconds();
 
   // 3. The dialog POMDP and its policy.
   clock.reset();
-  dialog_ = std::make_unique<pomdp::DialogPomdp>(knowledge_->buildSpec(nav_->trips(), config_));
+  dialog_ = std::make_unique<DialogPomdp>(knowledge_->buildSpec(nav_->trips(), config_));
   prep_.dialog_model_seconds = dialogReasoning + clock.seconds();
-  if (solve_policy) policy_ = solveDialogPolicy(*dialog_, config_, options_.cache_dir, &prep_.policy);
+  if (solve_policy)
+    policy_ = dialog::solveDialogPolicy(*dialog_, config_, options_.cache_dir, &prep_.policy);
 
   context_.time_of_day = domain.simulator->timeOfDayIndex(config_.time);
   context_.blocking_rate = options_.blocking_rate;
   // What the robot's policies achieve in the true world, and the serve rewards there (the
   // same builder as the robot's model: one definition of the reward).
   true_trips_ = nav_->evaluate(kb::trueDynamics(*domain.simulator, *domain.space, context_));
-  true_dialog_ = std::make_unique<pomdp::DialogPomdp>(knowledge_->buildSpec(true_trips_, config_));
+  true_dialog_ = std::make_unique<DialogPomdp>(knowledge_->buildSpec(true_trips_, config_));
 }
 
 void DeliveryExperiment::setPolicy(const pomdp::TurnLimitedPolicy& policy) {
@@ -154,7 +170,7 @@ void DeliveryExperiment::setPolicy(const pomdp::TurnLimitedPolicy& policy) {
 
 DeliveryTrialResult DeliveryExperiment::runTrial(std::size_t index, long fixed_request,
                                                  DecisionMemo* memo) const {
-  const pomdp::DialogPomdp& d = *dialog_;
+  const DialogPomdp& d = *dialog_;
   if (fixed_request >= static_cast<long>(d.numRequests()))
     throw ConfigError("delivery trial: request " + std::to_string(fixed_request) +
                       " out of range");
@@ -173,11 +189,11 @@ DeliveryTrialResult DeliveryExperiment::runTrial(std::size_t index, long fixed_r
   if (policy_.size() == 0) throw ConfigError("delivery trial: no dialog policy (setPolicy first)");
   DeliveryManager manager(d, policy_, nullptr, config_);
   manager.setDecisionMemo(memo);
-  runDelivery(manager, person, navigator);
+  dialog::runDelivery(manager, person, navigator);
   r.delivery = manager.record();
   r.correct = r.delivery.served == r.request;
   r.fulfilled = r.delivery.outcome == DeliveryOutcome::kFulfilled;
-  r.reward = deliveryReward(r.delivery, r.request, config_);
+  r.reward = dialog::deliveryReward(r.delivery, r.request, config_);
   r.expected_reward = true_dialog_->model().getExpectedReward(
                           r.request, true_dialog_->serveAction(r.delivery.served)) -
                       r.delivery.qa_cost;
@@ -199,7 +215,7 @@ std::string deliveryCsvHeader() {
          "delivery_reward,nav_cost,penalty,policy_lower,policy_upper,expected_reward";
 }
 
-std::string deliveryCsvRow(const pomdp::DialogPomdp& d, const DeliveryTrialResult& r,
+std::string deliveryCsvRow(const DialogPomdp& d, const DeliveryTrialResult& r,
                            const pomdp::BoundsReport& policy) {
   const auto& rooms = d.spec().rooms;
   const DeliveryRecord& x = r.delivery;
@@ -217,5 +233,5 @@ std::string deliveryCsvRow(const pomdp::DialogPomdp& d, const DeliveryTrialResul
   return buf;
 }
 
-}  // namespace dialog
+}  // namespace experiments
 }  // namespace krr

@@ -15,7 +15,9 @@
 #include "krr_core/nav/grid_astar.h"
 
 namespace krr {
-namespace dialog {
+namespace experiments {
+
+using dialog::DialogConfig;
 
 DeliveryRouteSelector::DeliveryRouteSelector(std::string shop, std::vector<std::string> rooms)
     : shop_(std::move(shop)), rooms_(std::move(rooms)) {
@@ -107,7 +109,7 @@ std::string learnedCacheName(const kb::NavDomain& domain, const DialogConfig& c,
   if (c.rmax_discount != 0.95 || c.rmax_replan_every != 10 ||
       c.rmax_optimism != mdp::Optimism::kTerminalBonus)
     key << "|rmax:" << c.rmax_discount << "|" << c.rmax_replan_every << "|"
-        << (c.rmax_optimism == mdp::Optimism::kSelfLoop ? "self_loop" : "terminal_bonus");
+        << mdp::optimismName(c.rmax_optimism);
   for (const auto& r : rooms) key << "|" << r;
   key << "|" << simulatorKey(domain);
   char buf[160];
@@ -173,5 +175,5 @@ LearningReport prepareLearnedKnowledge(const kb::NavDomain& domain,
   return report;
 }
 
-}  // namespace dialog
+}  // namespace experiments
 }  // namespace krr

@@ -7,7 +7,9 @@
 #include "experiment_yaml.h"
 
 namespace krr {
-namespace dialog {
+namespace experiments {
+
+using dialog::DialogConfig;
 
 void ExperimentCli::declare(OptionParser& p) {
   p.add("--br", "B", "blocking rate of the simulated world", &experiment.blocking_rate).required();
@@ -44,36 +46,29 @@ void ExperimentCli::declare(OptionParser& p) {
 
 void ExperimentCli::finish() {
   if (threads == 0) throw ConfigError("option --threads: must be at least 1");
-  experiment.cache_dir = haveCache_ ? (cache_ == "none" ? "" : cache_) : defaultCacheDir();
+  experiment.cache_dir = haveCache_ ? (cache_ == "none" ? "" : cache_) : dialog::defaultCacheDir();
   experiment.validate();
 }
 
 DialogConfig loadDeliveryExperimentConfig(const ExperimentPaths& paths) {
-  DialogConfig c = loadDialogConfig(paths.dialog_yaml);
+  DialogConfig c = dialog::loadDialogConfig(paths.dialog_yaml);
   const std::string& file = paths.delivery_yaml;
-  kb::detail::ExperimentBase b = kb::detail::experimentBaseOf(c.rmaxParams(), 0.0, 1.0);
+  detail::ExperimentBase b = detail::experimentBaseOf(c.rmaxParams(), 0.0, 1.0);
   const YamlSection top(parseYaml(readFile(file), file), file, "", {"planning", "rmax_learning"});
   if (top.has("planning") && top.get("planning").IsMap() && top.get("planning")["discount"]) {
     throw ConfigError(file + ": field 'planning.discount': not a setting of the delivery "
                       "experiments (their trips' discount is config/dialog.yaml's "
                       "navigation.discount)");
   }
-  kb::detail::readBaseOverrides(top, b, 0.0);
-  const mdp::RMaxParams p = kb::detail::rmaxParamsOf(b.planning, b.rmax_learning);
-  c.step_cost = p.step_cost;
-  c.rmax = p.rmax;
-  c.known_threshold = p.known_threshold;
-  c.refine_known = p.refine_known;
-  c.rmax_discount = p.discount;
-  c.rmax_replan_every = p.replan_every;
-  c.rmax_optimism = p.optimism;
+  detail::readBaseOverrides(top, b, 0.0);
+  c.setRMaxParams(nav::rmaxParamsOf(b.planning, b.rmax_learning, c.rmaxParams()));
   c.validate();
   return c;
 }
 
 DialogConfig ExperimentCli::config(const ExperimentPaths& paths) const {
   DialogConfig c = loadDeliveryExperimentConfig(paths);
-  if (!serve_cost.empty()) c.serve_cost_mode = serveCostModeFromString(serve_cost);
+  if (!serve_cost.empty()) c.serve_cost_mode = dialog::serveCostModeFromString(serve_cost);
   if (serve_cost_weight >= 0) c.serve_cost_weight = serve_cost_weight;
   if (wrong_delivery_penalty >= 0) c.wrong_delivery_penalty = wrong_delivery_penalty;
   if (solver_trials >= 0) c.solver_max_trials = static_cast<std::size_t>(solver_trials);
@@ -81,10 +76,6 @@ DialogConfig ExperimentCli::config(const ExperimentPaths& paths) const {
   c.validate();
   return c;
 }
-
-}  // namespace dialog
-
-namespace kb {
 
 void NavExperimentFiles::declare(OptionParser& p, const std::string& options_file,
                                  const std::string& options_note) {
@@ -110,5 +101,5 @@ void NavExperimentFiles::resolveInputs(const std::string& domain) {
   if (knowledge.empty()) knowledge = repo + "/config/navigation.plog";
 }
 
-}  // namespace kb
+}  // namespace experiments
 }  // namespace krr

@@ -7,7 +7,7 @@
 #include "krr_core/common/resource_locator.h"
 
 namespace krr {
-namespace dialog {
+namespace experiments {
 
 namespace {
 
@@ -35,5 +35,5 @@ ExperimentPaths ExperimentPaths::find(const std::string& root_hint, const std::s
   return p;
 }
 
-}  // namespace dialog
+}  // namespace experiments
 }  // namespace krr

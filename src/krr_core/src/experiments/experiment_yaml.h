@@ -1,4 +1,4 @@
-// Private helper of the experiments: the base settings an experiment file overrides (read
+// Private helper of the experiments (krr::experiments::detail): the base settings an experiment file overrides (read
 // with the one YAML section reader, common/yaml_section.h: every field optional, unknown
 // fields and bad values are ConfigErrors naming file and field).
 #pragma once
@@ -13,24 +13,8 @@
 #include "krr_core/nav/navigation_config.h"
 
 namespace krr {
-namespace kb {
+namespace experiments {
 namespace detail {
-
-/// @brief R-Max parameters of the navigation task: the reward of `planning` (step_cost, rmax)
-/// and the learning settings of `rmax_learning` (navigation.yaml).
-inline mdp::RMaxParams rmaxParamsOf(const nav::PlanningConfig& planning,
-                                    const nav::RMaxLearningConfig& learning) {
-  mdp::RMaxParams p;
-  p.step_cost = planning.step_cost;
-  p.rmax = planning.rmax;
-  p.known_threshold = static_cast<std::uint32_t>(learning.known_threshold);
-  p.discount = learning.discount;
-  p.replan_every = static_cast<std::uint32_t>(learning.replan_every);
-  p.optimism = learning.optimism == "self_loop" ? mdp::Optimism::kSelfLoop
-                                                : mdp::Optimism::kTerminalBonus;
-  p.refine_known = learning.refine_known;
-  return p;
-}
 
 /// @brief The base settings an experiment file overrides. An experiment file lives in
 /// config/experiments/ and names only what it changes; its base is config/navigation.yaml (the
@@ -64,28 +48,15 @@ inline ExperimentBase experimentBase(const std::string& experiment_file) {
 inline ExperimentBase experimentBaseOf(const mdp::RMaxParams& p, double blocking_rate,
                                        double plan_discount) {
   ExperimentBase b;
-  b.planning.step_cost = p.step_cost;
-  b.planning.rmax = p.rmax;
+  nav::storeRMaxParams(p, b.planning, b.rmax_learning);
   b.planning.discount = plan_discount;
-  b.rmax_learning.known_threshold = static_cast<int>(p.known_threshold);
-  b.rmax_learning.discount = p.discount;
-  b.rmax_learning.replan_every = static_cast<int>(p.replan_every);
-  b.rmax_learning.optimism = p.optimism == mdp::Optimism::kSelfLoop ? "self_loop" : "terminal_bonus";
-  b.rmax_learning.refine_known = p.refine_known;
   b.blocking_rate = blocking_rate;
   return b;
 }
 
 /// @brief `p` with the base's reward and R-Max settings (its other fields kept).
 inline void applyRMax(const ExperimentBase& b, mdp::RMaxParams& p) {
-  const mdp::RMaxParams q = rmaxParamsOf(b.planning, b.rmax_learning);
-  p.step_cost = q.step_cost;
-  p.rmax = q.rmax;
-  p.known_threshold = q.known_threshold;
-  p.discount = q.discount;
-  p.replan_every = q.replan_every;
-  p.optimism = q.optimism;
-  p.refine_known = q.refine_known;
+  p = nav::rmaxParamsOf(b.planning, b.rmax_learning, p);
 }
 
 /// @brief The overrides of base settings in an experiment file's top level: `planning`
@@ -108,9 +79,11 @@ inline void readBaseOverrides(const YamlSection& top, ExperimentBase& b, double 
     l.replan_every = static_cast<int>(r.integer("replan_every", l.replan_every, 0, 1000000));
     l.refine_known = r.boolean("refine_known", l.refine_known);
     l.optimism = r.string("optimism", l.optimism);
-    if (l.optimism != "self_loop" && l.optimism != "terminal_bonus")
-      throw ConfigError(r.file() + ": field '" + r.field("optimism") + "': unknown value '" +
-                        l.optimism + "' (expected terminal_bonus or self_loop)");
+    try {
+      mdp::optimismFromName(l.optimism);
+    } catch (const ConfigError& e) {
+      throw ConfigError(r.file() + ": field '" + r.field("optimism") + "': " + e.what());
+    }
   }
   if (top.has("simulator")) {
     YamlSection s(top.get("simulator"), top.file(), "simulator", {"blocking_rate"});
@@ -123,5 +96,5 @@ inline void readBaseOverrides(const YamlSection& top, ExperimentBase& b, double 
 }
 
 }  // namespace detail
-}  // namespace kb
+}  // namespace experiments
 }  // namespace krr

@@ -10,7 +10,13 @@
 #include "krr_core/kb/simulated_navigation.h"
 
 namespace krr {
-namespace kb {
+namespace experiments {
+
+using kb::NavDomain;
+using kb::NavigationKnowledge;
+using kb::NavModel;
+using kb::NavStateSpace;
+using kb::SimulatedNavigation;
 
 void NavTransferOptions::validate() const {
   auto bad = [](const std::string& f, const std::string& v) {
@@ -80,10 +86,10 @@ NavTransferTrial runNavTransferTrial(const NavDomain& dom, NavigationKnowledge& 
   {
     SimulatedNavigation env(*dom.simulator, sp, start, {dom.grid->placeCell(o.source)}, ctx,
                             p.navigationReward());
-    mdp::RMaxAgent agent = makeNavigationAgent(dom, env, p, nullptr);
+    mdp::RMaxAgent agent = kb::makeNavigationAgent(dom, env, p, nullptr);
     Rng rng = makeRng(seed, "nav_transfer/source", index);
-    t.source_episodes_run = learnUntilConverged(env, agent, o.source_episodes,
-                                                o.convergence_episodes, rng, {}, nullptr);
+    t.source_episodes_run = kb::learnUntilConverged(env, agent, o.source_episodes,
+                                                    o.convergence_episodes, rng, {}, nullptr);
     t.learned_pairs = knowledge.replaceLearned(agent.model().knownPairs(), o.time);
   }
 
@@ -95,7 +101,8 @@ NavTransferTrial runNavTransferTrial(const NavDomain& dom, NavigationKnowledge& 
                           p.navigationReward());
   for (int with = 1; with >= 0; --with) {
     mdp::RMaxAgent agent =
-        makeNavigationAgent(dom, env, p, with ? &model : nullptr, with ? &t.prior_pairs : nullptr);
+        kb::makeNavigationAgent(dom, env, p, with ? &model : nullptr,
+                                with ? &t.prior_pairs : nullptr);
     Rng rng = makeRng(seed, "nav_transfer/target", index);
     auto& rewards = with ? t.reward_with : t.reward_without;
     auto& success = with ? t.success_with : t.success_without;
@@ -163,5 +170,5 @@ NavTransferSummary runNavTransfer(const NavDomain& dom, const NavTransferOptions
   return summarizeNavTransfer(runNavTransferTrials(dom, o, seed, 0, trials, threads));
 }
 
-}  // namespace kb
+}  // namespace experiments
 }  // namespace krr

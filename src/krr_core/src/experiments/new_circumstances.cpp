@@ -17,7 +17,20 @@
 #include "krr_core/mdp/solvers.h"
 
 namespace krr {
-namespace kb {
+namespace experiments {
+
+using kb::FixedTaskSelector;
+using kb::FreeTimeLearner;
+using kb::FreeTimeOptions;
+using kb::extractionFromString;
+using kb::LeastKnownSelector;
+using kb::NavDomain;
+using kb::NavigationKnowledge;
+using kb::NavModel;
+using kb::NavStateSpace;
+using kb::NavTask;
+using kb::SimulatedNavigation;
+using kb::TaskSelector;
 
 void NewCircumstancesOptions::validate() const {
   auto bad = [](const std::string& f, const std::string& v) {
@@ -412,5 +425,5 @@ std::string newCircumstancesCsvRow(const NewCircumstancesTrial& t) {
   return row;
 }
 
-}  // namespace kb
+}  // namespace experiments
 }  // namespace krr

@@ -23,6 +23,16 @@ const Distribution kEmpty;
 
 }  // namespace
 
+const char* optimismName(Optimism optimism) {
+  return optimism == Optimism::kSelfLoop ? "self_loop" : "terminal_bonus";
+}
+
+Optimism optimismFromName(const std::string& name) {
+  if (name == "terminal_bonus") return Optimism::kTerminalBonus;
+  if (name == "self_loop") return Optimism::kSelfLoop;
+  throw ConfigError("unknown value '" + name + "' (expected terminal_bonus or self_loop)");
+}
+
 void RMaxTask::validate() const {
   if (num_states == 0 || num_actions == 0) {
     throw ConfigError("RMaxTask: num_states and num_actions must be positive, got " +

@@ -88,6 +88,29 @@ const DomainConfig& NavigationConfig::domain(const std::string& name) const {
   throw UnknownSymbolError("navigation config: unknown domain '" + name + "'");
 }
 
+mdp::RMaxParams rmaxParamsOf(const PlanningConfig& planning, const RMaxLearningConfig& learning,
+                             mdp::RMaxParams base) {
+  base.step_cost = planning.step_cost;
+  base.rmax = planning.rmax;
+  base.known_threshold = static_cast<std::uint32_t>(learning.known_threshold);
+  base.discount = learning.discount;
+  base.replan_every = static_cast<std::uint32_t>(learning.replan_every);
+  base.optimism = mdp::optimismFromName(learning.optimism);
+  base.refine_known = learning.refine_known;
+  return base;
+}
+
+void storeRMaxParams(const mdp::RMaxParams& p, PlanningConfig& planning,
+                     RMaxLearningConfig& learning) {
+  planning.step_cost = p.step_cost;
+  planning.rmax = p.rmax;
+  learning.known_threshold = static_cast<int>(p.known_threshold);
+  learning.discount = p.discount;
+  learning.replan_every = static_cast<int>(p.replan_every);
+  learning.optimism = mdp::optimismName(p.optimism);
+  learning.refine_known = p.refine_known;
+}
+
 NavigationConfig loadNavigationConfig(const std::string& path) {
   const YAML::Node root = loadYamlFile(path, "navigation config");
   NavigationConfig cfg;
@@ -257,9 +280,10 @@ NavigationConfig loadNavigationConfig(const std::string& path) {
     r.discount = s.number("discount", r.discount, 0.0, 1.0, YamlSection::kLowerOpen);
     r.replan_every = s.integer("replan_every", r.replan_every, 0, 1000000);
     r.optimism = s.string("optimism", r.optimism);
-    if (r.optimism != "terminal_bonus" && r.optimism != "self_loop") {
-      throw ConfigError(path + ": field 'rmax_learning.optimism': unknown value '" + r.optimism +
-                        "' (expected terminal_bonus or self_loop)");
+    try {
+      mdp::optimismFromName(r.optimism);
+    } catch (const ConfigError& e) {
+      throw ConfigError(path + ": field 'rmax_learning.optimism': " + e.what());
     }
     r.refine_known = s.boolean("refine_known", r.refine_known);
   }

@@ -7,8 +7,10 @@
  * end on a pidfd with the remaining time as poll timeout, killing it when the time limit is
  * exceeded. The directory is always removed (unless AspOptions::keep_files).
  * Answer sets are read from clingo's plain text output (-V0: one answer set per line, then
- * the result word), split into atoms and arguments by a small term scanner that respects
- * parentheses and quoted strings.
+ * the result word), mapped into memory, split into atoms by a small term scanner that
+ * respects parentheses and quoted strings, and every atom is interned: a model is a vector of
+ * integers into the table of distinct atoms (millions of answer sets share a few thousand
+ * atoms), handed to a callback as it is read or kept.
  */
 #include "krr_core/plog/asp_backend.h"
 
@@ -17,6 +19,7 @@
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/syscall.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <sys/types.h>
 #include <sys/wait.h>
@@ -29,6 +32,9 @@
 #include <cstdlib>
 #include <cstring>
 #include <algorithm>
+#include <deque>
+#include <string_view>
+#include <unordered_map>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -90,18 +96,48 @@ std::string trimmed(const std::string& s, std::size_t max_len = 4000) {
   return out;
 }
 
+/// A file mapped read-only into memory (an empty or unreadable file is an empty view).
+class MappedFile {
+ public:
+  explicit MappedFile(const std::string& path) {
+    const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return;
+    struct stat st;
+    if (fstat(fd, &st) == 0 && st.st_size > 0) {
+      void* p = mmap(nullptr, static_cast<std::size_t>(st.st_size), PROT_READ, MAP_PRIVATE, fd, 0);
+      if (p != MAP_FAILED) {
+        data_ = static_cast<const char*>(p);
+        size_ = static_cast<std::size_t>(st.st_size);
+        madvise(p, size_, MADV_SEQUENTIAL);
+      }
+    }
+    close(fd);
+  }
+  ~MappedFile() {
+    if (data_ != nullptr) munmap(const_cast<char*>(data_), size_);
+  }
+  MappedFile(const MappedFile&) = delete;
+  MappedFile& operator=(const MappedFile&) = delete;
+  std::string_view view() const { return {data_ == nullptr ? "" : data_, size_}; }
+
+ private:
+  const char* data_ = nullptr;
+  std::size_t size_ = 0;
+};
+
 }  // namespace
 
-std::vector<std::string> splitAspTerms(const std::string& text, char separator) {
-  // Answer-set lines hold millions of atoms on large programs: cut pieces out of the text by
-  // index rather than copying it character by character.
-  std::vector<std::string> out;
-  out.reserve(separator == ' ' ? 64 : 4);
+/// @brief Calls piece(begin, end) for each non-empty piece of `text` between top-level
+/// separators (not inside parentheses or strings); a ' ' separator also cuts at tabs and CRs.
+/// One scanner for splitAspTerms and the answer-set lines, which are cut by index (they hold
+/// millions of atoms on large programs) rather than copied character by character.
+template <typename Piece>
+void forEachAspTerm(std::string_view text, char separator, Piece&& piece) {
   std::size_t begin = 0;  // start of the current piece
   int depth = 0;
   bool in_string = false;
   auto flush = [&](std::size_t end) {
-    if (end > begin) out.emplace_back(text, begin, end - begin);
+    if (end > begin) piece(begin, end);
     begin = end + 1;
   };
   for (std::size_t i = 0; i < text.size(); ++i) {
@@ -125,6 +161,14 @@ std::vector<std::string> splitAspTerms(const std::string& text, char separator) 
     }
   }
   flush(text.size());
+}
+
+std::vector<std::string> splitAspTerms(const std::string& text, char separator) {
+  std::vector<std::string> out;
+  out.reserve(separator == ' ' ? 64 : 4);
+  forEachAspTerm(text, separator, [&](std::size_t begin, std::size_t end) {
+    out.emplace_back(text, begin, end - begin);
+  });
   return out;
 }
 
@@ -186,7 +230,8 @@ std::string pLogLocations(const std::string& message, const std::string& lp_path
 }
 
 ClingoResult runClingo(const std::string& program, const AspOptions& options,
-                       const std::vector<std::string>& extra_args) {
+                       const std::vector<std::string>& extra_args,
+                       const AspModelCallback& on_model) {
   if (!(options.timeout_s > 0.0) || !std::isfinite(options.timeout_s)) {
     throw ConfigError("AspOptions.timeout_s must be a positive number of seconds, got " +
                       std::to_string(options.timeout_s));
@@ -346,7 +391,6 @@ ClingoResult runClingo(const std::string& program, const AspOptions& options,
                 std::to_string(options.max_output_bytes) +
                 " (too many possible worlds to enumerate; use the native engine)");
   }
-  const std::string out = readWhole(out_path);
   const std::string err = readWhole(err_path);
   if (WIFSIGNALED(status)) {
     throw Error("AspBackend: clingo on " + subject + " was killed by signal " +
@@ -357,7 +401,7 @@ ClingoResult runClingo(const std::string& program, const AspOptions& options,
   // 33 out of memory, 65 error, 128 no run; 127 is a child that could not run clingo.
   if (code == 127 || code >= 33 || (code & 1) != 0 || (code & 20) != 20) {
     std::string why = pLogLocations(trimmed(err), lp, program);
-    if (why.empty()) why = trimmed(out);
+    if (why.empty()) why = trimmed(readWhole(out_path));
     if (why.find("unsafe variables") != std::string::npos)
       why = "a variable of the statement is bound by no sorted argument or positive literal, "
             "so clingo cannot ground it (declare the sorts of the attribute's arguments); "
@@ -367,12 +411,31 @@ ClingoResult runClingo(const std::string& program, const AspOptions& options,
                 (why.empty() ? std::string("no message") : why));
   }
 
+  // The output is mapped, not copied, and every atom is looked up in a table of the distinct
+  // atoms seen so far: a model becomes a vector of integers without a string per atom.
+  const MappedFile mapped(out_path);
+  const std::string_view out = mapped.view();
   ClingoResult result;
-  std::istringstream lines(out);
-  std::string line;
+  std::deque<std::string> storage;  // stable addresses for the views in index
+  std::unordered_map<std::string_view, std::uint32_t> index;
+  AspModel model;
+  auto intern = [&](std::string_view atom) {
+    auto it = index.find(atom);
+    if (it != index.end()) return it->second;
+    storage.emplace_back(atom);
+    const auto id = static_cast<std::uint32_t>(result.atoms.size());
+    result.atoms.push_back(storage.back());
+    index.emplace(std::string_view(storage.back()), id);
+    return id;
+  };
   bool status_seen = false;
-  while (std::getline(lines, line)) {
-    if (!line.empty() && line.back() == '\r') line.pop_back();
+  std::size_t pos = 0;
+  while (pos < out.size()) {
+    std::size_t eol = out.find('\n', pos);
+    if (eol == std::string_view::npos) eol = out.size();
+    std::string_view line = out.substr(pos, eol - pos);
+    pos = eol + 1;
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
     if (line == "SATISFIABLE" || line == "UNSATISFIABLE" || line == "OPTIMUM FOUND") {
       result.satisfiable = (line != "UNSATISFIABLE");
       status_seen = true;
@@ -381,29 +444,45 @@ ClingoResult runClingo(const std::string& program, const AspOptions& options,
     if (line == "UNKNOWN") {
       throw Error("AspBackend: clingo did not finish the search on " + subject);
     }
-    static const std::string kOpt = "Optimization:";
-    if (line.compare(0, kOpt.size(), kOpt) == 0) {
-      if (result.models.empty()) {
+    static const std::string_view kOpt = "Optimization:";
+    if (line.substr(0, kOpt.size()) == kOpt) {
+      if (result.model_count == 0) {
         throw Error("AspBackend: optimisation value before any answer set in clingo's output on " +
                     subject);
       }
-      std::istringstream values(line.substr(kOpt.size()));
+      std::istringstream values(std::string(line.substr(kOpt.size())));
       std::vector<long long> cost;
       long long v = 0;
       while (values >> v) cost.push_back(v);
-      result.costs.resize(result.models.size());
+      result.costs.resize(result.model_count);
       result.costs.back() = cost;
       continue;
     }
-    result.models.push_back(splitAspTerms(line, ' '));
+    model.clear();
+    forEachAspTerm(line, ' ', [&](std::size_t begin, std::size_t end) {
+      model.push_back(intern(line.substr(begin, end - begin)));
+    });
+    ++result.model_count;
+    if (on_model) {
+      on_model(result.atoms, model);
+    } else {
+      result.models.push_back(model);
+    }
   }
   if (!status_seen) {
     throw Error("AspBackend: unexpected clingo output on " + subject + " (no result line): " +
-                trimmed(out));
+                trimmed(std::string(out.substr(0, 8000))));
   }
   // No model lines precede an UNSATISFIABLE; with a multi-shot script the result line is that
   // of the last solve only, and earlier solves' answer sets are kept.
   return result;
+}
+
+std::vector<std::string> ClingoResult::atomTexts(const AspModel& model) const {
+  std::vector<std::string> out;
+  out.reserve(model.size());
+  for (std::uint32_t id : model) out.push_back(atoms.at(id));
+  return out;
 }
 
 }  // namespace plog

@@ -952,6 +952,49 @@ void ExactEngine::buildFactors(const std::vector<const std::vector<GCondition>*>
       changed = true;
     }
   }
+  // The plan: rows of every table about to be filled (log2). Over the cost cap, stop before
+  // any row is evaluated.
+  {
+    double largest = 0;
+    auto scopeLog2 = [&](std::vector<int>& scope) {
+      std::sort(scope.begin(), scope.end());
+      scope.erase(std::unique(scope.begin(), scope.end()), scope.end());
+      double l = 0;
+      for (int v : scope) l += std::log2(std::max(1, card(v)));
+      largest = std::max(largest, l);
+    };
+    for (int x : rel) {
+      s.clear();
+      scopeOfItems(x, s);
+      s.push_back(x);
+      scopeLog2(s);
+    }
+    for (int c : used_list) {
+      s.clear();
+      for (const auto& l : g_.constraints[static_cast<size_t>(c)].first) scopeOfLit(l, s);
+      scopeLog2(s);
+    }
+    for (int d : derived) {
+      s.clear();
+      scopeOfInstance(d, s);
+      scopeLog2(s);
+    }
+    for (const auto* cs : seeds) {
+      s.clear();
+      for (const auto& c : *cs)
+        for (const auto& l : c.lits) scopeOfLit(l, s);
+      scopeLog2(s);
+    }
+    last_planned_log2_ = largest;
+    if (on_plan_) on_plan_(largest);
+    const bool recursive = !scc_atoms_.empty();
+    const double cap = recursive ? cost_cap_recursive_log2_ : cost_cap_log2_;
+    if (largest > cap) {
+      throw CostlierError("the native engine's largest table has 2^" + std::to_string(largest) +
+                          " rows, over its cost cap of 2^" + std::to_string(cap) +
+                          (recursive ? " (recursive derived atoms)" : ""));
+    }
+  }
   pending_errors_.clear();
   for (int x : rel) {
     Factor f;

@@ -266,6 +266,15 @@ class Parser {
       st.kind = RawStmt::Kind::Rule;
       st.body = parseBody();
       endStatement();
+    } else if (first.kind == Tok::Colon && peek(1).kind == Tok::Plus) {
+      // headless consistency-restoring rule `:+ body.` (plog2.0: its head is the false
+      // literal 0 != 0, so applying it can only make a world inconsistent)
+      next();
+      next();
+      st.kind = RawStmt::Kind::Rule;
+      st.consistency_restoring = true;
+      st.body = parseBody();
+      endStatement();
     } else {
       st.kind = RawStmt::Kind::Rule;
       st.head = parseLiteral(false);

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <condition_variable>
+#include <limits>
 #include <exception>
 #include <mutex>
 #include <optional>
@@ -680,6 +682,29 @@ AspBackend& Reasoner::asp() {
   return *asp_;
 }
 
+double aspWorldsLog2(const Program& program) {
+  double total = 0;
+  for (const auto& r : program.random_rules) {
+    const AttributeDecl* d = program.findAttribute(r.attr.name);
+    const SortDecl* range = d ? program.findSort(d->range_sort) : nullptr;
+    if (range == nullptr) return std::numeric_limits<double>::infinity();
+    std::vector<std::string> vars;
+    for (const auto& t : r.attr.args) t.collectVariables(vars);
+    std::sort(vars.begin(), vars.end());
+    vars.erase(std::unique(vars.begin(), vars.end()), vars.end());
+    double instances = 1;
+    for (const auto& v : vars) {
+      auto it = r.variable_sorts.find(v);
+      std::string sort = it != r.variable_sorts.end() ? it->second : program.domainSortOf(v);
+      const SortDecl* sd = sort.empty() ? nullptr : program.findSort(sort);
+      if (sd == nullptr) return std::numeric_limits<double>::infinity();
+      instances *= static_cast<double>(sd->values.size());
+    }
+    total += instances * std::log2(std::max<double>(1.0, static_cast<double>(range->values.size())));
+  }
+  return total;
+}
+
 template <typename T, typename Native, typename Asp>
 T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_answer,
                      bool race) {
@@ -722,8 +747,17 @@ T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_
     }
   }
 
-  // Auto: the native engine first; clingo joins after race_delay_ seconds (at once when the
-  // native engine refuses the program) and the first answer wins.
+  // Auto: the native engine first, under a cost cap (see the class comment); clingo joins
+  // after race_delay_ seconds (at once when the native engine refuses the program or its plan
+  // is over the cap) and the first answer wins.
+  struct CapGuard {
+    double& cap;
+    double& cap_recursive;
+    ~CapGuard() { cap = cap_recursive = std::numeric_limits<double>::infinity(); }
+  } cap_guard{native_cost_cap_, native_cost_cap_recursive_};
+  const double asp_log2 = aspWorldsLog2(program_);
+  native_cost_cap_ = nativeCostCapLog2(asp_log2);
+  native_cost_cap_recursive_ = asp_log2 - kAspAdvantageLog2;
   AspBackend& backend = asp();  // made here: the helper thread must not create it
   std::atomic<bool> native_done{false};
   backend.setCancelFlag(&native_done);
@@ -733,12 +767,33 @@ T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_
   bool start_now = false, stop = false, asp_ran = false;
   std::optional<T> asp_result;
   std::exception_ptr asp_error;
+  // What the native engine has planned (log2 rows of its largest table; NaN: still
+  // grounding). clingo grounds the whole program, so it does not join while the native engine
+  // grounds the query's cone (unless that takes kGroundingRaceFactor race delays); it joins
+  // race_delay_ after the plan (a row can be costly: derived atoms are evaluated per row).
+  double planned = std::numeric_limits<double>::quiet_NaN();
+  plan_callback_ = [&](double log2_rows) {
+    {
+      std::lock_guard<std::mutex> lock(m);
+      if (std::isnan(planned)) planned = log2_rows;
+    }
+    cv.notify_all();
+  };
+  struct PlanGuard {
+    std::function<void(double)>& cb;
+    ~PlanGuard() { cb = nullptr; }
+  } plan_guard{plan_callback_};
   std::thread helper([&]() {
     {
       std::unique_lock<std::mutex> lock(m);
-      cv.wait_for(lock, std::chrono::duration<double>(race_delay_),
-                  [&]() { return start_now || stop; });
+      const auto delay = std::chrono::duration<double>(race_delay_);
+      cv.wait_for(lock, delay * kGroundingRaceFactor,
+                  [&]() { return start_now || stop || !std::isnan(planned); });
       if (stop) return;
+      if (!start_now && !std::isnan(planned)) {
+        cv.wait_for(lock, delay, [&]() { return start_now || stop; });
+        if (stop) return;
+      }
       asp_ran = true;
     }
     try {
@@ -790,6 +845,26 @@ T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_
     asp_won_ = false;
     outside_fragment_[key] = structure_version_;
     return useAsp(e.what());
+  } catch (const CostlierError& e) {
+    finish(false);  // a choice for this query only (its evidence shapes the plan): not cached
+    asp_won_ = false;
+    bool asp_failed = false;  // clingo could not answer (not: the program is incoherent)
+    if (!asp_result) {
+      try {
+        std::rethrow_exception(asp_error);
+      } catch (const IncoherentError&) {
+      } catch (const UnknownSymbolError&) {
+      } catch (...) {
+        asp_failed = true;
+      }
+    }
+    if (!asp_failed) return useAsp(e.what());
+    // The estimate chose clingo and clingo failed (too many worlds, time): the native engine
+    // without its cap.
+    native_cost_cap_ = native_cost_cap_recursive_ = std::numeric_limits<double>::infinity();
+    T r = native();
+    stats_.last_backend = Backend::Native;
+    return r;
   } catch (const CancelledError&) {
     finish(false);  // clingo has answered (or failed): wait for its thread
     asp_won_ = false;
@@ -820,6 +895,8 @@ std::vector<GCondition> Reasoner::prepareEngine(const GroundProgram& g, const Qu
                                                 ExactEngine& e) {
   e.setTimeBudget(limits_.max_inference_seconds);
   e.setCancelFlag(&asp_won_);
+  e.setCostCap(native_cost_cap_, native_cost_cap_recursive_);
+  if (plan_callback_) e.setPlanCallback(plan_callback_);
   for (const auto& d : program_.interventions) applyDo(g, program_, d, e);
   for (const auto& d : q.interventions) applyDo(g, program_, d, e);
   std::vector<GCondition> evidence;

@@ -327,7 +327,7 @@ double PointBasedSolver::lowerAt(const SparseBelief& b, std::size_t* arg) const 
   const std::uint32_t* idx = b.idx.data();
   const double* val = b.val.data();
   for (std::size_t i = 0; i < n; ++i) {
-    const double* al = &alpha_[i * s_];
+    const double* al = alpha_[i].data();
     double v0 = 0.0, v1 = 0.0;
     std::size_t j = 0;
     for (; j + 1 < m; j += 2) {
@@ -355,8 +355,15 @@ double PointBasedSolver::rewardAt(const SparseBelief& b, std::size_t a) const {
 }
 
 double PointBasedSolver::upperAt(const SparseBelief& b) const {
-  // Corners and FIB vectors over the support of b.
   double base = 0.0;
+  const double best = upperBelowCorners(b, &base, nullptr);
+  return base + best;
+}
+
+double PointBasedSolver::upperBelowCorners(const SparseBelief& b, double* base,
+                                           const char* skip) const {
+  // Corners and FIB vectors over the support of b.
+  double corners = 0.0;
   double fibBest = kInf;
   if (fibK_ > 0) {
     double* fibv = fibScratch_.data();
@@ -365,7 +372,7 @@ double PointBasedSolver::upperAt(const SparseBelief& b) const {
     for (std::size_t j = 0; j < b.size(); ++j) {
       const std::size_t s = b.idx[j];
       const double p = b.val[j];
-      base += corner_(static_cast<Eigen::Index>(s)) * p;
+      corners += corner_(static_cast<Eigen::Index>(s)) * p;
       const double* f = &fib_[s * fibK_];
       for (std::size_t k = 0; k < k0; ++k) fibv[k] += f[k] * p;
     }
@@ -373,18 +380,19 @@ double PointBasedSolver::upperAt(const SparseBelief& b) const {
     for (std::size_t k = 0; k < k0; ++k) fibBest = std::max(fibBest, fibv[k]);
   } else {
     for (std::size_t j = 0; j < b.size(); ++j)
-      base += corner_(static_cast<Eigen::Index>(b.idx[j])) * b.val[j];
+      corners += corner_(static_cast<Eigen::Index>(b.idx[j])) * b.val[j];
   }
+  *base = corners;
   // Sawtooth over the points, relative to the corners: point i lowers the bound by
   // |improve_i| * min over its support of b(s) / b_i(s), which is 0 as soon as one state of
   // its support is outside b's (the usual case, found at its first entries). Buckets are
   // sorted by increasing improvement; a point contributes at least its improvement (the ratio
   // is at most 1), so a bucket's scan stops at the first one that cannot beat `best`.
-  double best = std::min(0.0, fibBest - base);
+  double best = std::min(0.0, fibBest - corners);
   if (!options_.sawtooth) {
     const std::size_t i = findPoint(b);
-    if (i != kNoPoint) best = std::min(best, improve_[i]);
-    return base + best;
+    if (i != kNoPoint && !(skip && skip[i])) best = std::min(best, improve_[i]);
+    return best;
   }
   // Only points whose first support state is in b's support can have a non-zero ratio: they
   // are found through firstOf_ (for RockSample, the points at the robot's position).
@@ -393,19 +401,27 @@ double PointBasedSolver::upperAt(const SparseBelief& b) const {
     for (std::uint32_t i : firstOf_[b.idx[j]]) {  // by increasing improvement
       const double imp = improve_[i];
       if (imp >= best) break;
+      if (skip && skip[i]) continue;
+      // The ratio only decreases along the support and imp < 0, so once imp * ratio >= best
+      // the point cannot lower the bound: the scan of its support stops there (dense beliefs
+      // of small models, where every point meets b's support, read about half as many entries).
       double ratio = 1.0;
+      bool beaten = false;
       for (std::size_t e = pointStart_[i], end = pointStart_[i + 1]; e < end; ++e) {
         const double r = scatter_[pointIdx_[e]] * pointInv_[e];
         if (r < ratio) {
           ratio = r;
-          if (ratio == 0.0) break;
+          if (imp * ratio >= best) {
+            beaten = true;
+            break;
+          }
         }
       }
-      best = std::min(best, imp * ratio);
+      if (!beaten) best = std::min(best, imp * ratio);
     }
   }
   for (std::size_t j = 0; j < b.size(); ++j) scatter_[b.idx[j]] = 0.0;
-  return base + best;
+  return best;
 }
 
 double PointBasedSolver::lowerBound(const Belief& b) const {
@@ -421,7 +437,8 @@ double PointBasedSolver::upperBound(const Belief& b) const {
 }
 
 std::size_t PointBasedSolver::boundBytes() const {
-  std::size_t bytes = alpha_.size() * sizeof(double) + alphaAction_.size() * sizeof(std::size_t);
+  std::size_t bytes = alpha_.size() * (s_ * sizeof(double) + sizeof(std::vector<double>)) +
+                      alphaAction_.size() * sizeof(std::size_t);
   for (const auto& c : alphaChildren_) bytes += sizeof(c) + c.size() * sizeof(std::uint32_t);
   bytes += lowerNodeBytes_;
   bytes += pointIdx_.size() * (sizeof(std::uint32_t) + sizeof(double)) +
@@ -436,7 +453,7 @@ bool PointBasedSolver::addAlpha(const double* alpha, std::size_t action,
     memoryStop_ = true;
     return false;
   }
-  alpha_.insert(alpha_.end(), alpha, alpha + s_);
+  alpha_.emplace_back(alpha, alpha + s_);
   alphaAction_.push_back(action);
   alphaChildren_.push_back(std::move(children));
   witness_.push_back(1);
@@ -494,8 +511,15 @@ void PointBasedSolver::addPoint(const SparseBelief& b, double v) {
     }
     return;
   }
-  if (options_.memoryLimit > 0 &&
-      boundBytes() + b.size() * 12 + 96 > options_.memoryLimit) {
+  const auto overLimit = [&] {
+    return options_.memoryLimit > 0 && boundBytes() + b.size() * 12 + 96 > options_.memoryLimit;
+  };
+  // At the memory limit, dominated points are dropped first: that frees room without
+  // loosening the bound.
+  if (overLimit() && options_.pointPruning && options_.sawtooth &&
+      improve_.size() > pointsPrunedAt_)
+    prunePointsUntil(true);
+  if (overLimit()) {
     memoryStop_ = true;
     return;
   }
@@ -508,6 +532,69 @@ void PointBasedSolver::addPoint(const SparseBelief& b, double v) {
   improve_.push_back(imp);
   insertByImprovement(firstOf_[b.idx.front()], improve_.size() - 1);
   ++profile_.pointsAdded;
+}
+
+std::size_t PointBasedSolver::prunePointsUntil(bool interruptible) {
+  const ScopedTimer timer(profile_.pointPruneSeconds);
+  ++profile_.pointPrunes;
+  const std::size_t n = improve_.size();
+  std::vector<char> dead(n, 0);
+  SparseBelief b;
+  std::size_t removed = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (interruptible && (i & 63) == 63 && cut()) break;  // what was removed stays removed
+    b.clear();
+    for (std::size_t e = pointStart_[i]; e < pointStart_[i + 1]; ++e) {
+      b.idx.push_back(pointIdx_[e]);
+      b.val.push_back(1.0 / pointInv_[e]);
+    }
+    // The bound at b_i from the corners, the FIB vectors and the points still kept but i.
+    dead[i] = 1;
+    double base = 0.0;
+    if (upperBelowCorners(b, &base, dead.data()) <= improve_[i])
+      ++removed;
+    else
+      dead[i] = 0;
+  }
+  if (removed > 0) {
+    // Compact the point arrays and renumber the buckets and the hash index (their order is
+    // kept, so the buckets stay sorted by improvement).
+    std::vector<std::uint32_t> newIndex(n, 0);
+    std::size_t w = 0, e0 = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (dead[i]) continue;
+      newIndex[i] = static_cast<std::uint32_t>(w);
+      const std::size_t begin = pointStart_[i], end = pointStart_[i + 1];
+      for (std::size_t e = begin; e < end; ++e, ++e0) {
+        pointIdx_[e0] = pointIdx_[e];
+        pointInv_[e0] = pointInv_[e];
+      }
+      improve_[w] = improve_[i];
+      pointStart_[++w] = e0;
+    }
+    pointStart_.resize(w + 1);
+    pointIdx_.resize(e0);
+    pointInv_.resize(e0);
+    improve_.resize(w);
+    for (auto& bucket : firstOf_) {
+      if (bucket.empty()) continue;
+      std::size_t k = 0;
+      for (std::uint32_t i : bucket)
+        if (!dead[i]) bucket[k++] = newIndex[i];
+      bucket.resize(k);
+    }
+    for (auto it = pointIndex_.begin(); it != pointIndex_.end();) {
+      auto& v = it->second;
+      std::size_t k = 0;
+      for (std::size_t i : v)
+        if (!dead[i]) v[k++] = newIndex[i];
+      v.resize(k);
+      it = v.empty() ? pointIndex_.erase(it) : std::next(it);
+    }
+  }
+  profile_.pointsPruned += removed;
+  pointsPrunedAt_ = improve_.size();
+  return removed;
 }
 
 void PointBasedSolver::pruneAlphas() {
@@ -528,10 +615,10 @@ void PointBasedSolver::pruneAlphas() {
   for (std::size_t i = 0; i < n; ++i) into[i] = i;
   for (std::size_t i = 0; i < n; ++i) {
     if (!keep[i]) continue;
-    const double* ai = &alpha_[i * s_];
+    const double* ai = alpha_[i].data();
     for (std::size_t j = 0; j < n; ++j) {
       if (i == j || !keep[j]) continue;
-      const double* aj = &alpha_[j * s_];
+      const double* aj = alpha_[j].data();
       bool dominated = true;  // is j <= i everywhere?
       for (std::size_t s = 0; s < s_ && dominated; ++s) dominated = aj[s] <= ai[s];
       if (dominated) {
@@ -575,16 +662,14 @@ void PointBasedSolver::pruneAlphas() {
   for (std::size_t i = 0; i < n; ++i)
     if (keep[i]) {
       if (w != i) {
-        std::copy(alpha_.begin() + static_cast<long>(i * s_),
-                  alpha_.begin() + static_cast<long>((i + 1) * s_),
-                  alpha_.begin() + static_cast<long>(w * s_));
+        alpha_[w] = std::move(alpha_[i]);
         alphaAction_[w] = alphaAction_[i];
         alphaChildren_[w] = std::move(alphaChildren_[i]);
       }
       for (std::uint32_t& c : alphaChildren_[w]) c = newIndex[survivor(c)];
       ++w;
     }
-  alpha_.resize(w * s_);
+  alpha_.resize(w);
   alphaAction_.resize(w);
   alphaChildren_.resize(w);
   witness_.assign(w, 0);
@@ -773,7 +858,7 @@ std::size_t PointBasedSolver::lowerNode(const SparseBelief& b) {
       args_[r] = slot == kNoPoint ? nd.selfArg : nd.arg[slot];
     }
     for (std::size_t i = nd.checked; i < n; ++i) {
-      const double* al = &alpha_[i * s_];
+      const double* al = alpha_[i].data();
       for (std::size_t j = 0; j < m; ++j) gather_[j] = al[idx[j]];
       for (std::size_t r = 0; r < mm; ++r) {
         const double* w = pool_[members[r]].kid.val.data();
@@ -836,7 +921,7 @@ void PointBasedSolver::lowerBackup(const SparseBelief& b) {
   for (std::size_t s = 0; s < s_; ++s) {
     double x = 0.0;
     for (const auto& z : m_.observationRow(s, a))
-      x += z.second * alpha_[static_cast<std::size_t>(bestChildren_[slotOf[z.first]]) * s_ + s];
+      x += z.second * alpha_[bestChildren_[slotOf[z.first]]][s];
     accVec_(static_cast<Eigen::Index>(s)) = x;
   }
   m_.expectNext(a, accVec_, nextVec_);
@@ -867,11 +952,14 @@ void PointBasedSolver::trial() {
   double targetU = -kInf;
   std::vector<std::size_t>& chosenObs = chosenObs_;
   chosenObs.clear();
+  // A belief whose gap is within its precision is never expanded: the trial only descends
+  // into a child whose gap (cached U minus the node's cached lower score) exceeds the child's
+  // precision, and stops below at a node whose gap its own backup closed.
   while (true) {
-    NodeCache& c = cache_[depth];
-    upperBackup(path_[depth], c);
-    const std::size_t a = c.action;
     const SparseBelief& bd = path_[depth];
+    NodeCache& c = cache_[depth];
+    upperBackup(bd, c);
+    const std::size_t a = c.action;
     const std::size_t node = lowerNode(bd);
     const double gap = upperAt(bd) - lowerNodes_[node].self;
     if (gap <= thr || depth + 1 >= options_.maxDepth || cut()) break;
@@ -925,6 +1013,11 @@ void PointBasedSolver::trial() {
     lowerBackup(path_[d]);
   }
   ++trials_;
+  // Point pruning when the set has doubled since the last one: amortised, each point is
+  // checked a constant number of times on average.
+  if (options_.pointPruning && options_.sawtooth && !cut() &&
+      improve_.size() >= 2 * pointsPrunedAt_ + 64)
+    prunePointsUntil(true);
   const double lowerBefore = rootLower_;
   rootLower_ = std::max(rootLower_, lowerAt(b0_));
   rootUpper_ = std::min(rootUpper_, upperAt(b0_));
@@ -974,7 +1067,7 @@ BoundsReport PointBasedSolver::report() const {
 AlphaVectorPolicy PointBasedSolver::policy() const {
   AlphaVectorPolicy p(s_);
   for (std::size_t i = 0; i < alphaAction_.size(); ++i)
-    p.add(Eigen::Map<const Eigen::VectorXd>(&alpha_[i * s_], static_cast<Eigen::Index>(s_)),
+    p.add(Eigen::Map<const Eigen::VectorXd>(alpha_[i].data(), static_cast<Eigen::Index>(s_)),
           alphaAction_[i]);
   return p;
 }

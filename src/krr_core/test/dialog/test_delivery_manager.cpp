@@ -18,7 +18,7 @@ using namespace krr::dialog;
 
 /// coke / soda x room1 / room2 x bob; every room always reached; a wrong delivery costs 100.
 struct Fixture {
-  pomdp::DialogPomdp dialog;
+  DialogPomdp dialog;
   pomdp::TurnLimitedPolicy policy;
   LanguageFrontEnd language;
   DialogConfig config;
@@ -27,8 +27,8 @@ struct Fixture {
       : dialog(spec(turnLimit)), policy(solve(dialog)), language(dialog, LanguageConfig()) {
     config.turn_limit = turnLimit;
   }
-  static pomdp::DialogSpec spec(int turnLimit) {
-    pomdp::DialogSpec s;
+  static DialogSpec spec(int turnLimit) {
+    DialogSpec s;
     s.items = {"coke", "soda"};
     s.rooms = {"room1", "room2"};
     s.persons = {"bob"};
@@ -36,7 +36,7 @@ struct Fixture {
     s.turnLimit = turnLimit;
     return s;
   }
-  static pomdp::TurnLimitedPolicy solve(const pomdp::DialogPomdp& d) {
+  static pomdp::TurnLimitedPolicy solve(const DialogPomdp& d) {
     pomdp::TurnLimitedSolverOptions o;
     o.precision = 1e-6;
     pomdp::TurnLimitedSolver s(d.model(), d.model().initialBelief(), d.spec().turnLimit, o);
@@ -51,7 +51,7 @@ struct Fixture {
 /// Answers every question truthfully in words for `want`; at the room says `checks` in order.
 class Person : public DeliveryPerson {
  public:
-  Person(const pomdp::DialogPomdp& d, std::size_t want, std::string opening,
+  Person(const DialogPomdp& d, std::size_t want, std::string opening,
          std::vector<std::string> checks)
       : d_(d), want_(want), opening_(std::move(opening)), checks_(std::move(checks)) {}
   void open(DeliveryManager& m) override {
@@ -62,9 +62,9 @@ class Person : public DeliveryPerson {
     const std::string action = d_.model().actionNames()[q];
     std::string text;
     switch (d_.actionKind(q)) {
-      case pomdp::DialogActionKind::kAskItem: text = names[0]; break;
-      case pomdp::DialogActionKind::kAskRoom: text = names[1]; break;
-      case pomdp::DialogActionKind::kAskPerson: text = names[2]; break;
+      case DialogActionKind::kAskItem: text = names[0]; break;
+      case DialogActionKind::kAskRoom: text = names[1]; break;
+      case DialogActionKind::kAskPerson: text = names[2]; break;
       default: {
         const std::string value = action.substr(action.rfind('_') + 1);
         text = value == names[0] || value == names[1] || value == names[2] ? "yes" : "no";
@@ -82,7 +82,7 @@ class Person : public DeliveryPerson {
   int answers = 0;
 
  private:
-  const pomdp::DialogPomdp& d_;
+  const DialogPomdp& d_;
   std::size_t want_;
   std::string opening_;
   std::vector<std::string> checks_;

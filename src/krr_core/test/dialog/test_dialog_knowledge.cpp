@@ -36,7 +36,7 @@ DeliveryNavigation chainNavigation(const kb::NavStateSpace& sp) {
 
 TEST(DialogKnowledge, PriorOfTheOfficeKnowledgeBaseEqualsHandComputation) {
   const DialogKnowledge k(repo("config/office.plog"), repo("config/dialog.plog"));
-  const pomdp::DialogSpec& b = k.base();
+  const DialogSpec& b = k.base();
   ASSERT_EQ(k.numRequests(), 30u);
   ASSERT_EQ(b.rooms.size(), 5u);
   ASSERT_EQ(b.persons, (std::vector<std::string>{"john", "bob"}));
@@ -66,7 +66,7 @@ TEST(DialogKnowledge, SpeechModelComesFromPlog) {
   const kb::NavStateSpace sp(grid);
   const DeliveryNavigation nav = chainNavigation(sp);
   DialogConfig cfg;
-  const pomdp::DialogPomdp d(k.buildSpec(nav.trips(), cfg));
+  const DialogPomdp d(k.buildSpec(nav.trips(), cfg));
   const std::size_t s = d.requestIndex(1, 0, 1);  // soda, room1, ben
   EXPECT_NEAR(d.model().getObservationProbability(s, d.askItem(), d.obsItem(1)), 0.9, 1e-12);
   EXPECT_NEAR(d.model().getObservationProbability(s, d.askItem(), d.obsItem(0)), 0.1, 1e-12);
@@ -95,7 +95,7 @@ TEST(DialogKnowledge, DeliveryEquationAndServeRewardMatchHandComputation) {
   DialogConfig cfg;
   cfg.serve_cost_mode = ServeCostMode::kNone;  // the paper's formula alone
   cfg.wrong_delivery_penalty = 0.0;
-  const pomdp::DialogPomdp paper(k.buildSpec(trips, cfg));
+  const DialogPomdp paper(k.buildSpec(trips, cfg));
   const std::size_t s = paper.requestIndex(0, 1, 0);  // coke, room2, ann
   const std::size_t a = paper.requestIndex(1, 0, 0);  // soda, room1, ann
   const std::size_t a2 = paper.requestIndex(1, 1, 0);  // soda, room2, ann
@@ -116,7 +116,7 @@ TEST(DialogKnowledge, DeliveryEquationAndServeRewardMatchHandComputation) {
   cfg.serve_cost_mode = ServeCostMode::kExpected;
   cfg.serve_cost_weight = 0.5;
   cfg.wrong_delivery_penalty = 120.0;
-  const pomdp::DialogPomdp ext(k.buildSpec(trips, cfg));
+  const DialogPomdp ext(k.buildSpec(trips, cfg));
   EXPECT_NEAR(ext.model().getExpectedReward(s, ext.serveAction(a)),
               rPaper - 0.5 * (5 + 0.9 * (5 + 0.9 * 13.55)) - 120.0, 1e-9);
   EXPECT_NEAR(ext.model().getExpectedReward(s, ext.serveAction(s)),
@@ -124,7 +124,7 @@ TEST(DialogKnowledge, DeliveryEquationAndServeRewardMatchHandComputation) {
   // Costs, rewards and the turn limit come from the config.
   cfg.general_cost = 3.0;
   cfg.turn_limit = 7;
-  const pomdp::DialogPomdp c2(k.buildSpec(trips, cfg));
+  const DialogPomdp c2(k.buildSpec(trips, cfg));
   EXPECT_DOUBLE_EQ(c2.model().getExpectedReward(s, c2.askRoom()), -3.0);
   EXPECT_EQ(c2.spec().turnLimit, 7);
 
@@ -134,7 +134,7 @@ TEST(DialogKnowledge, DeliveryEquationAndServeRewardMatchHandComputation) {
   EXPECT_THROW(k.buildSpec(swapped, cfg), ConfigError);
   // P^N given as numbers (dialog_node's reach source) build the same kind of model.
   const TripTable given = TripTable::fromReach({"room1", "room2"}, {0.9, 0.729}, {}, 40.0);
-  const pomdp::DialogPomdp g(k.buildSpec(given, cfg));
+  const DialogPomdp g(k.buildSpec(given, cfg));
   EXPECT_NEAR(g.spec().delivery(s, a), 0.9 * 0.9 * 0.729, 1e-12);
 }
 
@@ -145,7 +145,7 @@ TEST(DialogKnowledge, DeliveryEquationAndServeRewardMatchHandComputation) {
 struct Office {
   DialogConfig cfg = loadDialogConfig(repo("config/dialog.yaml"));
   DialogKnowledge knowledge{cfg.office_plog, cfg.speech_plog};
-  pomdp::DialogPomdp dialog;
+  DialogPomdp dialog;
   pomdp::TurnLimitedPolicy policy;
   LanguageFrontEnd language;
   explicit Office(const std::vector<double>& reach)
@@ -158,7 +158,7 @@ struct Office {
 /// Says `opening`, then answers every question truthfully for `want` (in words).
 class TruthfulPerson : public DeliveryPerson {
  public:
-  TruthfulPerson(const pomdp::DialogPomdp& d, std::size_t want, std::vector<std::string> opening)
+  TruthfulPerson(const DialogPomdp& d, std::size_t want, std::vector<std::string> opening)
       : d_(d), want_(want), opening_(std::move(opening)) {}
   void open(DeliveryManager& m) override {
     if (!opening_.empty()) m.hear(opening_[next_++]);
@@ -171,9 +171,9 @@ class TruthfulPerson : public DeliveryPerson {
     const auto names = m.requestNames(want_);
     const std::string action = d_.model().actionNames()[q];
     switch (d_.actionKind(q)) {
-      case pomdp::DialogActionKind::kAskItem: m.hear("a " + names[0]); break;
-      case pomdp::DialogActionKind::kAskRoom: m.hear("to " + names[1]); break;
-      case pomdp::DialogActionKind::kAskPerson: m.hear("for " + names[2]); break;
+      case DialogActionKind::kAskItem: m.hear("a " + names[0]); break;
+      case DialogActionKind::kAskRoom: m.hear("to " + names[1]); break;
+      case DialogActionKind::kAskPerson: m.hear("for " + names[2]); break;
       default: {
         const std::string v = action.substr(action.rfind('_') + 1);
         m.hear(v == names[0] || v == names[1] || v == names[2] ? "yes" : "no");
@@ -187,7 +187,7 @@ class TruthfulPerson : public DeliveryPerson {
   }
 
  private:
-  const pomdp::DialogPomdp& d_;
+  const DialogPomdp& d_;
   std::size_t want_;
   std::vector<std::string> opening_;
   std::size_t next_ = 0;
@@ -294,7 +294,7 @@ TEST(DialogKnowledge, HarderRoomsAreServedOnMoreCertainty) {
     const std::size_t want = o.dialog.requestIndex(item, room, who);
     class Sampled : public DeliveryPerson {
      public:
-      Sampled(const pomdp::DialogPomdp& d, std::size_t want, std::uint64_t seed)
+      Sampled(const DialogPomdp& d, std::size_t want, std::uint64_t seed)
           : d_(d), want_(want), rng_(krr::makeRng(seed, "speech", 0)) {}
       bool answer(DeliveryManager& m, std::size_t q) override {
         double u = krr::uniform01(rng_);
@@ -310,7 +310,7 @@ TEST(DialogKnowledge, HarderRoomsAreServedOnMoreCertainty) {
       }
 
      private:
-      const pomdp::DialogPomdp& d_;
+      const DialogPomdp& d_;
       std::size_t want_;
       krr::Rng rng_;
     } sampled(o.dialog, want, e);
@@ -333,9 +333,10 @@ TEST(DialogKnowledge, HarderRoomsAreServedOnMoreCertainty) {
   EXPECT_LE(mean(entropy["room2"]), mean(entropy["room4"]));
   EXPECT_LT(easy, 1.0);
   // Table II's random beliefs: the same ordering for the beliefs under which the robot serves.
-  BeliefEntropySurvey survey(o.dialog, o.policy, BeliefSamplerOptions(), 3);
+  krr::experiments::BeliefEntropySurvey survey(o.dialog, o.policy,
+                                               krr::experiments::BeliefSamplerOptions(), 3);
   std::map<std::size_t, std::vector<double>> byRoom;
-  for (const EntropySample& x : survey.run(0, 3000, 2))
+  for (const krr::experiments::EntropySample& x : survey.run(0, 3000, 2))
     if (x.serve) byRoom[o.dialog.requestParts(x.request)[1]].push_back(x.entropy);
   EXPECT_LE(mean(byRoom[4]), mean(byRoom[0]));
   EXPECT_LT(mean(byRoom[0]), 1.0);

@@ -10,7 +10,7 @@
 #include "krr_core/pomdp/turn_limited_solver.h"
 
 namespace krr {
-namespace pomdp {
+namespace dialog {
 namespace {
 
 DialogSpec paperSpec() {
@@ -24,7 +24,7 @@ DialogSpec paperSpec() {
 
 TEST(DialogPomdp, SizesNamesAndStochasticRows) {
   DialogPomdp d(paperSpec());
-  const Model& m = d.model();
+  const pomdp::Model& m = d.model();
   EXPECT_EQ(d.numRequests(), 30u);
   EXPECT_EQ(m.getS(), 31u);               // 30 requests + terminal
   EXPECT_EQ(m.getA(), 3u + 10u + 30u);    // general, confirming, serve
@@ -42,7 +42,7 @@ TEST(DialogPomdp, SizesNamesAndStochasticRows) {
 
 TEST(DialogPomdp, QuestionsKeepTheRequestAndServingEndsTheEpisode) {
   DialogPomdp d(paperSpec());
-  const Model& m = d.model();
+  const pomdp::Model& m = d.model();
   for (std::size_t a = 0; a < m.getA(); ++a) {
     EXPECT_EQ(m.isIdentityTransition(a), d.isQuestion(a)) << a;
     if (d.isServe(a)) {
@@ -58,7 +58,7 @@ TEST(DialogPomdp, QuestionsKeepTheRequestAndServingEndsTheEpisode) {
 
 TEST(DialogPomdp, RewardsFollowThePaper) {
   DialogPomdp d(paperSpec());
-  const Model& m = d.model();
+  const pomdp::Model& m = d.model();
   const std::size_t s = d.requestIndex(0, 0, 0);  // <coke, room1, alice>
   EXPECT_EQ(m.getExpectedReward(s, d.askRoom()), -2.0);
   EXPECT_EQ(m.getExpectedReward(s, d.confirmItem(1)), -1.5);
@@ -98,7 +98,7 @@ TEST(DialogPomdp, DeliveryMatrixAndPriorByHand) {
 
 TEST(DialogPomdp, AnswerModel) {
   DialogPomdp d(paperSpec());
-  const Model& m = d.model();
+  const pomdp::Model& m = d.model();
   const std::size_t s = d.requestIndex(1, 1, 1);  // <coffee, room2, bob>
   EXPECT_DOUBLE_EQ(m.getObservationProbability(s, d.askRoom(), d.obsRoom(1)), 0.8);
   EXPECT_DOUBLE_EQ(m.getObservationProbability(s, d.askRoom(), d.obsRoom(3)), 0.2 / 4);
@@ -131,13 +131,13 @@ TEST(DialogPomdp, RejectsBadSpecs) {
 /// Mean number of questions over seeded simulated dialogs with a fixed request: the user's
 /// answers are drawn from the observation model, the robot acts by the turn-limited policy
 /// (which serves by itself at the turn limit). Episode e uses stream makeRng(seed, "dialog", e).
-double meanQuestions(const DialogPomdp& d, const TurnLimitedPolicy& policy, std::size_t request,
-                     std::size_t episodes, std::uint64_t seed) {
-  const Model& m = d.model();
+double meanQuestions(const DialogPomdp& d, const pomdp::TurnLimitedPolicy& policy,
+                     std::size_t request, std::size_t episodes, std::uint64_t seed) {
+  const pomdp::Model& m = d.model();
   std::size_t questions = 0;
   for (std::size_t e = 0; e < episodes; ++e) {
     Rng rng = makeRng(seed, "dialog", e);
-    Belief b = m.initialBelief();
+    pomdp::Belief b = m.initialBelief();
     for (int turns = 0;; ++turns) {
       const std::size_t a = policy.bestAction(b, turns);
       if (d.isServe(a)) break;
@@ -154,7 +154,7 @@ double meanQuestions(const DialogPomdp& d, const TurnLimitedPolicy& policy, std:
         }
         u -= entry.second;
       }
-      b = updateBelief(m, b, a, o);
+      b = pomdp::updateBelief(m, b, a, o);
     }
   }
   return static_cast<double>(questions) / static_cast<double>(episodes);
@@ -176,9 +176,9 @@ TEST(DialogPomdp, HarderRoomMeansMoreQuestions) {
     spec.prior = Eigen::Vector2d(0.7, 0.3);
     spec.delivery = deliveryMatrix(1, Eigen::Vector2d(reachA, 0.6), 1);
     DialogPomdp d(spec);
-    TurnLimitedSolverOptions opt;
+    pomdp::TurnLimitedSolverOptions opt;
     opt.precision = 0.02;
-    TurnLimitedSolver solver(d.model(), d.model().initialBelief(), spec.turnLimit, opt);
+    pomdp::TurnLimitedSolver solver(d.model(), d.model().initialBelief(), spec.turnLimit, opt);
     EXPECT_TRUE(solver.runUntil(2.0));
     return meanQuestions(d, solver.policy(), 0, 2000, 7);
   };
@@ -194,7 +194,7 @@ TEST(DialogPomdp, ServeCostIsSubtractedFromServeRewards) {
   spec.serveCost = Eigen::MatrixXd::Constant(30, 30, 5.0);
   spec.serveCost(0, 0) = 1.0;
   DialogPomdp d(spec);
-  const Model& m = d.model();
+  const pomdp::Model& m = d.model();
   const std::size_t s = d.requestIndex(0, 0, 0);
   EXPECT_NEAR(m.getExpectedReward(s, d.serveAction(s)), 72.0 - 1.0, 1e-12);
   EXPECT_NEAR(m.getExpectedReward(s, d.serveAction(d.requestIndex(0, 4, 0))), -42.0 - 5.0, 1e-12);
@@ -206,5 +206,5 @@ TEST(DialogPomdp, ServeCostIsSubtractedFromServeRewards) {
 }
 
 }  // namespace
-}  // namespace pomdp
+}  // namespace dialog
 }  // namespace krr

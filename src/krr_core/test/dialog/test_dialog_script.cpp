@@ -12,14 +12,14 @@ namespace dialog {
 namespace {
 
 /// The office dialog of the paper; prior: john's office room5, bob's room2, 0.8.
-pomdp::DialogPomdp officeDialog() {
-  pomdp::DialogSpec spec;
+DialogPomdp officeDialog() {
+  DialogSpec spec;
   spec.persons = {"john", "bob"};
-  spec.prior = pomdp::ownOfficePrior(3, 5, {4, 1}, 0.8);
+  spec.prior = ownOfficePrior(3, 5, {4, 1}, 0.8);
   Eigen::VectorXd reach(5);
   reach << 0.95, 0.65, 0.75, 0.95, 0.5;
-  spec.delivery = pomdp::deliveryMatrix(3, reach, 2);
-  return pomdp::DialogPomdp(spec);
+  spec.delivery = deliveryMatrix(3, reach, 2);
+  return DialogPomdp(spec);
 }
 
 /// The shipped configuration, so that a broken config/language.yaml fails here.
@@ -33,7 +33,7 @@ const std::vector<std::string> kFigure4Questions = {"ask_item", "confirm_item_co
                                                     "confirm_room_room2"};
 
 TEST(DialogScript, Figure4BeliefMovesTowardsCokeBobRoom2) {
-  pomdp::DialogPomdp d = officeDialog();
+  DialogPomdp d = officeDialog();
   LanguageFrontEnd lang(d, shippedConfig());
   ScriptResult r = runDialogScript(d, lang, nullptr, kFigure4Questions, kFigure4);
   ASSERT_EQ(r.turns.size(), 5u);  // the prior and four user turns, as in Figure 4
@@ -69,7 +69,7 @@ TEST(DialogScript, Figure4BeliefMovesTowardsCokeBobRoom2) {
 }
 
 TEST(DialogScript, PolicyDrivenScriptAsksWhatThePolicySays) {
-  pomdp::DialogPomdp d = officeDialog();
+  DialogPomdp d = officeDialog();
   LanguageFrontEnd lang(d, shippedConfig());
   pomdp::TurnLimitedSolverOptions opt;
   opt.precision = 1.0;
@@ -101,7 +101,7 @@ TEST(DialogScript, PolicyDrivenScriptAsksWhatThePolicySays) {
 }
 
 TEST(DialogScript, ServingEarlyLeavesUnusedUtterances) {
-  pomdp::DialogPomdp d = officeDialog();
+  DialogPomdp d = officeDialog();
   LanguageFrontEnd lang(d, shippedConfig());
   const std::size_t serve = d.serveAction(d.requestIndex(2, 0, 0));
   // One serve vector usable at every turn; its value is so low that no question looks better
@@ -118,9 +118,9 @@ TEST(DialogScript, ServingEarlyLeavesUnusedUtterances) {
 }
 
 TEST(DialogScript, TurnLimitServesTheMostLikelyRequestWithoutAPolicy) {
-  pomdp::DialogSpec spec = officeDialog().spec();
+  DialogSpec spec = officeDialog().spec();
   spec.turnLimit = 1;
-  pomdp::DialogPomdp d(spec);
+  DialogPomdp d(spec);
   LanguageFrontEnd lang(d, shippedConfig());
   // (Without a policy every utterance after the first needs a scripted question, even one
   // the turn limit would leave unused: checked before running.)
@@ -137,7 +137,7 @@ TEST(DialogScript, TurnLimitServesTheMostLikelyRequestWithoutAPolicy) {
 }
 
 TEST(DialogScript, GarbageTurnKeepsTheBeliefAndIsRecorded) {
-  pomdp::DialogPomdp d = officeDialog();
+  DialogPomdp d = officeDialog();
   LanguageFrontEnd lang(d, shippedConfig());
   ScriptResult r = runDialogScript(d, lang, nullptr, {"none"}, {"xyzzy plugh", "coffee"});
   ASSERT_EQ(r.turns.size(), 3u);
@@ -148,7 +148,7 @@ TEST(DialogScript, GarbageTurnKeepsTheBeliefAndIsRecorded) {
 }
 
 TEST(DialogScript, RefusesBadScriptsBeforeRunning) {
-  pomdp::DialogPomdp d = officeDialog();
+  DialogPomdp d = officeDialog();
   LanguageFrontEnd lang(d, shippedConfig());
   EXPECT_THROW(runDialogScript(d, lang, nullptr, {}, {}), ConfigError);
   EXPECT_THROW(runDialogScript(d, lang, nullptr, {}, {"coke", "yes"}), ConfigError);
@@ -164,7 +164,7 @@ TEST(DialogScript, RefusesBadScriptsBeforeRunning) {
 }
 
 TEST(DialogScript, CsvAndJsonHaveOneRowPerTurn) {
-  pomdp::DialogPomdp d = officeDialog();
+  DialogPomdp d = officeDialog();
   LanguageFrontEnd lang(d, shippedConfig());
   ScriptResult r = runDialogScript(d, lang, nullptr, kFigure4Questions, kFigure4);
   const std::string csv = scriptToCsv(d, r);

@@ -11,10 +11,10 @@ namespace krr {
 namespace dialog {
 namespace {
 
-pomdp::DialogSpec officeSpec() {
-  pomdp::DialogSpec spec;
+DialogSpec officeSpec() {
+  DialogSpec spec;
   spec.persons = {"john", "bob"};
-  spec.prior = pomdp::ownOfficePrior(3, 5, {4, 1}, 0.8);  // john: room5, bob: room2
+  spec.prior = ownOfficePrior(3, 5, {4, 1}, 0.8);  // john: room5, bob: room2
   return spec;
 }
 
@@ -25,13 +25,13 @@ LanguageConfig config() {
   return c;
 }
 
-Eigen::VectorXd constant(const pomdp::DialogPomdp& d, double v) {
+Eigen::VectorXd constant(const DialogPomdp& d, double v) {
   return Eigen::VectorXd::Constant(static_cast<Eigen::Index>(d.model().getS()), v);
 }
 
 /// A hand-made turn-limited policy: `question` (value 0) before the turn limit, and at the
 /// limit (where the policy must serve) serve(`served`) with a value far below.
-pomdp::TurnLimitedPolicy askThenServe(const pomdp::DialogPomdp& d, std::size_t question,
+pomdp::TurnLimitedPolicy askThenServe(const DialogPomdp& d, std::size_t question,
                                       std::size_t served) {
   const int limit = d.spec().turnLimit;
   pomdp::TurnLimitedPolicy p(d.model().getS(), limit);
@@ -41,7 +41,7 @@ pomdp::TurnLimitedPolicy askThenServe(const pomdp::DialogPomdp& d, std::size_t q
 }
 
 TEST(DialogSession, FullRequestMatchesTheHandComputedPosterior) {
-  pomdp::DialogPomdp d(officeSpec());
+  DialogPomdp d(officeSpec());
   LanguageFrontEnd lang(d, config());
   DialogSession s(d, &lang);
   const BeliefSummary before = s.summary();
@@ -65,7 +65,7 @@ TEST(DialogSession, FullRequestMatchesTheHandComputedPosterior) {
 }
 
 TEST(DialogSession, YesAnswersTheQuestionAskedAndCountsTurns) {
-  pomdp::DialogPomdp d(officeSpec());
+  DialogPomdp d(officeSpec());
   LanguageFrontEnd lang(d, config());
   DialogSession s(d, &lang);
   s.act(d.confirmItem(1));  // "Should I deliver a coffee?"
@@ -85,7 +85,7 @@ TEST(DialogSession, YesAnswersTheQuestionAskedAndCountsTurns) {
 }
 
 TEST(DialogSession, GarbageLeavesTheBeliefAndReportsWords) {
-  pomdp::DialogPomdp d(officeSpec());
+  DialogPomdp d(officeSpec());
   LanguageFrontEnd lang(d, config());
   DialogSession s(d, &lang);
   const pomdp::Belief b0 = s.belief();
@@ -98,9 +98,9 @@ TEST(DialogSession, GarbageLeavesTheBeliefAndReportsWords) {
 }
 
 TEST(DialogSession, ImpossibleObservationIsReportedNotThrown) {
-  pomdp::DialogSpec spec = officeSpec();
+  DialogSpec spec = officeSpec();
   spec.pGeneral = 1.0;  // answers are always right: hearing coffee after coke is impossible
-  pomdp::DialogPomdp d(spec);
+  DialogPomdp d(spec);
   LanguageFrontEnd lang(d, config());
   DialogSession s(d, &lang);
   ASSERT_TRUE(s.hear("coke").understood());
@@ -113,7 +113,7 @@ TEST(DialogSession, ImpossibleObservationIsReportedNotThrown) {
 }
 
 TEST(DialogSession, ObserveUpdatesTheBeliefLikeHearing) {
-  pomdp::DialogPomdp d(officeSpec());
+  DialogPomdp d(officeSpec());
   LanguageFrontEnd lang(d, config());
   // A simulated person's answers come as observations: no language front end needed.
   DialogSession sim(d, nullptr);
@@ -140,9 +140,9 @@ TEST(DialogSession, ObserveUpdatesTheBeliefLikeHearing) {
 }
 
 TEST(DialogSession, ImpossibleObservationLeavesTheBelief) {
-  pomdp::DialogSpec spec = officeSpec();
+  DialogSpec spec = officeSpec();
   spec.pGeneral = 1.0;  // answers are always right: hearing coffee after coke is impossible
-  pomdp::DialogPomdp d(spec);
+  DialogPomdp d(spec);
   DialogSession s(d, nullptr);
   ASSERT_TRUE(s.observe(d.askItem(), d.obsItem(0)));
   EXPECT_NEAR(s.summary().items(0), 1.0, 1e-12);
@@ -155,9 +155,9 @@ TEST(DialogSession, ImpossibleObservationLeavesTheBelief) {
 }
 
 TEST(DialogSession, TurnLimitForcesServingTheMostLikelyRequest) {
-  pomdp::DialogSpec spec = officeSpec();
+  DialogSpec spec = officeSpec();
   spec.turnLimit = 3;
-  pomdp::DialogPomdp d(spec);
+  DialogPomdp d(spec);
   LanguageFrontEnd lang(d, config());
   // The policy asks for the room until the limit and there serves <coke, room1, john>, which
   // the answers make unlikely: the turn-limit rule serves the most likely request instead.
@@ -190,9 +190,9 @@ TEST(DialogSession, TurnLimitForcesServingTheMostLikelyRequest) {
 }
 
 TEST(DialogSession, WithoutAPolicyOnlyTheTurnLimitDecides) {
-  pomdp::DialogSpec spec = officeSpec();
+  DialogSpec spec = officeSpec();
   spec.turnLimit = 2;
-  pomdp::DialogPomdp d(spec);
+  DialogPomdp d(spec);
   DialogSession s(d, nullptr);
   EXPECT_THROW(s.nextAction(), ConfigError);  // scripted dialogs choose their questions
   s.act(d.askItem());
@@ -206,9 +206,9 @@ TEST(DialogSession, WithoutAPolicyOnlyTheTurnLimitDecides) {
 }
 
 TEST(DialogSession, APolicyThatAsksAtTheTurnLimitIsAnError) {
-  pomdp::DialogSpec spec = officeSpec();
+  DialogSpec spec = officeSpec();
   spec.turnLimit = 2;
-  pomdp::DialogPomdp d(spec);
+  DialogPomdp d(spec);
   // The only vector usable at the limit (stage 2) is a question: a policy solved without the
   // limit. It is reported, not silently overridden.
   pomdp::TurnLimitedPolicy asks(d.model().getS(), 2);
@@ -230,10 +230,10 @@ TEST(DialogSession, APolicyThatAsksAtTheTurnLimitIsAnError) {
 }
 
 TEST(DecideAction, LookaheadAsksWhenAQuestionIsWorthMoreThanTheServe) {
-  pomdp::DialogSpec spec = officeSpec();
+  DialogSpec spec = officeSpec();
   Eigen::VectorXd reach = Eigen::VectorXd::Constant(5, 0.5);
-  spec.delivery = pomdp::deliveryMatrix(3, reach, 2);
-  pomdp::DialogPomdp d(spec);
+  spec.delivery = deliveryMatrix(3, reach, 2);
+  DialogPomdp d(spec);
   const pomdp::Model& m = d.model();
   const std::size_t target = d.requestIndex(0, 1, 1);  // coke, room2, bob
   // The policy serves everywhere (value 0 beats the question's -1), but its serve vector is
@@ -267,8 +267,8 @@ TEST(DecideAction, LookaheadAsksWhenAQuestionIsWorthMoreThanTheServe) {
 }
 
 TEST(DecideAction, TheMemoDecidesExactlyLikeTheRule) {
-  pomdp::DialogSpec spec = officeSpec();
-  pomdp::DialogPomdp d(spec);
+  DialogSpec spec = officeSpec();
+  DialogPomdp d(spec);
   const pomdp::Model& m = d.model();
   const std::size_t target = d.requestIndex(0, 1, 1);
   pomdp::TurnLimitedPolicy p(m.getS(), spec.turnLimit);
@@ -293,7 +293,7 @@ TEST(DecideAction, TheMemoDecidesExactlyLikeTheRule) {
 }
 
 TEST(DialogSession, RefusesBadActionsAndPolicies) {
-  pomdp::DialogPomdp d(officeSpec());
+  DialogPomdp d(officeSpec());
   LanguageFrontEnd lang(d, config());
   DialogSession noPolicy(d, &lang);
   EXPECT_THROW(noPolicy.nextAction(), ConfigError);

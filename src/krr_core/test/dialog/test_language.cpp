@@ -10,10 +10,10 @@ namespace krr {
 namespace dialog {
 namespace {
 
-pomdp::DialogPomdp makeDialog() {
-  pomdp::DialogSpec spec;
+DialogPomdp makeDialog() {
+  DialogSpec spec;
   spec.persons = {"john", "bob"};
-  return pomdp::DialogPomdp(spec);
+  return DialogPomdp(spec);
 }
 
 const char* kConfig = R"(
@@ -30,7 +30,7 @@ max_utterance_chars: 200
 
 class LanguageTest : public ::testing::Test {
  protected:
-  pomdp::DialogPomdp dialog = makeDialog();
+  DialogPomdp dialog = makeDialog();
   LanguageFrontEnd lang{dialog, parseLanguageConfig(kConfig, "test.yaml"), "test.yaml"};
 
   std::vector<std::string> obsOf(const Interpretation& in) {
@@ -160,7 +160,7 @@ TEST_F(LanguageTest, ParseKeepsWordsAndMentions) {
 }
 
 TEST(LanguageConfig, BadConfigurationsAreRefusedWithTheirName) {
-  pomdp::DialogPomdp d = makeDialog();
+  DialogPomdp d = makeDialog();
   auto refuses = [&](const std::string& yaml, const std::string& expect) {
     try {
       LanguageFrontEnd f(d, parseLanguageConfig(yaml, "bad.yaml"), "bad.yaml");
@@ -188,16 +188,16 @@ TEST(LanguageConfig, BadConfigurationsAreRefusedWithTheirName) {
 }
 
 TEST(LanguageConfig, InterpretRefusesAModelWithAnotherVocabulary) {
-  pomdp::DialogPomdp d = makeDialog();
-  pomdp::DialogSpec small;
+  DialogPomdp d = makeDialog();
+  DialogSpec small;
   small.items = {"tea"};
-  pomdp::DialogPomdp other(small);
+  DialogPomdp other(small);
   LanguageFrontEnd f(d, LanguageConfig{});
   EXPECT_THROW(f.understand("tea", other, -1), ConfigError);
 }
 
 TEST(RobotUtterance, WordsEveryKindOfAction) {
-  pomdp::DialogPomdp d = makeDialog();
+  DialogPomdp d = makeDialog();
   EXPECT_EQ(robotUtterance(d, d.askItem()), "Which item is it?");
   EXPECT_EQ(robotUtterance(d, d.confirmItem(0)), "Should I deliver a coke?");
   EXPECT_EQ(robotUtterance(d, d.confirmRoom(1)), "Should I deliver to room2?");

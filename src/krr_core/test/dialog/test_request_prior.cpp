@@ -14,16 +14,16 @@ namespace {
 TEST(RequestPrior, OfficeKnowledgeBaseGivesTheOwnOfficePrior) {
   plog::Reasoner kb;
   kb.loadFile(std::string(KRR_TEST_DATA_DIR) + "/../../../../config/office.plog");
-  const pomdp::DialogSpec spec = dialogSpecFromKnowledge(kb, "office.plog");
+  const DialogSpec spec = dialogSpecFromKnowledge(kb, "office.plog");
   EXPECT_EQ(spec.items, (std::vector<std::string>{"coke", "coffee", "soda"}));
   EXPECT_EQ(spec.rooms, (std::vector<std::string>{"room1", "room2", "room3", "room4", "room5"}));
   EXPECT_EQ(spec.persons, (std::vector<std::string>{"john", "bob"}));
   // place(john, room5), place(bob, room2), pr(curr_room(P)=R | place(P,R)) = 8/10.
-  const Eigen::VectorXd expected = pomdp::ownOfficePrior(3, 5, {4, 1}, 0.8);
+  const Eigen::VectorXd expected = ownOfficePrior(3, 5, {4, 1}, 0.8);
   ASSERT_EQ(spec.prior.size(), expected.size());
   for (Eigen::Index s = 0; s < expected.size(); ++s)
     EXPECT_NEAR(spec.prior(s), expected(s), 1e-12) << s;
-  EXPECT_NO_THROW(pomdp::DialogPomdp{spec});
+  EXPECT_NO_THROW(DialogPomdp{spec});
 }
 
 TEST(RequestPrior, ChangedKnowledgeChangesThePrior) {
@@ -35,8 +35,8 @@ TEST(RequestPrior, ChangedKnowledgeChangesThePrior) {
   text.replace(text.find(fact), fact.size(), "place(bob, room4).");
   plog::Reasoner kb;
   kb.loadString(text, "office_bob_room4.plog");
-  const pomdp::DialogSpec spec = dialogSpecFromKnowledge(kb, "office_bob_room4.plog");
-  const Eigen::VectorXd expected = pomdp::ownOfficePrior(3, 5, {4, 3}, 0.8);
+  const DialogSpec spec = dialogSpecFromKnowledge(kb, "office_bob_room4.plog");
+  const Eigen::VectorXd expected = ownOfficePrior(3, 5, {4, 3}, 0.8);
   for (Eigen::Index s = 0; s < expected.size(); ++s)
     EXPECT_NEAR(spec.prior(s), expected(s), 1e-12) << s;
 }

@@ -4,11 +4,11 @@
 #include "krr_core/examples/tiger.h"
 
 namespace krr {
-namespace pomdp {
+namespace examples {
 namespace {
 
 TEST(Tiger, StandardNumbers) {
-  Model m = makeTiger();
+  pomdp::Model m = makeTiger();
   const std::size_t listen = m.actionIndex("listen"), ol = m.actionIndex("open-left");
   const std::size_t left = m.stateIndex("tiger-left"), right = m.stateIndex("tiger-right");
   EXPECT_EQ(m.getExpectedReward(left, listen), -1.0);
@@ -22,5 +22,5 @@ TEST(Tiger, StandardNumbers) {
 }
 
 }  // namespace
-}  // namespace pomdp
+}  // namespace examples
 }  // namespace krr

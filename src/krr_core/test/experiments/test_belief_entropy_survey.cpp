@@ -14,17 +14,18 @@ namespace {
 
 using namespace krr;
 using namespace krr::dialog;
+using namespace krr::experiments;
 
-pomdp::DialogPomdp tinyDialog() {
-  pomdp::DialogSpec spec;
+DialogPomdp tinyDialog() {
+  DialogSpec spec;
   spec.items = {"coke", "soda"};
   spec.rooms = {"room1", "room2"};
   spec.persons = {"ann", "ben"};
-  return pomdp::DialogPomdp(spec);
+  return DialogPomdp(spec);
 }
 
 /// A policy that asks question a before the turn limit (and, as it must, serves at the limit).
-pomdp::TurnLimitedPolicy always(const pomdp::DialogPomdp& d, std::size_t a) {
+pomdp::TurnLimitedPolicy always(const DialogPomdp& d, std::size_t a) {
   const int limit = d.spec().turnLimit;
   pomdp::TurnLimitedPolicy p(d.model().getS(), limit);
   p.add(Eigen::VectorXd::Zero(static_cast<Eigen::Index>(d.model().getS())), a, limit - 1);
@@ -36,7 +37,7 @@ pomdp::TurnLimitedPolicy always(const pomdp::DialogPomdp& d, std::size_t a) {
 /// Serve the mode when it has at least 0.9, else ask: a threshold policy as alpha vectors
 /// (serves usable at every turn, the question before the limit). Serving is worth 80 in
 /// tinyDialog (T^D = 1), so decideAction's lookahead never prefers a question to its serves.
-pomdp::TurnLimitedPolicy threshold(const pomdp::DialogPomdp& d) {
+pomdp::TurnLimitedPolicy threshold(const DialogPomdp& d) {
   const auto S = static_cast<Eigen::Index>(d.model().getS());
   const int limit = d.spec().turnLimit;
   pomdp::TurnLimitedPolicy p(d.model().getS(), limit);
@@ -51,15 +52,15 @@ pomdp::TurnLimitedPolicy threshold(const pomdp::DialogPomdp& d) {
 
 /// The tiny dialog with room2 hard to reach and wrong deliveries penalised, so that asking
 /// pays off at diffuse beliefs; solved with a small trial budget.
-pomdp::DialogPomdp penalisedTinyDialog() {
-  pomdp::DialogSpec spec;
+DialogPomdp penalisedTinyDialog() {
+  DialogSpec spec;
   spec.items = {"coke", "soda"};
   spec.rooms = {"room1", "room2"};
   spec.persons = {"ann", "ben"};
-  spec.delivery = pomdp::deliveryMatrix(2, Eigen::Vector2d(1.0, 0.6), 2);
+  spec.delivery = deliveryMatrix(2, Eigen::Vector2d(1.0, 0.6), 2);
   spec.serveCost = 60.0 * (Eigen::MatrixXd::Ones(8, 8) - Eigen::MatrixXd::Identity(8, 8));
   spec.turnLimit = 6;
-  return pomdp::DialogPomdp(spec);
+  return DialogPomdp(spec);
 }
 
 TEST(BeliefEntropySurvey, BeliefsAreDistributionsOverRequests) {

@@ -15,6 +15,7 @@ namespace {
 
 using namespace krr;
 using namespace krr::dialog;
+using namespace krr::experiments;
 using delivery_test::data;
 using delivery_test::repo;
 
@@ -48,12 +49,12 @@ DeliveryExperimentOptions options(double br, std::uint64_t seed = 5) {
   return o;
 }
 
-Eigen::VectorXd constant(const pomdp::DialogPomdp& d, double v) {
+Eigen::VectorXd constant(const DialogPomdp& d, double v) {
   return Eigen::VectorXd::Constant(static_cast<Eigen::Index>(d.model().getS()), v);
 }
 
 /// A policy that asks question q until the turn limit, where (as it must) it serves.
-pomdp::TurnLimitedPolicy askUntilTheLimit(const pomdp::DialogPomdp& d, std::size_t q) {
+pomdp::TurnLimitedPolicy askUntilTheLimit(const DialogPomdp& d, std::size_t q) {
   const int limit = d.spec().turnLimit;
   pomdp::TurnLimitedPolicy p(d.model().getS(), limit);
   p.add(constant(d, 0.0), q, limit - 1);
@@ -63,7 +64,7 @@ pomdp::TurnLimitedPolicy askUntilTheLimit(const pomdp::DialogPomdp& d, std::size
 
 /// A policy that serves `request` at once. Its value is so low that no question looks better
 /// in the robot's one-step lookahead (decideAction): the serve is taken as it is.
-pomdp::TurnLimitedPolicy serveAtOnce(const pomdp::DialogPomdp& d, std::size_t request) {
+pomdp::TurnLimitedPolicy serveAtOnce(const DialogPomdp& d, std::size_t request) {
   pomdp::TurnLimitedPolicy p(d.model().getS(), d.spec().turnLimit);
   p.add(constant(d, -1000.0), d.serveAction(request), d.spec().turnLimit);
   return p;
@@ -130,7 +131,7 @@ TEST(DeliveryExperiment, WithoutSolvingTrialsNeedAPolicy) {
 TEST(DeliveryExperiment, RedeliveryRuleAndWhatTheRewardSums) {
   const kb::NavDomain d = delivery_test::corridor(40, delivery_test::exactMoves());
   DeliveryExperiment ex(d, config(), options(0.0), false);
-  const pomdp::DialogPomdp& dlg = ex.dialog();
+  const DialogPomdp& dlg = ex.dialog();
   const std::size_t x = dlg.requestIndex(0, 0, 0);      // coke, room1, ann: one move away
   const std::size_t far = dlg.requestIndex(1, 1, 1);    // soda, room2, ben: six moves away
   ex.setPolicy(serveAtOnce(dlg, x));
@@ -214,7 +215,7 @@ TEST(DeliveryExperiment, FailedTripsEndTheDeliveryUnfulfilled) {
   // trapped (or runs out of moves), so room2 is never reached.
   const kb::NavDomain d = delivery_test::corridor(40, delivery_test::exactMoves());
   DeliveryExperiment ex(d, config(), options(1.0), false);
-  const pomdp::DialogPomdp& dlg = ex.dialog();
+  const DialogPomdp& dlg = ex.dialog();
   ex.setPolicy(serveAtOnce(dlg, dlg.requestIndex(0, 1, 1)));  // serve room2
   for (std::size_t i = 0; i < 5; ++i) {
     const DeliveryTrialResult r = ex.runTrial(i, static_cast<long>(dlg.requestIndex(1, 0, 0)));

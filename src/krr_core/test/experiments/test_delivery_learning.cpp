@@ -18,6 +18,7 @@ namespace {
 
 using namespace krr;
 using namespace krr::dialog;
+using namespace krr::experiments;
 
 DialogConfig fastLearning() {
   DialogConfig c;
@@ -135,6 +136,7 @@ namespace {
 double worstReachError(double br, const std::string& mode) {
   using namespace krr;
   using namespace krr::dialog;
+  using namespace krr::experiments;
   const kb::NavDomain d = kb::NavDomain::load(
       delivery_test::repo("config/navigation.yaml"), "office_30x30",
       delivery_test::repo("maps/office_30x30_geometry.plog"),

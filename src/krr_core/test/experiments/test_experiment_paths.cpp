@@ -7,7 +7,7 @@
 
 namespace {
 
-using namespace krr::dialog;
+using krr::experiments::ExperimentPaths;
 
 TEST(ExperimentPaths, ResolvesTheRepositoryFiles) {
   const std::string root = delivery_test::repo("");

@@ -10,8 +10,8 @@
 
 namespace {
 
+using namespace krr::experiments;
 using krr::kb::NavDomain;
-using krr::kb::NavTransferOptions;
 
 NavDomain tinyDomain() { return krr_test::corridor8x3("tiny"); }
 
@@ -27,7 +27,7 @@ NavTransferOptions tinyOptions() {
 TEST(NavTransfer, TrialExtractsKnowledgeAndUsesItThroughTheReasoner) {
   NavDomain d = tinyDomain();
   krr::kb::NavigationKnowledge kb(*d.grid, d.knowledge_files);
-  auto t = krr::kb::runNavTransferTrial(d, kb, tinyOptions(), 7, 0);
+  auto t = runNavTransferTrial(d, kb, tinyOptions(), 7, 0);
   ASSERT_EQ(t.reward_with.size(), 15u);
   ASSERT_EQ(t.reward_without.size(), 15u);
   EXPECT_GT(t.learned_pairs, 0u);
@@ -42,15 +42,15 @@ TEST(NavTransfer, TrialsAreReproducibleAndIndependentOfThreads) {
   NavDomain d = tinyDomain();
   auto o = tinyOptions();
   krr::kb::NavigationKnowledge kb(*d.grid, d.knowledge_files);
-  auto a = krr::kb::runNavTransferTrial(d, kb, o, 3, 5);
-  auto b = krr::kb::runNavTransferTrial(d, kb, o, 3, 5);  // same KB object reused
+  auto a = runNavTransferTrial(d, kb, o, 3, 5);
+  auto b = runNavTransferTrial(d, kb, o, 3, 5);  // same KB object reused
   EXPECT_EQ(a.reward_with, b.reward_with);
   EXPECT_EQ(a.reward_without, b.reward_without);
-  auto c = krr::kb::runNavTransferTrial(d, kb, o, 3, 6);
+  auto c = runNavTransferTrial(d, kb, o, 3, 6);
   EXPECT_NE(a.reward_without, c.reward_without);
 
-  auto s1 = krr::kb::runNavTransfer(d, o, 11, 6, 1);
-  auto s2 = krr::kb::runNavTransfer(d, o, 11, 6, 2);
+  auto s1 = runNavTransfer(d, o, 11, 6, 1);
+  auto s2 = runNavTransfer(d, o, 11, 6, 2);
   EXPECT_EQ(s1.mean_with, s2.mean_with);
   EXPECT_EQ(s1.mean_without, s2.mean_without);
 }
@@ -60,7 +60,7 @@ TEST(NavTransfer, ExtractionLearnsFaster) {
   // first episode; without it R-Max must first explore (M = 2 samples per pair, 84 pairs),
   // which costs whole episodes. Averaged over 20 seeded trials the gap is large.
   NavDomain d = tinyDomain();
-  auto s = krr::kb::runNavTransfer(d, tinyOptions(), 1, 20, 2);
+  auto s = runNavTransfer(d, tinyOptions(), 1, 20, 2);
   double with = 0, without = 0;
   for (int e = 0; e < 3; ++e) {
     with += s.mean_with[e];
@@ -74,9 +74,9 @@ TEST(NavTransfer, TrialRangesConcatenateToTheWholeRun) {
   NavDomain d = tinyDomain();
   auto o = tinyOptions();
   o.target_episodes = 5;
-  const auto all = krr::kb::runNavTransferTrials(d, o, 4, 0, 4, 2);
-  const auto head = krr::kb::runNavTransferTrials(d, o, 4, 0, 1, 1);
-  const auto tail = krr::kb::runNavTransferTrials(d, o, 4, 1, 3, 2);
+  const auto all = runNavTransferTrials(d, o, 4, 0, 4, 2);
+  const auto head = runNavTransferTrials(d, o, 4, 0, 1, 1);
+  const auto tail = runNavTransferTrials(d, o, 4, 1, 3, 2);
   ASSERT_EQ(all.size(), 4u);
   EXPECT_EQ(all[0].reward_with, head[0].reward_with);
   for (std::size_t i = 0; i < 3; ++i) {
@@ -86,8 +86,8 @@ TEST(NavTransfer, TrialRangesConcatenateToTheWholeRun) {
     EXPECT_EQ(all[i + 1].success_without, tail[i].success_without);
   }
   // The summary of the trials is the summary runNavTransfer computes.
-  const auto s = krr::kb::summarizeNavTransfer(all);
-  const auto r = krr::kb::runNavTransfer(d, o, 4, 4, 1);
+  const auto s = summarizeNavTransfer(all);
+  const auto r = runNavTransfer(d, o, 4, 4, 1);
   EXPECT_EQ(s.mean_with, r.mean_with);
   EXPECT_EQ(s.ci_without, r.ci_without);
 }
@@ -97,7 +97,7 @@ TEST(NavTransfer, OptionsFileIsReadAndValidated) {
   const std::string dir = ::mkdtemp(tmpl);
   auto load = [&](const std::string& text) {
     krr::writeFileAtomic(dir + "/o.yaml", text);
-    return krr::kb::loadNavTransferOptions(dir + "/o.yaml");
+    return loadNavTransferOptions(dir + "/o.yaml");
   };
   const auto o = load("nav_transfer: {target: room5, target_episodes: 40}\n"
                       "rmax_learning: {known_threshold: 3}\nplanning: {step_cost: 0.5}\n");
@@ -127,7 +127,7 @@ TEST(NavTransfer, OptionsFileIsReadAndValidated) {
   }
   // The shipped experiment loads over its base, config/navigation.yaml (reward, R-Max, br),
   // changing only M.
-  const auto shipped = krr::kb::loadNavTransferOptions(
+  const auto shipped = loadNavTransferOptions(
       std::string(KRR_TEST_DATA_DIR) + "/../../../../config/experiments/nav_transfer.yaml");
   EXPECT_EQ(shipped.rmax.rmax, 40.0);  // the paper's Rmax
   EXPECT_EQ(shipped.rmax.step_cost, 1.0);
@@ -143,14 +143,14 @@ TEST(NavTransfer, InvalidOptionsAreRefused) {
   NavDomain d = tinyDomain();
   auto o = tinyOptions();
   o.target = o.source;
-  EXPECT_THROW(krr::kb::runNavTransfer(d, o, 1, 2, 1), krr::ConfigError);
+  EXPECT_THROW(runNavTransfer(d, o, 1, 2, 1), krr::ConfigError);
   o = tinyOptions();
   o.blocking_rate = 1.5;
-  EXPECT_THROW(krr::kb::runNavTransfer(d, o, 1, 2, 1), krr::ConfigError);
-  EXPECT_THROW(krr::kb::runNavTransfer(d, tinyOptions(), 1, 0, 1), krr::ConfigError);
+  EXPECT_THROW(runNavTransfer(d, o, 1, 2, 1), krr::ConfigError);
+  EXPECT_THROW(runNavTransfer(d, tinyOptions(), 1, 0, 1), krr::ConfigError);
   o = tinyOptions();
   o.target = "room9";
-  EXPECT_THROW(krr::kb::runNavTransfer(d, o, 1, 2, 1), krr::UnknownSymbolError);
+  EXPECT_THROW(runNavTransfer(d, o, 1, 2, 1), krr::UnknownSymbolError);
 }
 
 }  // namespace

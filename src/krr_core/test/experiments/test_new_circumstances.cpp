@@ -24,6 +24,7 @@
 
 namespace {
 
+using namespace krr::experiments;
 using krr::kb::NavDomain;
 using krr::kb::NavigationKnowledge;
 using krr::mdp::StateId;
@@ -122,8 +123,8 @@ NavDomain corridors() {
   return krr_test::makeNavDomain(krr_test::makeGrid(9, 5, named, walls), "corridors", 60, sim);
 }
 
-krr::kb::NewCircumstancesOptions smallOptions() {
-  krr::kb::NewCircumstancesOptions o;
+NewCircumstancesOptions smallOptions() {
+  NewCircumstancesOptions o;
   o.goal = "room1";
   o.learn_times = {"morning", "noon"};
   o.learning_runs = 0;
@@ -137,27 +138,27 @@ krr::kb::NewCircumstancesOptions smallOptions() {
 }
 
 TEST(NewCircumstances, PossibleSetsAreEveryCombination) {
-  krr::kb::NewCircumstancesOptions o;  // morning, noon, afternoon; pairs
+  NewCircumstancesOptions o;  // morning, noon, afternoon; pairs
   using Sets = std::vector<std::vector<std::size_t>>;
-  EXPECT_EQ(krr::kb::possibleSettingSets(o), (Sets{{0, 1}, {0, 2}, {1, 2}}));
+  EXPECT_EQ(possibleSettingSets(o), (Sets{{0, 1}, {0, 2}, {1, 2}}));
   o.unknown_count = 3;
-  EXPECT_EQ(krr::kb::possibleSettingSets(o), (Sets{{0, 1, 2}}));
+  EXPECT_EQ(possibleSettingSets(o), (Sets{{0, 1, 2}}));
   o.learn_times = {"a", "b", "c", "d"};
   o.unknown_count = 2;
-  EXPECT_EQ(krr::kb::possibleSettingSets(o), (Sets{{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}}));
+  EXPECT_EQ(possibleSettingSets(o), (Sets{{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}}));
   o.unknown_count = 3;
-  EXPECT_EQ(krr::kb::possibleSettingSets(o).size(), 4u);
+  EXPECT_EQ(possibleSettingSets(o).size(), 4u);
 }
 
 TEST(NewCircumstances, PairTruthAndPickAreDrawnUniformlyPerTrial) {
-  krr::kb::NewCircumstancesOptions o;
-  const auto sets = krr::kb::possibleSettingSets(o);
+  NewCircumstancesOptions o;
+  const auto sets = possibleSettingSets(o);
   const std::size_t n = 6000;
   std::vector<double> per_set(sets.size(), 0);
   std::map<std::pair<std::size_t, std::size_t>, double> truth_in_set;
   double same = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    const auto d = krr::kb::drawSettings(o, 7, i);
+    const auto d = drawSettings(o, 7, i);
     ASSERT_LT(d.set, sets.size());
     const auto& s = sets[d.set];
     EXPECT_NE(std::find(s.begin(), s.end(), d.truth), s.end()) << "truth outside the pair";
@@ -166,7 +167,7 @@ TEST(NewCircumstances, PairTruthAndPickAreDrawnUniformlyPerTrial) {
     truth_in_set[std::make_pair(d.set, d.truth)] += 1.0;
     same += (d.truth == d.pick) / double(n);
     // A function of (seed, index) only.
-    const auto again = krr::kb::drawSettings(o, 7, i);
+    const auto again = drawSettings(o, 7, i);
     EXPECT_EQ(again.set, d.set);
     EXPECT_EQ(again.truth, d.truth);
     EXPECT_EQ(again.pick, d.pick);
@@ -180,7 +181,7 @@ TEST(NewCircumstances, PairTruthAndPickAreDrawnUniformlyPerTrial) {
   EXPECT_NEAR(same, 0.5, 0.02) << "the pick is independent of the truth";
   std::size_t differ = 0;
   for (std::size_t i = 0; i < 50; ++i)
-    differ += krr::kb::drawSettings(o, 8, i).set != krr::kb::drawSettings(o, 7, i).set;
+    differ += drawSettings(o, 8, i).set != drawSettings(o, 7, i).set;
   EXPECT_GT(differ, 10u) << "another seed draws other pairs";
 }
 
@@ -189,15 +190,15 @@ TEST(NewCircumstances, EveryControllerOfATrialMeetsTheSameRandomNumbers) {
   auto o = smallOptions();
   o.learning_runs = 1;
   NavigationKnowledge kb(*d.grid, d.knowledge_files);
-  const auto lc = krr::kb::learnControllers(d, kb, o, 4, 0);
+  const auto lc = learnControllers(d, kb, o, 4, 0);
   std::size_t stochastic = 0;
   for (std::size_t i = 0; i < 12; ++i) {
-    const auto t = krr::kb::evaluateNewCircumstancesTrial(d, o, lc, 4, i);
-    const auto draw = krr::kb::drawSettings(o, 4, i);
+    const auto t = evaluateNewCircumstancesTrial(d, o, lc, 4, i);
+    const auto draw = drawSettings(o, 4, i);
     ASSERT_EQ(t.success_own.size(), 2u);
     // Each controller's episode is the one runControllerEpisode gives for (seed, trial).
     auto episode = [&](const std::vector<krr::mdp::ActionId>& policy) {
-      return krr::kb::runControllerEpisode(d, o, policy, draw.truth, 4, i);
+      return runControllerEpisode(d, o, policy, draw.truth, 4, i);
     };
     const auto merged = episode(lc.merged[draw.set]);
     EXPECT_EQ(t.success_merged, merged.success);
@@ -216,7 +217,7 @@ TEST(NewCircumstances, EveryControllerOfATrialMeetsTheSameRandomNumbers) {
     EXPECT_EQ(replay.success, merged.success);
     EXPECT_EQ(replay.steps, merged.steps);
     // Another trial index is another stream.
-    const auto other = krr::kb::runControllerEpisode(d, o, copy, draw.truth, 4, i + 1000);
+    const auto other = runControllerEpisode(d, o, copy, draw.truth, 4, i + 1000);
     stochastic += other.steps != merged.steps || other.success != merged.success;
     // Exact success probabilities are those of the learning run in the true setting.
     EXPECT_EQ(t.p_merged, lc.p_merged[draw.set][draw.truth]);
@@ -240,7 +241,7 @@ TEST(NewCircumstances, MergedControllerBeatsTheRandomPickWithAreaKnowledge) {
   auto o = smallOptions();
   o.extraction = "areas";
   o.learning_runs = 4;
-  const auto res = krr::kb::runNewCircumstances(d, o, 5, 0, 40, 2);
+  const auto res = runNewCircumstances(d, o, 5, 0, 40, 2);
   ASSERT_EQ(res.size(), 40u);
   MeanSuccess m;
   for (const auto& t : res) {
@@ -257,12 +258,12 @@ TEST(NewCircumstances, MergedControllerBeatsTheRandomPickOfPerSettingControllers
   auto o = smallOptions();
   o.extraction = "pairs";  // per-pair knowledge, as in the paper's Procedure 1
   o.learning_runs = 4;
-  const auto res = krr::kb::runNewCircumstances(d, o, 5, 0, 40, 2);
+  const auto res = runNewCircumstances(d, o, 5, 0, 40, 2);
   ASSERT_EQ(res.size(), 40u);
   double merged = 0, baseline = 0, oracle = 0;
-  std::string rows = krr::kb::newCircumstancesCsvHeader(o) + "\n";
+  std::string rows = newCircumstancesCsvHeader(o) + "\n";
   for (const auto& t : res) {
-    rows += krr::kb::newCircumstancesCsvRow(t) + "\n";
+    rows += newCircumstancesCsvRow(t) + "\n";
     // Expected success of the random pick in this trial: mean of the two own controllers.
     merged += t.p_merged / res.size();
     baseline += (t.p_own[0] + t.p_own[1]) / 2 / res.size();
@@ -284,14 +285,14 @@ TEST(NewCircumstances, TrialsDependOnlyOnSeedAndIndex) {
   const NavDomain d = corridors();
   auto o = smallOptions();
   o.learning_runs = 3;
-  const auto all = krr::kb::runNewCircumstances(d, o, 9, 0, 8, 1);
-  const auto tail = krr::kb::runNewCircumstances(d, o, 9, 5, 3, 3);
+  const auto all = runNewCircumstances(d, o, 9, 0, 8, 1);
+  const auto tail = runNewCircumstances(d, o, 9, 5, 3, 3);
   for (std::size_t i = 0; i < 3; ++i)
-    EXPECT_EQ(krr::kb::newCircumstancesCsvRow(all[i + 5]), krr::kb::newCircumstancesCsvRow(tail[i]));
+    EXPECT_EQ(newCircumstancesCsvRow(all[i + 5]), newCircumstancesCsvRow(tail[i]));
   EXPECT_EQ(all[5].index, 5u);
   EXPECT_EQ(all[5].learning_run, 2u);
   // Column count of a row matches the header.
-  const std::string h = krr::kb::newCircumstancesCsvHeader(o), r = krr::kb::newCircumstancesCsvRow(all[0]);
+  const std::string h = newCircumstancesCsvHeader(o), r = newCircumstancesCsvRow(all[0]);
   EXPECT_EQ(std::count(h.begin(), h.end(), ','), std::count(r.begin(), r.end(), ','));
   EXPECT_EQ(h.substr(0, 53), "trial,learning_run,possible_settings,true_setting,bas");
 }
@@ -305,13 +306,13 @@ TEST(NewCircumstances, ReusedLearningRunsKeepTheStatisticsOfPerTrialLearning) {
   auto reused = per_trial;
   reused.learning_runs = 4;
   const std::size_t n = 48;
-  const auto a = krr::kb::runNewCircumstances(d, per_trial, 11, 0, n, 2);
-  const auto b = krr::kb::runNewCircumstances(d, reused, 11, 0, n, 2);
+  const auto a = runNewCircumstances(d, per_trial, 11, 0, n, 2);
+  const auto b = runNewCircumstances(d, reused, 11, 0, n, 2);
   for (std::size_t i = 0; i < n; ++i) {
     EXPECT_EQ(a[i].learning_run, i);
     EXPECT_EQ(b[i].learning_run, i % 4);
     if (i < 4) {
-      EXPECT_EQ(krr::kb::newCircumstancesCsvRow(a[i]), krr::kb::newCircumstancesCsvRow(b[i]));
+      EXPECT_EQ(newCircumstancesCsvRow(a[i]), newCircumstancesCsvRow(b[i]));
     } else {  // the run's knowledge, the trial's own draw and episodes
       EXPECT_EQ(b[i].p_self, b[i % 4].p_self);
       EXPECT_EQ(b[i].learned_pairs, b[i % 4].learned_pairs);
@@ -323,15 +324,15 @@ TEST(NewCircumstances, ReusedLearningRunsKeepTheStatisticsOfPerTrialLearning) {
   // the 99% confidence interval of their difference (Welch, normal approximation).
   struct Stat {
     const char* name;
-    double (*of)(const krr::kb::NewCircumstancesTrial&);
+    double (*of)(const NewCircumstancesTrial&);
   };
   const Stat stats[] = {
-      {"p_merged", [](const krr::kb::NewCircumstancesTrial& t) { return t.p_merged; }},
-      {"p_baseline", [](const krr::kb::NewCircumstancesTrial& t) { return t.p_baseline; }},
-      {"p_oracle", [](const krr::kb::NewCircumstancesTrial& t) { return t.p_oracle; }},
-      {"success_merged", [](const krr::kb::NewCircumstancesTrial& t) { return double(t.success_merged); }},
-      {"success_baseline", [](const krr::kb::NewCircumstancesTrial& t) { return double(t.success_baseline); }},
-      {"success_oracle", [](const krr::kb::NewCircumstancesTrial& t) { return double(t.success_oracle); }},
+      {"p_merged", [](const NewCircumstancesTrial& t) { return t.p_merged; }},
+      {"p_baseline", [](const NewCircumstancesTrial& t) { return t.p_baseline; }},
+      {"p_oracle", [](const NewCircumstancesTrial& t) { return t.p_oracle; }},
+      {"success_merged", [](const NewCircumstancesTrial& t) { return double(t.success_merged); }},
+      {"success_baseline", [](const NewCircumstancesTrial& t) { return double(t.success_baseline); }},
+      {"success_oracle", [](const NewCircumstancesTrial& t) { return double(t.success_oracle); }},
   };
   for (const Stat& s : stats) {
     std::vector<double> xa, xb;
@@ -339,7 +340,7 @@ TEST(NewCircumstances, ReusedLearningRunsKeepTheStatisticsOfPerTrialLearning) {
       xa.push_back(s.of(a[i]));
       xb.push_back(s.of(b[i]));
     }
-    const auto ma = krr::kb::meanCi(xa), mb = krr::kb::meanCi(xb);
+    const auto ma = meanCi(xa), mb = meanCi(xb);
     const double se = std::hypot(ma.ci95, mb.ci95) / 1.96;
     EXPECT_LE(std::fabs(ma.mean - mb.mean), 2.576 * se + 1e-9)
         << s.name << ": per-trial " << ma.mean << " +- " << ma.ci95 << ", reused " << mb.mean
@@ -355,7 +356,7 @@ TEST(NewCircumstances, LeastKnownSelectorLearnsThroughProcedureOne) {
   o.learn_tasks = 2;
   o.learn_episodes = 20;
   NavigationKnowledge kb(*d.grid, d.knowledge_files);
-  const auto t = krr::kb::runNewCircumstancesTrial(d, kb, o, 3, 0);
+  const auto t = runNewCircumstancesTrial(d, kb, o, 3, 0);
   ASSERT_EQ(t.learned_pairs.size(), 2u);
   EXPECT_GT(t.learned_pairs[0], 0u);
   EXPECT_GE(t.p_merged, 0.0);
@@ -367,7 +368,7 @@ TEST(NewCircumstances, OptionsFileIsValidated) {
   const std::string dir = ::mkdtemp(tmpl);
   auto load = [&](const std::string& text) {
     krr::writeFileAtomic(dir + "/o.yaml", text);
-    return krr::kb::loadNewCircumstancesOptions(dir + "/o.yaml");
+    return loadNewCircumstancesOptions(dir + "/o.yaml");
   };
   auto o = load("new_circumstances: {goal: room5, unknown_count: 3, learning_runs: 0, extraction: areas}\n"
                 "rmax_learning: {known_threshold: 7}\nplanning: {discount: 1}\n");
@@ -405,10 +406,10 @@ TEST(NewCircumstances, OptionsFileIsValidated) {
   expectError("new_circumstances: {goal: shop}\n", "same as start");
   expectError("new_circumstances: {selector: [a]}\n", "selector");
   expectError("simulator: {blocking_rate: 1.5}\n", "blocking_rate");
-  EXPECT_THROW(krr::kb::loadNewCircumstancesOptions(dir + "/missing.yaml"), krr::IoError);
+  EXPECT_THROW(loadNewCircumstancesOptions(dir + "/missing.yaml"), krr::IoError);
   // The shipped experiment loads over its base, config/navigation.yaml, changing only what the
   // experiment changes (br, R-Max optimism / refinement, the controllers' step cost).
-  const auto shipped = krr::kb::loadNewCircumstancesOptions(
+  const auto shipped = loadNewCircumstancesOptions(
       kData + "/../../../../config/experiments/new_circumstances.yaml");
   EXPECT_EQ(shipped.blocking_rate, 0.1);
   EXPECT_EQ(shipped.rmax.known_threshold, 5u);
@@ -429,25 +430,25 @@ TEST(NewCircumstances, BadValuesAtRunTimeAreTypedErrors) {
   auto o = smallOptions();
   o.learn_times = {"morning", "evening"};  // the simulator has no evening
   NavigationKnowledge kb(*d.grid, d.knowledge_files);
-  EXPECT_THROW(krr::kb::learnControllers(d, kb, o, 1, 0), krr::ConfigError);
+  EXPECT_THROW(learnControllers(d, kb, o, 1, 0), krr::ConfigError);
   o = smallOptions();
   o.unknown_count = 3;  // more than the two learned settings
-  EXPECT_THROW(krr::kb::runNewCircumstances(d, o, 1, 0, 2, 1), krr::ConfigError);
-  EXPECT_THROW(krr::kb::drawSettings(o, 1, 0), krr::ConfigError);
+  EXPECT_THROW(runNewCircumstances(d, o, 1, 0, 2, 1), krr::ConfigError);
+  EXPECT_THROW(drawSettings(o, 1, 0), krr::ConfigError);
   o = smallOptions();
-  EXPECT_THROW(krr::kb::runNewCircumstances(d, o, 1, 0, 0, 1), krr::ConfigError);
+  EXPECT_THROW(runNewCircumstances(d, o, 1, 0, 0, 1), krr::ConfigError);
   o.learn_episodes = 5;
   o.learning_runs = 2;
-  const auto lc = krr::kb::learnControllers(d, kb, o, 1, 1);
-  EXPECT_NO_THROW(krr::kb::evaluateNewCircumstancesTrial(d, o, lc, 1, 3));
+  const auto lc = learnControllers(d, kb, o, 1, 1);
+  EXPECT_NO_THROW(evaluateNewCircumstancesTrial(d, o, lc, 1, 3));
   try {
-    krr::kb::evaluateNewCircumstancesTrial(d, o, lc, 1, 2);  // trial 2 uses run 0
+    evaluateNewCircumstancesTrial(d, o, lc, 1, 2);  // trial 2 uses run 0
     ADD_FAILURE() << "no error for the wrong learning run";
   } catch (const krr::ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("learning run 0"), std::string::npos) << e.what();
   }
-  EXPECT_THROW(krr::kb::runControllerEpisode(d, o, lc.own[0], 2, 1, 0), krr::ConfigError);
-  EXPECT_THROW(krr::kb::runControllerEpisode(d, o, {0, 1}, 0, 1, 0), krr::ConfigError);
+  EXPECT_THROW(runControllerEpisode(d, o, lc.own[0], 2, 1, 0), krr::ConfigError);
+  EXPECT_THROW(runControllerEpisode(d, o, {0, 1}, 0, 1, 0), krr::ConfigError);
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 
 namespace krr {
 namespace mdp {
+using examples::GridWorldEnvironment;
 namespace {
 
 // 1x3 corridor: "right" moves right w.p. 1 except in cell 1 where it fails (trapped) w.p. 0.5.

@@ -11,6 +11,7 @@
 
 namespace krr {
 namespace mdp {
+using examples::GridWorldEnvironment;
 namespace {
 
 constexpr std::uint32_t kW = 6, kH = 6;

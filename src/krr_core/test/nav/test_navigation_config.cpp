@@ -87,3 +87,58 @@ TEST(NavigationConfig, Errors) {
 TEST(NavigationConfig, MissingFile) {
   EXPECT_THROW(loadNavigationConfig("/nonexistent/navigation.yaml"), ConfigError);
 }
+
+// navigation.yaml -> R-Max is one mapping (rmaxParamsOf) with one inverse (storeRMaxParams):
+// the learner node, the dialog config and the experiments all go through it.
+TEST(NavigationConfig, RMaxParamsRoundTrip) {
+  PlanningConfig planning;
+  planning.step_cost = 2.5;
+  planning.rmax = 55.0;
+  planning.discount = 0.9;
+  RMaxLearningConfig learning;
+  learning.known_threshold = 17;
+  learning.discount = 0.8;
+  learning.replan_every = 3;
+  learning.optimism = "self_loop";
+  learning.refine_known = true;
+  mdp::RMaxParams base;
+  base.step_limit = 123;
+  base.epsilon = 0.5;
+  const mdp::RMaxParams p = rmaxParamsOf(planning, learning, base);
+  EXPECT_DOUBLE_EQ(p.step_cost, 2.5);
+  EXPECT_DOUBLE_EQ(p.rmax, 55.0);
+  EXPECT_EQ(p.known_threshold, 17u);
+  EXPECT_DOUBLE_EQ(p.discount, 0.8);
+  EXPECT_EQ(p.replan_every, 3u);
+  EXPECT_TRUE(p.optimism == mdp::Optimism::kSelfLoop);
+  EXPECT_TRUE(p.refine_known);
+  EXPECT_EQ(p.step_limit, 123u);  // fields navigation.yaml does not set are the base's
+  EXPECT_DOUBLE_EQ(p.epsilon, 0.5);
+
+  PlanningConfig planning2;
+  planning2.discount = 0.7;
+  RMaxLearningConfig learning2;
+  storeRMaxParams(p, planning2, learning2);
+  EXPECT_DOUBLE_EQ(planning2.discount, 0.7);  // not an R-Max setting: kept
+  EXPECT_DOUBLE_EQ(planning2.step_cost, 2.5);
+  EXPECT_DOUBLE_EQ(planning2.rmax, 55.0);
+  EXPECT_EQ(learning2.known_threshold, 17);
+  EXPECT_DOUBLE_EQ(learning2.discount, 0.8);
+  EXPECT_EQ(learning2.replan_every, 3);
+  EXPECT_EQ(learning2.optimism, "self_loop");
+  EXPECT_TRUE(learning2.refine_known);
+
+  learning.optimism = "greedy";
+  try {
+    rmaxParamsOf(planning, learning);
+    ADD_FAILURE() << "no ConfigError for optimism 'greedy'";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown value 'greedy'"), std::string::npos) << e.what();
+  }
+}
+
+TEST(NavigationConfig, UnknownOptimismNamesTheField) {
+  expectError("optimism: terminal_bonus", "optimism: greedy",
+              "field 'rmax_learning.optimism': unknown value 'greedy' (expected terminal_bonus or "
+              "self_loop)");
+}

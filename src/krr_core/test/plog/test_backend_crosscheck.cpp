@@ -505,3 +505,47 @@ TEST(BackendCrosscheck, LoopsAndRandomDefiningRulesAwayFromTheQuery) {
 }  // namespace
 }  // namespace plog
 }  // namespace krr
+
+namespace krr {
+namespace plog {
+namespace {
+
+TEST(BackendCrosscheck, AutoChoosesTheCheaperEngineByItsCostEstimate) {
+  // Five draws of eight cards, observed strictly decreasing (the classic Poker examples'
+  // shape): clingo enumerates the C(8,5) = 56 decreasing draws (the observation is a
+  // constraint), the native engine would fill tables over all 8^5 draws. Its plan (2^15 rows)
+  // equals clingo's world bound W = 5 x log2 8 = 15, over the cap max(12, W - 4): clingo.
+  // P(draw(1) = 8) = C(7,4) / C(8,5) = 35/56.
+  const std::string draws =
+      "card = {1..8}.\nstep = {1..5}.\n#domain card(C;C1;C2).\n#domain step(S;S1;S2).\n"
+      "draw : step -> card.\n[d(S)] random(draw(S)).\n"
+      "invalid :- draw(S1)=C1, draw(S2)=C2, S1<S2, C1<=C2.\n"
+      "?{draw(1)=8} | obs(invalid, false).\n";
+  Reasoner a;
+  a.loadString(draws, "draws.plog");
+  EXPECT_DOUBLE_EQ(aspWorldsLog2(a.program()), 15.0);
+  EXPECT_NEAR(a.probability("?{draw(1)=8} | obs(invalid, false)"), 35.0 / 56.0, 1e-9);
+  EXPECT_EQ(a.stats().last_backend, Backend::Asp);
+  Reasoner n;  // the native engine alone has no cap and agrees
+  n.setBackend(Backend::Native);
+  n.loadString(draws, "draws.plog");
+  EXPECT_NEAR(n.probability("?{draw(1)=8} | obs(invalid, false)"), 35.0 / 56.0, 1e-9);
+  EXPECT_EQ(n.stats().last_backend, Backend::Native);
+
+  // Twenty independent coins: clingo would enumerate 2^20 worlds, the native engine's plan for
+  // one coin is a table of 2 rows: native.
+  const std::string coins =
+      "idx = {1..20}.\n#domain idx(I).\ncoin : idx -> boolean.\nrandom(coin(I)).\n"
+      "pr(coin(I)=true) = 3/10.\n";
+  Reasoner c;
+  c.loadString(coins, "coins.plog");
+  EXPECT_DOUBLE_EQ(aspWorldsLog2(c.program()), 20.0);
+  EXPECT_NEAR(c.probability("?{coin(7)=true}"), 0.3, 1e-12);
+  EXPECT_EQ(c.stats().last_backend, Backend::Native);
+  EXPECT_DOUBLE_EQ(Reasoner::nativeCostCapLog2(20.0), 16.0);
+  EXPECT_DOUBLE_EQ(Reasoner::nativeCostCapLog2(3.0), Reasoner::kNativeFloorLog2);
+}
+
+}  // namespace
+}  // namespace plog
+}  // namespace krr

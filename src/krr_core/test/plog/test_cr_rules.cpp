@@ -143,6 +143,32 @@ TEST(CrRules, CardinalityNotSetInclusion) {
              "?{a=true}", 1.0);
 }
 
+TEST(CrRules, HeadlessRuleIsReadAndNeverApplied) {
+  // `:+ body.` is plog2.0's cr-rule with the false head 0 != 0: applying it removes the world,
+  // so it is never applied and the worlds are those without it. random(p). q :- p. :+ q.
+  // r :+ q.: P(p) = 1/2 (plog2.0 naive: 0.5); as the constraint `:- q.` it would be 0.
+  Program p = parseProgram(std::string(kHeader) + "random(p).\nq :- p = true.\n:+ q.\n",
+                           "cr.plog", Dialect::Plog2);
+  ASSERT_EQ(p.rules.size(), 2u);
+  EXPECT_FALSE(p.rules[1].head.has_value());
+  EXPECT_TRUE(p.rules[1].consistency_restoring);
+  EXPECT_EQ(p.rules[1].body.size(), 1u);
+  EXPECT_TRUE(p.hasConsistencyRestoringRules());
+  // Printed back and read again (classic dialect) it is still a headless cr-rule.
+  Program back = parseProgram(toString(p), "export.plog", Dialect::Classic);
+  ASSERT_EQ(back.rules.size(), 2u);
+  EXPECT_FALSE(back.rules[1].head.has_value());
+  EXPECT_TRUE(back.rules[1].consistency_restoring);
+  expectBoth("random(p).\nq :- p = true.\n:+ q.\nd :+ q.\n", "?{p=true}", 0.5);
+  // With obs(q) the world p = false is removed and no cr-rule restores it: P(p) = 1
+  // (plog2.0 naive: 1.0).
+  expectBoth("random(p).\nq :- p = true.\n:+ q.\nobs(q).\n", "?{p=true}", 1.0);
+  // `:+` needs a body, as in plog2.0's grammar.
+  EXPECT_THROW(
+      parseProgram(std::string(kHeader) + "random(p).\n:+ .\n", "cr.plog", Dialect::Plog2),
+      ParseError);
+}
+
 TEST(CrRules, NoWorldWhenNoSetRestoresConsistency) {
   // :- p. :- not p. with random(p) :+. -- inconsistent whatever is applied.
   EXPECT_THROW(ask(Backend::Asp, "random(p) :+.\n:- p.\n:- not p.\n", "?{q=true}"),

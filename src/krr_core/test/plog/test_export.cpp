@@ -9,6 +9,7 @@
 
 using namespace krr;
 using namespace krr::plog;
+using krr::examples::GridNavigationSpec, krr::examples::makeGridNavigationProgram;
 
 namespace {
 

@@ -9,6 +9,7 @@
 
 using namespace krr;
 using namespace krr::plog;
+using krr::examples::GridNavigationSpec, krr::examples::makeGridNavigationProgram;
 
 TEST(PlogGrounder, RelevanceConeSkipsUnrelatedAttributes) {
   Program p = parseProgram(R"(s = {a, b}.

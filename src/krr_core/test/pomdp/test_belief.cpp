@@ -9,6 +9,7 @@
 
 namespace krr {
 namespace pomdp {
+using examples::makeTiger;
 namespace {
 
 TEST(Belief, TigerUpdateByHand) {

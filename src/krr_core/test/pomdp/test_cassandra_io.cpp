@@ -14,6 +14,8 @@
 
 namespace krr {
 namespace pomdp {
+using examples::makeTiger;
+using dialog::DialogPomdp, dialog::DialogSpec, dialog::deliveryMatrix, dialog::ownOfficePrior;
 namespace {
 
 const std::string kData = std::string(KRR_TEST_DATA_DIR) + "/pomdp/";

@@ -10,6 +10,7 @@
 
 namespace krr {
 namespace pomdp {
+using examples::makeTiger;
 namespace {
 
 std::string configError(std::vector<Eigen::MatrixXd> t, std::vector<Eigen::MatrixXd> z,

@@ -11,10 +11,12 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/pomdp/belief.h"
 #include "krr_core/pomdp/point_based_solver.h"
+#include "../support/pomdp_random.h"
 #include "krr_core/examples/tiger.h"
 
 namespace krr {
 namespace pomdp {
+using examples::makeTiger;
 namespace {
 
 // ---- Independent reference: exact value iteration for 2-state POMDPs -------------------
@@ -195,32 +197,7 @@ namespace krr {
 namespace pomdp {
 namespace {
 
-/// @brief A seeded random POMDP: sparse random transitions and observations, rewards in
-/// [-10, 10]; small enough to solve in a moment, rich enough to need many vectors.
-Model randomModel(std::uint64_t seed, std::size_t S, std::size_t A, std::size_t O) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(0.0, 1.0);
-  auto row = [&](std::size_t n, std::size_t support) {
-    Eigen::VectorXd r = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n));
-    for (std::size_t k = 0; k < support; ++k) r(static_cast<Eigen::Index>(rng() % n)) += u(rng);
-    if (r.sum() == 0.0) r(0) = 1.0;
-    return Eigen::VectorXd(r / r.sum());
-  };
-  std::vector<Eigen::MatrixXd> t, z;
-  for (std::size_t a = 0; a < A; ++a) {
-    Eigen::MatrixXd ta(S, S), za(S, O);
-    for (std::size_t s = 0; s < S; ++s) {
-      ta.row(static_cast<Eigen::Index>(s)) = row(S, 3).transpose();
-      za.row(static_cast<Eigen::Index>(s)) = row(O, 2).transpose();
-    }
-    t.push_back(ta);
-    z.push_back(za);
-  }
-  Eigen::MatrixXd r(S, A);
-  for (std::size_t s = 0; s < S; ++s)
-    for (std::size_t a = 0; a < A; ++a) r(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(a)) = 20.0 * u(rng) - 10.0;
-  return Model(t, z, r, 0.95);
-}
+using test::randomSparseModel;
 
 /// @brief max_a [R(b, a) + gamma sum_o P(o | b, a) L(b_ao)] for the solver's lower bound L.
 double lowerBackupValue(const Model& m, const PointBasedSolver& solver, const Belief& b) {
@@ -247,7 +224,7 @@ TEST(PointBasedSolver, TheLowerBoundNeverExceedsItsOwnBackup) {
   std::gamma_distribution<double> g(0.5, 1.0);
   std::size_t checked = 0;
   for (std::uint64_t seed : {1u, 2u, 3u}) {
-    const Model m = randomModel(seed, 12, 4, 3);
+    const Model m = randomSparseModel(seed, 12, 4, 3);
     Belief b0 = Belief::Constant(12, 1.0 / 12);
     for (std::size_t trials : {30u, 300u, 2000u}) {
       SolverOptions o;
@@ -364,7 +341,7 @@ Model threeDoorTiger() {
 
 TEST(PointBasedSolver, ThreeStateProblemsMatchFineGridValueIteration) {
   for (std::uint64_t seed : {0u, 4u, 5u}) {
-    const Model m = seed == 0 ? threeDoorTiger() : randomModel(seed, 3, 3, 2);
+    const Model m = seed == 0 ? threeDoorTiger() : randomSparseModel(seed, 3, 3, 2);
     const SimplexGridValue coarse(m, 30), fine(m, 90);
     const Belief b0 = Belief::Constant(3, 1.0 / 3);
     SolverOptions o;

@@ -8,6 +8,8 @@
 
 namespace krr {
 namespace pomdp {
+using examples::makeTiger;
+using dialog::DialogPomdp, dialog::DialogSpec, dialog::deliveryMatrix, dialog::ownOfficePrior;
 namespace {
 
 /// A 12-request dialog (2 items x 3 rooms x 2 persons), discount 0.99, uneven delivery.

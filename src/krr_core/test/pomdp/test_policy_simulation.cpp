@@ -20,6 +20,7 @@
 
 namespace krr {
 namespace pomdp {
+using examples::makeTiger;
 namespace {
 
 const std::string kData = std::string(KRR_TEST_DATA_DIR) + "/pomdp/";

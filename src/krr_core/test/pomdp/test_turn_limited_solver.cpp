@@ -16,6 +16,7 @@
 
 namespace krr {
 namespace pomdp {
+using dialog::DialogPomdp, dialog::DialogSpec, dialog::deliveryMatrix, dialog::ownOfficePrior;
 namespace {
 
 /// The paper's 30-request dialog with a penalty for wrong deliveries: asking pays off, so the

@@ -84,7 +84,8 @@ def build_parser():
     ap.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     ap.add_argument("--allow-unconverged", action="store_true",
                     help="report tables resting on dialog policies not certified to "
-                         "config/dialog.yaml's precision (the report says so)")
+                         "config/dialog.yaml's precision (the report says so; a --quick "
+                         "smoke run does this without the flag)")
     g = ap.add_mutually_exclusive_group()
     g.add_argument("--ros", action="store_true", help="run as a ROS node (needs a master)")
     g.add_argument("--no-ros", action="store_true", help="never start a ROS node")

@@ -98,7 +98,7 @@ struct DialogParams {
 /// @brief The dialog model, its policy, the language front end and the delivery manager,
 /// built together (a rebuild replaces all of them between deliveries).
 struct DialogModel {
-  std::unique_ptr<krr::pomdp::DialogPomdp> pomdp;
+  std::unique_ptr<krr::dialog::DialogPomdp> pomdp;
   std::unique_ptr<krr::dialog::LanguageFrontEnd> language;
   krr::pomdp::TurnLimitedPolicy policy;
   krr::dialog::PolicyReport report;
@@ -173,7 +173,7 @@ class DialogNode {
     auto m = std::make_unique<DialogModel>();
     const krr::dialog::TripTable t = trips();
     m->reach = t.reachFromShop();
-    m->pomdp = std::make_unique<krr::pomdp::DialogPomdp>(knowledge_.buildSpec(t, config_));
+    m->pomdp = std::make_unique<krr::dialog::DialogPomdp>(knowledge_.buildSpec(t, config_));
     m->language = std::make_unique<krr::dialog::LanguageFrontEnd>(*m->pomdp, language_config_,
                                                                   p_.language_config);
     m->policy = krr::dialog::solveDialogPolicy(*m->pomdp, config_, cache_dir_, &m->report);
@@ -430,7 +430,7 @@ class DialogNode {
   }
 
   void say(std::size_t a) {
-    const krr::pomdp::DialogPomdp& d = *model_->pomdp;
+    const krr::dialog::DialogPomdp& d = *model_->pomdp;
     RobotUtterance u;
     u.header.stamp = ros::Time::now();
     u.dialog_id = dialog_id_;
@@ -438,22 +438,22 @@ class DialogNode {
     u.text = krr::dialog::robotUtterance(d, a);
     const auto& s = d.spec();
     switch (d.actionKind(a)) {
-      case krr::pomdp::DialogActionKind::kAskItem: u.kind = RobotUtterance::ASK_ITEM; break;
-      case krr::pomdp::DialogActionKind::kAskRoom: u.kind = RobotUtterance::ASK_ROOM; break;
-      case krr::pomdp::DialogActionKind::kAskPerson: u.kind = RobotUtterance::ASK_PERSON; break;
-      case krr::pomdp::DialogActionKind::kConfirmItem:
+      case krr::dialog::DialogActionKind::kAskItem: u.kind = RobotUtterance::ASK_ITEM; break;
+      case krr::dialog::DialogActionKind::kAskRoom: u.kind = RobotUtterance::ASK_ROOM; break;
+      case krr::dialog::DialogActionKind::kAskPerson: u.kind = RobotUtterance::ASK_PERSON; break;
+      case krr::dialog::DialogActionKind::kConfirmItem:
         u.kind = RobotUtterance::CONFIRM_ITEM;
         u.value = s.items[a - d.confirmItem(0)];
         break;
-      case krr::pomdp::DialogActionKind::kConfirmRoom:
+      case krr::dialog::DialogActionKind::kConfirmRoom:
         u.kind = RobotUtterance::CONFIRM_ROOM;
         u.value = s.rooms[a - d.confirmRoom(0)];
         break;
-      case krr::pomdp::DialogActionKind::kConfirmPerson:
+      case krr::dialog::DialogActionKind::kConfirmPerson:
         u.kind = RobotUtterance::CONFIRM_PERSON;
         u.value = s.persons[a - d.confirmPerson(0)];
         break;
-      case krr::pomdp::DialogActionKind::kServe: {
+      case krr::dialog::DialogActionKind::kServe: {
         const auto p = d.requestParts(d.requestOfServe(a));
         u.kind = RobotUtterance::SERVE;
         u.value = s.items[p[0]] + "," + s.rooms[p[1]] + "," + s.persons[p[2]];
@@ -479,7 +479,7 @@ class DialogNode {
   }
 
   void publishBelief() {
-    const krr::pomdp::DialogPomdp& d = *model_->pomdp;
+    const krr::dialog::DialogPomdp& d = *model_->pomdp;
     const krr::dialog::BeliefSummary b = manager().session().summary();
     krr_msgs::DialogBelief m;
     m.header.stamp = ros::Time::now();

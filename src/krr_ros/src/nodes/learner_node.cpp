@@ -92,6 +92,7 @@ struct LearnerParams {
     // (rmax_learning); the parameters below only override them (learner_node.yaml sets none).
     const krr::nav::NavigationConfig nav = p.kb.loadConfig();
     o.time = r.str("time", nav.time);  // context.time of navigation.yaml unless overridden
+    o.rmax = krr::nav::rmaxParamsOf(nav.planning, nav.rmax_learning, o.rmax);
     o.rmax.known_threshold = static_cast<std::uint32_t>(
         r.integer("known_threshold", nav.rmax_learning.known_threshold, 1, 1000000));
     o.rmax.rmax = r.number("rmax", nav.planning.rmax, 1e-6, 1e9);
@@ -99,9 +100,6 @@ struct LearnerParams {
     o.rmax.step_cost = r.number("step_cost", nav.planning.step_cost, 0, 1e6);
     o.rmax.replan_every = static_cast<std::uint32_t>(
         r.integer("replan_every", nav.rmax_learning.replan_every, 0, 1000000));
-    o.rmax.optimism = nav.rmax_learning.optimism == "self_loop" ? krr::mdp::Optimism::kSelfLoop
-                                                                : krr::mdp::Optimism::kTerminalBonus;
-    o.rmax.refine_known = nav.rmax_learning.refine_known;
     if (o.rmax.step_cost >= o.rmax.rmax)
       r.refuse("step_cost", std::to_string(o.rmax.step_cost),
                "must be below rmax = " + std::to_string(o.rmax.rmax));

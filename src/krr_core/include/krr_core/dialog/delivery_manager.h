@@ -88,7 +88,7 @@ class DeliveryManager {
    *        be nullptr when answers come only as observations (simulated persons)
    * @throws ConfigError if the policy does not fit the model, or for a bad max_redeliveries.
    */
-  DeliveryManager(const pomdp::DialogPomdp& dialog, const pomdp::TurnLimitedPolicy& policy,
+  DeliveryManager(const DialogPomdp& dialog, const pomdp::TurnLimitedPolicy& policy,
                   const LanguageFrontEnd* language, const DialogConfig& config);
 
   /// @brief A new delivery: the prior, no question asked, an empty record and log.
@@ -128,7 +128,7 @@ class DeliveryManager {
   const DialogSession& session() const { return session_; }
   /// @brief Remember the dialog decisions in `memo` (not owned; one per thread; nullptr: none).
   void setDecisionMemo(DecisionMemo* memo) { session_.setDecisionMemo(memo); }
-  const pomdp::DialogPomdp& dialog() const { return dialog_; }
+  const DialogPomdp& dialog() const { return dialog_; }
   const DeliveryRecord& record() const { return record_; }
   const std::vector<std::string>& decisions() const { return decisions_; }
   /// @brief {item, room, person} names of a request.
@@ -139,7 +139,7 @@ class DeliveryManager {
   void beginLegs(std::vector<Leg> legs);
   void finish(DeliveryOutcome o, const std::string& message);
 
-  const pomdp::DialogPomdp& dialog_;
+  const DialogPomdp& dialog_;
   const LanguageFrontEnd* language_;
   std::string shop_;
   int maxRedeliveries_;

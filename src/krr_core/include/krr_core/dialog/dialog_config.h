@@ -79,6 +79,9 @@ struct DialogConfig {
 
   /// @brief R-Max parameters for learning (step cost and Rmax of the navigation reward).
   mdp::RMaxParams rmaxParams() const;
+  /// @brief The inverse of rmaxParams(): takes p's reward and R-Max settings (an experiment's
+  /// overrides); R-Max fields a DialogConfig does not hold (step_limit, epsilon, ...) are ignored.
+  void setRMaxParams(const mdp::RMaxParams& p);
   /// @throws ConfigError naming the field and value (same checks as the loader).
   void validate() const;
 };

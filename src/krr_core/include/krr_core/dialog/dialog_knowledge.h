@@ -76,7 +76,7 @@ class DialogKnowledge {
   DialogKnowledge(const std::string& office_plog, const std::string& speech_plog);
 
   /// @brief Items, rooms, persons, prior (DialogSpec request order), from the reasoner.
-  const pomdp::DialogSpec& base() const { return base_; }
+  const DialogSpec& base() const { return base_; }
   const SpeechModel& speech() const { return speech_; }
   const Eigen::VectorXd& prior() const { return base_.prior; }
   std::size_t numRequests() const { return static_cast<std::size_t>(base_.prior.size()); }
@@ -95,7 +95,7 @@ class DialogKnowledge {
    * comment). The one builder of the robot's and the experiments' dialog models.
    * @throws ConfigError if the trips' rooms are not the knowledge base's rooms (same order).
    */
-  pomdp::DialogSpec buildSpec(const TripTable& trips, const DialogConfig& config) const;
+  DialogSpec buildSpec(const TripTable& trips, const DialogConfig& config) const;
 
   plog::Reasoner& reasoner() { return reasoner_; }
 
@@ -105,7 +105,7 @@ class DialogKnowledge {
 
   plog::Reasoner reasoner_;
   std::string names_;  // the files, for messages
-  pomdp::DialogSpec base_;
+  DialogSpec base_;
   SpeechModel speech_;
 };
 

@@ -39,7 +39,7 @@ struct PolicyReport {
  * @throws ConfigError for an inconsistent model or options; IoError / ParseError for a broken
  *         cache file (it is then not used silently: the message names it).
  */
-pomdp::TurnLimitedPolicy solveDialogPolicy(const pomdp::DialogPomdp& dialog,
+pomdp::TurnLimitedPolicy solveDialogPolicy(const DialogPomdp& dialog,
                                            const DialogConfig& config,
                                            const std::string& cache_dir,
                                            PolicyReport* report = nullptr);

@@ -14,9 +14,8 @@
  * uniform over the other values), yes / no (answers to confirming questions, correct with
  * p_yesno) and none (after serving). All numbers are inputs: the KB feeds them later.
  *
- * Domain code of the dialog module (the generic POMDP machinery is pomdp/); the class keeps
- * the pomdp namespace, as pomdp::DialogPomdp, because the solvers' tests and benchmarks use it
- * as their structured test model.
+ * Domain code of the dialog module, built on the generic POMDP machinery of pomdp/. The
+ * solvers' tests and benchmarks also use it as their structured test model.
  */
 #pragma once
 
@@ -30,7 +29,7 @@
 #include "krr_core/pomdp/model.h"
 
 namespace krr {
-namespace pomdp {
+namespace dialog {
 
 /// @brief Everything the dialog model is built from. Request index:
 /// s = (item * |R| + room) * |P| + person.
@@ -80,7 +79,7 @@ class DialogPomdp {
   /// @throws ConfigError naming the field (sizes, probabilities, names, costs).
   explicit DialogPomdp(DialogSpec spec);
 
-  const Model& model() const { return model_; }
+  const pomdp::Model& model() const { return model_; }
   const DialogSpec& spec() const { return spec_; }
   std::size_t numRequests() const { return nReq_; }
   std::size_t terminalState() const { return nReq_; }
@@ -108,7 +107,7 @@ class DialogPomdp {
   std::size_t obsNone() const { return obsYes() + 2; }
 
   /// @brief Marginals of a belief over items, rooms and persons (terminal mass ignored).
-  std::array<Eigen::VectorXd, 3> marginals(const Belief& b) const;
+  std::array<Eigen::VectorXd, 3> marginals(const pomdp::Belief& b) const;
   /// @brief The model in Cassandra .pomdp format (for SARSOP comparisons).
   std::string exportCassandra() const;
 
@@ -116,9 +115,9 @@ class DialogPomdp {
   DialogSpec spec_;
   std::size_t nI_, nR_, nP_, nReq_, firstServe_;
   std::vector<int> itemOf_, roomOf_, personOf_;
-  Model model_;
-  Model build();
+  pomdp::Model model_;
+  pomdp::Model build();
 };
 
-}  // namespace pomdp
+}  // namespace dialog
 }  // namespace krr

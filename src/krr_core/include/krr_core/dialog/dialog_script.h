@@ -48,7 +48,7 @@ struct ScriptResult {
 
 /// @brief Model action index of an action name ("ask_item", "confirm_room_room2",
 /// "serve_coke_room2_bob"); -1 for kNoQuestion. @throws ConfigError listing valid names.
-long actionByName(const pomdp::DialogPomdp& dialog, const std::string& name);
+long actionByName(const DialogPomdp& dialog, const std::string& name);
 
 /**
  * @brief Run a scripted dialog (see the file comment).
@@ -57,7 +57,7 @@ long actionByName(const pomdp::DialogPomdp& dialog, const std::string& name);
  * @throws ConfigError for unknown action names, no utterance, or a missing question without
  *         a policy (checked before running).
  */
-ScriptResult runDialogScript(const pomdp::DialogPomdp& dialog, const LanguageFrontEnd& language,
+ScriptResult runDialogScript(const DialogPomdp& dialog, const LanguageFrontEnd& language,
                              const pomdp::TurnLimitedPolicy* policy,
                              const std::vector<std::string>& questions,
                              const std::vector<std::string>& utterances);
@@ -82,23 +82,23 @@ struct ScriptedDelivery {
  * class dialog_node drives from topics, so the two can be compared decision by decision.
  * @throws ConfigError for an empty script.
  */
-ScriptedDelivery runScriptedDelivery(const pomdp::DialogPomdp& dialog,
+ScriptedDelivery runScriptedDelivery(const DialogPomdp& dialog,
                                      const LanguageFrontEnd& language,
                                      const pomdp::TurnLimitedPolicy& policy,
                                      const DialogConfig& config, const DeliveryScript& script);
 /// @brief {"completed": ..., "decisions": [...], "outcome": ..., "served": ..., ...}
-std::string scriptedDeliveryToJson(const pomdp::DialogPomdp& dialog, const ScriptedDelivery& d);
+std::string scriptedDeliveryToJson(const DialogPomdp& dialog, const ScriptedDelivery& d);
 
 /**
  * @brief One CSV row per turn: turn, robot_action, robot_text, user, observations,
  * unknown_words, notes, item_<name>..., person_<name>..., room_<name>..., entropy,
  * most_likely, most_likely_p, next_action, next_text (RFC 4180 quoting, lists joined by ';').
  */
-std::string scriptToCsv(const pomdp::DialogPomdp& dialog, const ScriptResult& r);
+std::string scriptToCsv(const DialogPomdp& dialog, const ScriptResult& r);
 /// @brief The same as one JSON object {"turns": [...], "served": ..., "unused_utterances": [...]}.
-std::string scriptToJson(const pomdp::DialogPomdp& dialog, const ScriptResult& r);
+std::string scriptToJson(const DialogPomdp& dialog, const ScriptResult& r);
 /// @brief A readable transcript with the marginals, for terminals.
-std::string scriptToText(const pomdp::DialogPomdp& dialog, const ScriptResult& r);
+std::string scriptToText(const DialogPomdp& dialog, const ScriptResult& r);
 
 }  // namespace dialog
 }  // namespace krr

@@ -59,7 +59,7 @@ struct BeliefSummary {
 class DecisionMemo {
  public:
   explicit DecisionMemo(std::size_t capacity = 1u << 16) : capacity_(capacity) {}
-  std::size_t decide(const pomdp::DialogPomdp& dialog, const pomdp::TurnLimitedPolicy& policy,
+  std::size_t decide(const DialogPomdp& dialog, const pomdp::TurnLimitedPolicy& policy,
                      const pomdp::Belief& b, int turns);
   std::size_t hits() const { return hits_; }
   std::size_t misses() const { return misses_; }
@@ -82,7 +82,7 @@ class DialogSession {
    *        nextAction() is only available at the turn limit)
    * @throws ConfigError if the policy's state count or turn limit differs from the model's.
    */
-  DialogSession(const pomdp::DialogPomdp& dialog, const LanguageFrontEnd* language,
+  DialogSession(const DialogPomdp& dialog, const LanguageFrontEnd* language,
                 const pomdp::TurnLimitedPolicy* policy = nullptr);
 
   /// @brief Back to the prior, no question asked.
@@ -114,10 +114,10 @@ class DialogSession {
   bool finished() const { return finished_; }
   /// @brief The request served (valid once finished()).
   std::size_t servedRequest() const { return served_; }
-  const pomdp::DialogPomdp& dialog() const { return dialog_; }
+  const DialogPomdp& dialog() const { return dialog_; }
 
  private:
-  const pomdp::DialogPomdp& dialog_;
+  const DialogPomdp& dialog_;
   const LanguageFrontEnd* language_;
   const pomdp::TurnLimitedPolicy* policy_;
   DecisionMemo* memo_ = nullptr;
@@ -137,11 +137,11 @@ class DialogSession {
  * the robot from serving at beliefs it never planned for). Never worse than the policy's
  * guarantee. @throws ConfigError when the policy asks at the turn limit.
  */
-std::size_t decideAction(const pomdp::DialogPomdp& dialog, const pomdp::TurnLimitedPolicy& policy,
+std::size_t decideAction(const DialogPomdp& dialog, const pomdp::TurnLimitedPolicy& policy,
                          const pomdp::Belief& b, int turns);
 
 /// @brief summary() of any belief of the dialog model.
-BeliefSummary summarizeBelief(const pomdp::DialogPomdp& dialog, const pomdp::Belief& b);
+BeliefSummary summarizeBelief(const DialogPomdp& dialog, const pomdp::Belief& b);
 
 }  // namespace dialog
 }  // namespace krr

@@ -2,7 +2,7 @@
  * @file language.h
  * @brief The dialog manager's language front end: user text -> observations of the dialog POMDP.
  *
- * The dialog POMDP (pomdp::DialogPomdp) observes one answer per question: an item / room /
+ * The dialog POMDP (DialogPomdp) observes one answer per question: an item / room /
  * person name after a general question, yes / no after a confirming question. People do not
  * talk like that ("I'd like a coke for Bob to office2"), so this front end maps free text to a
  * list of such observations. It is deliberately simple and fully documented:
@@ -124,7 +124,7 @@ class LanguageFrontEnd {
                    const std::vector<std::string>& persons, const LanguageConfig& config,
                    const std::string& configName = "<language config>");
   /// @brief The vocabulary of a dialog model.
-  LanguageFrontEnd(const pomdp::DialogPomdp& dialog, const LanguageConfig& config,
+  LanguageFrontEnd(const DialogPomdp& dialog, const LanguageConfig& config,
                    const std::string& configName = "<language config>");
 
   /// @brief Steps 1-3 of the file comment. Never throws on any input.
@@ -136,10 +136,10 @@ class LanguageFrontEnd {
    *        the user spoke first). yes / no answer it only if it is a confirming question.
    * @throws ConfigError if the dialog's vocabulary sizes differ from the front end's.
    */
-  Interpretation interpret(const ParsedUtterance& parsed, const pomdp::DialogPomdp& dialog,
+  Interpretation interpret(const ParsedUtterance& parsed, const DialogPomdp& dialog,
                            long lastQuestion) const;
   /// @brief interpret(parse(text), dialog, lastQuestion), with the parse notes.
-  Interpretation understand(const std::string& text, const pomdp::DialogPomdp& dialog,
+  Interpretation understand(const std::string& text, const DialogPomdp& dialog,
                             long lastQuestion) const;
 
   /// @brief Number of phrases in the lexicon (including generated "room 2" variants).
@@ -168,7 +168,7 @@ class LanguageFrontEnd {
  * coke?", "Should I deliver to room2?", "Is it for bob?", "OK, I am delivering a coke for bob
  * to room2." @throws ConfigError for an action index out of range.
  */
-std::string robotUtterance(const pomdp::DialogPomdp& dialog, std::size_t action);
+std::string robotUtterance(const DialogPomdp& dialog, std::size_t action);
 
 }  // namespace dialog
 }  // namespace krr

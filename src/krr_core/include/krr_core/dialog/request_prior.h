@@ -25,7 +25,7 @@ namespace dialog {
  * @throws UnknownSymbolError if a sort is missing, ConfigError if every request has probability
  * zero, IncoherentError from the reasoner.
  */
-pomdp::DialogSpec dialogSpecFromKnowledge(plog::Reasoner& kb, const std::string& kbName);
+DialogSpec dialogSpecFromKnowledge(plog::Reasoner& kb, const std::string& kbName);
 
 }  // namespace dialog
 }  // namespace krr

@@ -2,7 +2,7 @@
  * @file grid_program.h
  * @brief Generator of the grid-navigation P-log program of the paper (Section III), a toy
  * problem for the benchmark and the tests (examples library; the robot's own programs are the
- * knowledge base, kb/). It keeps the namespace of the module it exercises.
+ * knowledge base, kb/).
  */
 #pragma once
 
@@ -10,7 +10,7 @@
 #include <vector>
 
 namespace krr {
-namespace plog {
+namespace examples {
 
 /// @brief A rectangular blocking area (inclusive cell coordinates) where walkers may appear.
 struct BlockingArea {
@@ -41,5 +41,5 @@ inline int gridCell(const GridNavigationSpec& s, int x, int y) { return y * s.wi
 /// blocked, staying in place with the area's blocking rate when blocked.
 std::string makeGridNavigationProgram(const GridNavigationSpec& spec);
 
-}  // namespace plog
+}  // namespace examples
 }  // namespace krr

@@ -14,36 +14,36 @@
 #include "krr_core/mdp/navigation_task.h"
 
 namespace krr {
-namespace mdp {
+namespace examples {
 
 /**
  * @brief A navigation grid simulated from its true dynamics. States are cells plus the failure
  * state W*H; rewards are realised: -step_cost per move, +Rmax on entering a goal, -Rmax on
  * being trapped.
  */
-class GridWorldEnvironment : public Environment {
+class GridWorldEnvironment : public mdp::Environment {
  public:
   /// @throws ConfigError when the dynamics are invalid or start/goals are out of range,
   /// blocked, or the start is a goal.
-  GridWorldEnvironment(GridDynamics dynamics, StateId start, std::vector<StateId> goals,
-                       const NavigationReward& reward);
-  StateId reset() override;
-  StepResult step(ActionId a, Rng& rng) override;
+  GridWorldEnvironment(mdp::GridDynamics dynamics, mdp::StateId start,
+                       std::vector<mdp::StateId> goals, const mdp::NavigationReward& reward);
+  mdp::StateId reset() override;
+  mdp::StepResult step(mdp::ActionId a, Rng& rng) override;
   std::size_t numStates() const override { return dyn_.numCells() + 1; }
   std::size_t numActions() const override { return 4; }
-  const GridDynamics& dynamics() const { return dyn_; }
-  StateId failureState() const { return static_cast<StateId>(dyn_.numCells()); }
-  const std::vector<StateId>& goals() const { return goals_; }
-  StateId start() const { return start_; }
+  const mdp::GridDynamics& dynamics() const { return dyn_; }
+  mdp::StateId failureState() const { return static_cast<mdp::StateId>(dyn_.numCells()); }
+  const std::vector<mdp::StateId>& goals() const { return goals_; }
+  mdp::StateId start() const { return start_; }
 
  private:
-  GridDynamics dyn_;
-  StateId start_;
-  std::vector<StateId> goals_;
+  mdp::GridDynamics dyn_;
+  mdp::StateId start_;
+  std::vector<mdp::StateId> goals_;
   std::vector<std::uint8_t> goal_;
-  NavigationReward reward_;
-  StateId state_;
+  mdp::NavigationReward reward_;
+  mdp::StateId state_;
 };
 
-}  // namespace mdp
+}  // namespace examples
 }  // namespace krr

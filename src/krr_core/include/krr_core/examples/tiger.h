@@ -6,19 +6,19 @@
  * tiger-left / tiger-right (what is heard). Listening costs 1 and reports the tiger's side
  * correctly with the given accuracy; opening the tiger's door costs 100, the other door gives
  * +10, and opening resets the problem (uniform state, uninformative observation).
- * A toy problem for tests and benchmarks (examples library; it keeps the namespace of the
- * module whose interface it instantiates).
+ * A toy problem for tests and benchmarks (examples library), built as a pomdp::Model.
  */
 #pragma once
 
 #include "krr_core/pomdp/model.h"
 
 namespace krr {
-namespace pomdp {
+namespace examples {
 
 /// @brief Tiger with the standard numbers by default (accuracy 0.85, discount 0.95).
-Model makeTiger(double discount = 0.95, double listenAccuracy = 0.85, double listenCost = 1.0,
-                double treasureReward = 10.0, double tigerPenalty = 100.0);
+pomdp::Model makeTiger(double discount = 0.95, double listenAccuracy = 0.85,
+                       double listenCost = 1.0, double treasureReward = 10.0,
+                       double tigerPenalty = 100.0);
 
-}  // namespace pomdp
+}  // namespace examples
 }  // namespace krr

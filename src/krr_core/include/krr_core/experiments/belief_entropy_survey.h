@@ -27,7 +27,7 @@
 #include "krr_core/dialog/dialog_pomdp.h"
 
 namespace krr {
-namespace dialog {
+namespace experiments {
 
 /// @brief How random beliefs are drawn.
 struct BeliefSamplerOptions {
@@ -52,7 +52,7 @@ struct EntropySample {
 class BeliefEntropySurvey {
  public:
   /// @throws ConfigError on bad options or a policy of the wrong size.
-  BeliefEntropySurvey(const pomdp::DialogPomdp& dialog, const pomdp::TurnLimitedPolicy& policy,
+  BeliefEntropySurvey(const dialog::DialogPomdp& dialog, const pomdp::TurnLimitedPolicy& policy,
                       const BeliefSamplerOptions& options, std::uint64_t seed);
   /// @brief The random belief of sample i (over all states; terminal mass 0).
   pomdp::Belief belief(std::size_t index) const;
@@ -65,11 +65,11 @@ class BeliefEntropySurvey {
   std::string csvRow(const EntropySample& s) const;
 
  private:
-  const pomdp::DialogPomdp& dialog_;
+  const dialog::DialogPomdp& dialog_;
   const pomdp::TurnLimitedPolicy& policy_;
   BeliefSamplerOptions options_;
   std::uint64_t seed_;
 };
 
-}  // namespace dialog
+}  // namespace experiments
 }  // namespace krr

@@ -47,7 +47,7 @@
 #include "krr_core/pomdp/turn_limited_policy.h"
 
 namespace krr {
-namespace dialog {
+namespace experiments {
 
 /// @brief Which navigation knowledge the robot has (Table I's two column groups).
 enum class KnowledgeCondition {
@@ -76,10 +76,10 @@ struct DeliveryExperimentOptions {
 struct DeliveryTrialResult {
   std::size_t trial = 0;
   std::size_t request = 0;        ///< hidden request index
-  DeliveryRecord delivery;        ///< what the robot's delivery manager did
+  dialog::DeliveryRecord delivery;        ///< what the robot's delivery manager did
   bool correct = false;           ///< served == request (identification)
   bool fulfilled = false;         ///< the right request was delivered in the end
-  DeliveryReward reward;
+  dialog::DeliveryReward reward;
   /// E[reward | request, served] under the true world (the simulator's exact dynamics with
   /// the robot's policies) minus the realised QA cost: the trial's reward without the luck of
   /// navigation (decision theory's measure of the knowledge behind the serve).
@@ -92,7 +92,7 @@ struct PreparationReport {
   double knowledge_br = 0.0;       ///< br the knowledge was learned at
   double nav_model_seconds = 0.0;  ///< Procedure 2 + policies + P^N
   double dialog_model_seconds = 0.0;  ///< dialog knowledge reasoning + POMDP construction
-  PolicyReport policy;             ///< how the dialog policy was obtained, its bounds
+  dialog::PolicyReport policy;             ///< how the dialog policy was obtained, its bounds
 };
 
 class DeliveryExperiment {
@@ -103,13 +103,13 @@ class DeliveryExperiment {
    * need setPolicy() first (benchmarks of the solver).
    * @throws ConfigError / ParseError / IoError / UnknownSymbolError from the inputs.
    */
-  DeliveryExperiment(const kb::NavDomain& domain, const DialogConfig& config,
+  DeliveryExperiment(const kb::NavDomain& domain, const dialog::DialogConfig& config,
                      const DeliveryExperimentOptions& options, bool solve_policy = true);
 
   /// @brief Run trial `index` (deterministic per (seed, index)); fixed_request >= 0 replaces
   /// the drawn hidden request (tests, per-room analyses).
   DeliveryTrialResult runTrial(std::size_t index, long fixed_request = -1,
-                               DecisionMemo* memo = nullptr) const;
+                               dialog::DecisionMemo* memo = nullptr) const;
   /// @brief Trials begin..begin+count-1 on `threads` threads, in index order; results do not
   /// depend on threads.
   std::vector<DeliveryTrialResult> runTrials(std::size_t begin, std::size_t count,
@@ -119,28 +119,28 @@ class DeliveryExperiment {
   /// @throws ConfigError on a state-count or turn-limit mismatch.
   void setPolicy(const pomdp::TurnLimitedPolicy& policy);
 
-  const pomdp::DialogPomdp& dialog() const { return *dialog_; }
+  const dialog::DialogPomdp& dialog() const { return *dialog_; }
   const pomdp::TurnLimitedPolicy& policy() const { return policy_; }
-  const DeliveryNavigation& navigation() const { return *nav_; }
+  const dialog::DeliveryNavigation& navigation() const { return *nav_; }
   /// @brief The trips of the robot's navigation policies in the true world at the trial's br.
-  const TripTable& trueTrips() const { return true_trips_; }
-  const DialogKnowledge& dialogKnowledge() const { return *knowledge_; }
+  const dialog::TripTable& trueTrips() const { return true_trips_; }
+  const dialog::DialogKnowledge& dialogKnowledge() const { return *knowledge_; }
   const PreparationReport& preparation() const { return prep_; }
   const DeliveryExperimentOptions& options() const { return options_; }
-  const DialogConfig& config() const { return config_; }
+  const dialog::DialogConfig& config() const { return config_; }
   /// @brief The navigation knowledge base (with the condition's learned knowledge).
   kb::NavigationKnowledge& navigationKnowledge() { return *navKnowledge_; }
 
  private:
   const kb::NavDomain& domain_;
-  DialogConfig config_;
+  dialog::DialogConfig config_;
   DeliveryExperimentOptions options_;
   std::unique_ptr<kb::NavigationKnowledge> navKnowledge_;
-  std::unique_ptr<DialogKnowledge> knowledge_;
-  std::unique_ptr<DeliveryNavigation> nav_;
-  std::unique_ptr<pomdp::DialogPomdp> dialog_;
-  TripTable true_trips_;
-  std::unique_ptr<pomdp::DialogPomdp> true_dialog_;  // the serve rewards under true_trips_
+  std::unique_ptr<dialog::DialogKnowledge> knowledge_;
+  std::unique_ptr<dialog::DeliveryNavigation> nav_;
+  std::unique_ptr<dialog::DialogPomdp> dialog_;
+  dialog::TripTable true_trips_;
+  std::unique_ptr<dialog::DialogPomdp> true_dialog_;  // the serve rewards under true_trips_
   pomdp::TurnLimitedPolicy policy_;
   nav::Context context_;
   PreparationReport prep_;
@@ -149,8 +149,8 @@ class DeliveryExperiment {
 /// @brief CSV header of delivery trial rows (trial index first).
 std::string deliveryCsvHeader();
 /// @brief One CSV row (no newline) of a trial; `policy` are the bounds of the policy used.
-std::string deliveryCsvRow(const pomdp::DialogPomdp& dialog, const DeliveryTrialResult& r,
+std::string deliveryCsvRow(const dialog::DialogPomdp& dialog, const DeliveryTrialResult& r,
                            const pomdp::BoundsReport& policy);
 
-}  // namespace dialog
+}  // namespace experiments
 }  // namespace krr

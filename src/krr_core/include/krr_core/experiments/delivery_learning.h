@@ -22,7 +22,7 @@
 #include "krr_core/kb/free_time_learner.h"
 
 namespace krr {
-namespace dialog {
+namespace experiments {
 
 /**
  * @brief Task selector of delivery learning: each round practises every route between the
@@ -66,16 +66,17 @@ struct LearningReport {
  */
 LearningReport prepareLearnedKnowledge(const kb::NavDomain& domain,
                                        kb::NavigationKnowledge& knowledge,
-                                       const DialogConfig& config, const std::vector<std::string>& rooms,
+                                       const dialog::DialogConfig& config,
+                                       const std::vector<std::string>& rooms,
                                        double br, std::uint64_t seed, const std::string& cache_dir,
                                        const std::string& domain_name);
 
 /// @brief Cache file name of prepareLearnedKnowledge (without the directory): domain name, br,
 /// seed and a hash of the learning parameters and of the simulator's configuration.
-std::string learnedCacheName(const kb::NavDomain& domain, const DialogConfig& config,
+std::string learnedCacheName(const kb::NavDomain& domain, const dialog::DialogConfig& config,
                              const std::vector<std::string>& rooms, double br, std::uint64_t seed,
                              const std::string& domain_name);
 
 
-}  // namespace dialog
+}  // namespace experiments
 }  // namespace krr

@@ -17,7 +17,7 @@
 #include "krr_core/experiments/experiment_paths.h"
 
 namespace krr {
-namespace dialog {
+namespace experiments {
 
 /**
  * @brief What the delivery experiments run on: config/dialog.yaml (with its base,
@@ -25,7 +25,7 @@ namespace dialog {
  * (`planning` {step_cost, rmax}, `rmax_learning` {known_threshold, discount, replan_every,
  * optimism, refine_known}). @throws ConfigError naming file and field.
  */
-DialogConfig loadDeliveryExperimentConfig(const ExperimentPaths& paths);
+dialog::DialogConfig loadDeliveryExperimentConfig(const ExperimentPaths& paths);
 
 struct ExperimentCli {
   DeliveryExperimentOptions experiment;  ///< --br --condition --seed --outdated-br --learned-cache
@@ -47,16 +47,12 @@ struct ExperimentCli {
   /// @brief The input paths of the domain.
   ExperimentPaths paths() const { return ExperimentPaths::find(root, experiment.domain_name); }
   /// @brief loadDeliveryExperimentConfig() with the overrides applied (validated).
-  DialogConfig config(const ExperimentPaths& paths) const;
+  dialog::DialogConfig config(const ExperimentPaths& paths) const;
 
  private:
   bool haveCache_ = false;
   std::string cache_;
 };
-
-}  // namespace dialog
-
-namespace kb {
 
 /**
  * @brief The input files the navigation experiments (nav_transfer, new_circumstances) read:
@@ -78,5 +74,5 @@ struct NavExperimentFiles {
   std::string options_file_;
 };
 
-}  // namespace kb
+}  // namespace experiments
 }  // namespace krr

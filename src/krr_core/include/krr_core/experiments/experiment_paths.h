@@ -11,7 +11,7 @@
 #include <string>
 
 namespace krr {
-namespace dialog {
+namespace experiments {
 
 /// @brief Input files of a delivery experiment on one navigation domain.
 struct ExperimentPaths {
@@ -30,5 +30,5 @@ struct ExperimentPaths {
   static ExperimentPaths find(const std::string& root_hint, const std::string& domain);
 };
 
-}  // namespace dialog
+}  // namespace experiments
 }  // namespace krr

@@ -26,7 +26,7 @@
 #include "krr_core/mdp/rmax_agent.h"
 
 namespace krr {
-namespace kb {
+namespace experiments {
 
 /// @brief Parameters of the transfer experiment.
 struct NavTransferOptions {
@@ -67,10 +67,11 @@ struct NavTransferTrial {
 
 /**
  * @brief Run trial `index`. `knowledge` is this worker's knowledge base: its learned part is
- * replaced by this trial's extraction (NavigationKnowledge::replaceLearned), so a worker reuses
+ * replaced by this trial's extraction (kb::NavigationKnowledge::replaceLearned), so a worker reuses
  * one parsed and grounded program across trials.
  */
-NavTransferTrial runNavTransferTrial(const NavDomain& domain, NavigationKnowledge& knowledge,
+NavTransferTrial runNavTransferTrial(const kb::NavDomain& domain,
+                                     kb::NavigationKnowledge& knowledge,
                                      const NavTransferOptions& options, std::uint64_t seed,
                                      std::size_t index);
 
@@ -86,14 +87,14 @@ struct NavTransferSummary {
  * @brief Run `trials` trials on `threads` worker threads (each with its own knowledge base)
  * and summarise. Deterministic for a seed whatever the number of threads.
  */
-NavTransferSummary runNavTransfer(const NavDomain& domain, const NavTransferOptions& options,
+NavTransferSummary runNavTransfer(const kb::NavDomain& domain, const NavTransferOptions& options,
                                   std::uint64_t seed, std::size_t trials, std::size_t threads);
 
 /**
  * @brief Trials [begin, begin + count) on `threads` workers, in trial order. Trial i depends
  * only on (seed, i), so ranges run in different processes concatenate to the same results.
  */
-std::vector<NavTransferTrial> runNavTransferTrials(const NavDomain& domain,
+std::vector<NavTransferTrial> runNavTransferTrials(const kb::NavDomain& domain,
                                                    const NavTransferOptions& options,
                                                    std::uint64_t seed, std::size_t begin,
                                                    std::size_t count, std::size_t threads);
@@ -101,5 +102,5 @@ std::vector<NavTransferTrial> runNavTransferTrials(const NavDomain& domain,
 /// @brief Per-episode means over the trials (all with the same number of episodes).
 NavTransferSummary summarizeNavTransfer(const std::vector<NavTransferTrial>& trials);
 
-}  // namespace kb
+}  // namespace experiments
 }  // namespace krr

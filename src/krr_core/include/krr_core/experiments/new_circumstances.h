@@ -56,7 +56,7 @@
 #include "krr_core/mdp/rmax_agent.h"
 
 namespace krr {
-namespace kb {
+namespace experiments {
 
 /// @brief Parameters of the new-circumstances experiment (config/experiments/new_circumstances.yaml).
 struct NewCircumstancesOptions {
@@ -79,7 +79,7 @@ struct NewCircumstancesOptions {
   /// Procedure 1's knowledge extraction: "areas" (pooled per blocking area, kb/area_knowledge.h;
   /// what the robot's learner writes) or "pairs" (each known (cell, move) pair, the paper's
   /// literal Procedure 1, kept for comparison).
-  std::string extraction = toString(FreeTimeOptions().extraction);
+  std::string extraction = kb::toString(kb::FreeTimeOptions().extraction);
   std::size_t learn_tasks = 1;            ///< tasks practised per setting
   std::size_t learn_episodes = 300;       ///< episode cap per task
   std::size_t convergence_episodes = 30;  ///< no newly known pair for this long = converged
@@ -139,7 +139,7 @@ struct LearnedControllers {
  * their exact success probabilities in every setting. `knowledge`'s learned part is cleared.
  * @throws ConfigError / UnknownSymbolError for invalid options.
  */
-LearnedControllers learnControllers(const NavDomain& domain, NavigationKnowledge& knowledge,
+LearnedControllers learnControllers(const kb::NavDomain& domain, kb::NavigationKnowledge& knowledge,
                                     const NewCircumstancesOptions& options, std::uint64_t seed,
                                     std::size_t run);
 
@@ -153,7 +153,8 @@ struct EpisodeOutcome {
  * from trial `index`'s episode stream: every controller of a trial meets the same random
  * numbers (common random numbers), so identical controllers have identical episodes.
  */
-EpisodeOutcome runControllerEpisode(const NavDomain& domain, const NewCircumstancesOptions& options,
+EpisodeOutcome runControllerEpisode(const kb::NavDomain& domain,
+                                    const NewCircumstancesOptions& options,
                                     const std::vector<mdp::ActionId>& policy, std::size_t setting,
                                     std::uint64_t seed, std::size_t index);
 
@@ -177,7 +178,7 @@ struct NewCircumstancesTrial {
 
 /// @brief Evaluate trial `index` with the controllers of its learning run.
 /// @throws ConfigError when `learned` is not the trial's run or does not fit the options.
-NewCircumstancesTrial evaluateNewCircumstancesTrial(const NavDomain& domain,
+NewCircumstancesTrial evaluateNewCircumstancesTrial(const kb::NavDomain& domain,
                                                     const NewCircumstancesOptions& options,
                                                     const LearnedControllers& learned,
                                                     std::uint64_t seed, std::size_t index);
@@ -187,8 +188,8 @@ NewCircumstancesTrial evaluateNewCircumstancesTrial(const NavDomain& domain,
  * first), then evaluate it. Depends only on (seed, index).
  * @throws ConfigError / UnknownSymbolError for invalid options.
  */
-NewCircumstancesTrial runNewCircumstancesTrial(const NavDomain& domain,
-                                               NavigationKnowledge& knowledge,
+NewCircumstancesTrial runNewCircumstancesTrial(const kb::NavDomain& domain,
+                                               kb::NavigationKnowledge& knowledge,
                                                const NewCircumstancesOptions& options,
                                                std::uint64_t seed, std::size_t index);
 
@@ -197,7 +198,7 @@ NewCircumstancesTrial runNewCircumstancesTrial(const NavDomain& domain,
  * base), in trial order. Every learning run is learned once and shared by the workers.
  * Deterministic for a seed whatever the number of threads or the split into ranges.
  */
-std::vector<NewCircumstancesTrial> runNewCircumstances(const NavDomain& domain,
+std::vector<NewCircumstancesTrial> runNewCircumstances(const kb::NavDomain& domain,
                                                        const NewCircumstancesOptions& options,
                                                        std::uint64_t seed, std::size_t begin,
                                                        std::size_t count, std::size_t threads);
@@ -217,5 +218,5 @@ std::string newCircumstancesCsvHeader(const NewCircumstancesOptions& options);
 /// @brief One CSV line (no newline), columns as in the header.
 std::string newCircumstancesCsvRow(const NewCircumstancesTrial& t);
 
-}  // namespace kb
+}  // namespace experiments
 }  // namespace krr

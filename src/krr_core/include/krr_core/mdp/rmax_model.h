@@ -27,6 +27,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "krr_core/mdp/model_concept.h"
@@ -39,6 +40,13 @@ namespace mdp {
 
 /// @brief How unknown pairs are made optimistic (see the file comment).
 enum class Optimism { kTerminalBonus, kSelfLoop };
+
+/// @brief The configuration name of an optimism ("terminal_bonus", "self_loop"): the one
+/// spelling used by navigation.yaml, the experiment files and the learned-knowledge cache keys.
+const char* optimismName(Optimism optimism);
+/// @brief The optimism called `name`.
+/// @throws ConfigError "unknown value '<name>' (expected terminal_bonus or self_loop)".
+Optimism optimismFromName(const std::string& name);
 
 /// @brief The reward structure and terminal states the agent knows in advance.
 struct RMaxTask {

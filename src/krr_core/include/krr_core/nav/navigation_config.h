@@ -13,6 +13,8 @@
 #include <string>
 #include <vector>
 
+#include "krr_core/mdp/rmax_agent.h"
+
 namespace krr {
 namespace nav {
 
@@ -101,6 +103,16 @@ struct NavigationConfig {
   /// @brief The domain called `name`; UnknownSymbolError if absent.
   const DomainConfig& domain(const std::string& name) const;
 };
+
+/// @brief `base` with the navigation task's reward (planning: step_cost, rmax) and R-Max
+/// settings (rmax_learning); its other fields (step_limit, epsilon, ...) kept. The one mapping
+/// from navigation.yaml to R-Max, used by the learner node, the dialog config and experiments.
+mdp::RMaxParams rmaxParamsOf(const PlanningConfig& planning, const RMaxLearningConfig& learning,
+                             mdp::RMaxParams base = {});
+/// @brief The inverse of rmaxParamsOf: writes p's reward and R-Max settings into the sections
+/// (planning.discount and model_discount, which R-Max does not have, are kept).
+void storeRMaxParams(const mdp::RMaxParams& p, PlanningConfig& planning,
+                     RMaxLearningConfig& learning);
 
 /// @brief Load and validate navigation.yaml. Paths in it are relative to the file's directory.
 /// @throws ConfigError naming file, field and value (unknown fields are errors too).

@@ -21,8 +21,10 @@
  * (1 - sum of the assigned probabilities of possible values) / (number of possible values
  * without one). Probabilities are normalised over all worlds. Several queries that share their
  * interventions are answered by one clingo run (their observations become flags, not
- * constraints); queries with different interventions share one clingo process too, through a
- * multi-shot Lua main that solves once per intervention set (AspOptions::multi_shot).
+ * constraints, except when all of them have the same evidence: then it is a constraint and
+ * clingo enumerates only the worlds that satisfy it); queries with different interventions
+ * share one clingo process too on programs with few worlds, through a multi-shot Lua main
+ * that solves once per intervention set (AspOptions::multi_shot).
  *
  * Semantic points (chosen to agree with the native engine where it defines them):
  *  - a world in which an attribute term gets two values, or that violates a constraint, is no
@@ -43,6 +45,8 @@
 
 #include <atomic>
 #include <cstddef>
+#include <cstdint>
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -65,8 +69,9 @@ struct AspOptions {
   /// enumerate) krr::Error is thrown instead of exhausting memory.
   std::size_t max_output_bytes = std::size_t(1) << 30;
   /// @brief Answer queries with different interventions in one clingo process (a Lua main
-  /// solving once per intervention set). Falls back to one process per set, for the rest of
-  /// the back end's life, if clingo lacks Lua support.
+  /// solving once per intervention set), for programs of at most 2^kMultiShotMaxWorldsLog2
+  /// worlds (aspWorldsLog2; larger ones ground far less per set). Falls back to one process
+  /// per set, for the rest of the back end's life, if clingo lacks Lua support.
   bool multi_shot = true;
   /// @brief Appended to clingo's command line (e.g. "--parallel-mode=2").
   std::vector<std::string> extra_args;
@@ -75,17 +80,35 @@ struct AspOptions {
   const std::atomic<bool>* cancel = nullptr;
 };
 
-/// @brief One answer set as clingo prints it: its shown atoms, in clingo's syntax.
-using AspModel = std::vector<std::string>;
+/// @brief Largest world bound (log2, see aspWorldsLog2) of a program whose intervention sets
+/// share one clingo process (AspOptions::multi_shot).
+constexpr double kMultiShotMaxWorldsLog2 = 20;
+
+/// @brief One answer set: its shown atoms as indices into ClingoResult::atoms, in clingo's
+/// order. Atoms are interned because large runs print millions of answer sets over a few
+/// thousand distinct atoms: integers instead of strings keep reading them cheap.
+using AspModel = std::vector<std::uint32_t>;
 
 /// @brief All answer sets of one clingo run.
 struct ClingoResult {
   bool satisfiable = false;       ///< result of the (last, with a multi-shot script) solve
-  std::vector<AspModel> models;   ///< every answer set printed, in clingo's order
+  /// @brief Every distinct shown atom, in clingo's syntax, in order of first appearance.
+  std::vector<std::string> atoms;
+  /// @brief Every answer set printed, in clingo's order (empty when a model callback took
+  /// them, see runClingo).
+  std::vector<AspModel> models;
+  std::size_t model_count = 0;    ///< answer sets printed (kept or given to the callback)
   /// @brief With a #minimize statement: the optimisation value clingo printed after each
   /// model (costs[i] belongs to models[i]); empty otherwise.
   std::vector<std::vector<long long>> costs;
+  /// @brief The atoms of a model as text (for tests and error messages).
+  std::vector<std::string> atomTexts(const AspModel& model) const;
 };
+
+/// @brief Called for each answer set as it is read: the atoms known so far (the model's
+/// indices are valid in it) and the model.
+using AspModelCallback =
+    std::function<void(const std::vector<std::string>& atoms, const AspModel& model)>;
 
 /// @brief A shown atom split into its predicate name and argument texts.
 struct AspAtom {
@@ -180,8 +203,11 @@ std::string pLogLocations(const std::string& message, const std::string& lp_path
 /// @throws krr::Error if clingo is missing, fails (syntax, unsafe rule: clingo's message with
 ///         its locations mapped to the P-log statements, see pLogLocations) or exceeds
 ///         options.timeout_s; ConfigError for a non-positive timeout.
+/// With on_model, each answer set is handed to it as it is read and not kept in the result
+/// (ClingoResult::models stays empty, costs too: callers that optimise keep the models).
 ClingoResult runClingo(const std::string& program, const AspOptions& options,
-                       const std::vector<std::string>& extra_args = {});
+                       const std::vector<std::string>& extra_args = {},
+                       const AspModelCallback& on_model = nullptr);
 
 /// @brief Split text at separator outside parentheses and quoted strings (clingo terms);
 /// with ' ' as separator, tabs and carriage returns also separate and empty parts are dropped.

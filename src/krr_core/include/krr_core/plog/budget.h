@@ -36,6 +36,13 @@ class CancelledError : public Error {
   using Error::Error;
 };
 
+/// @brief The native engine's plan costs more than the other back end is expected to (see
+/// ExactEngine::setCostCap): not a failure, a choice (Backend::Auto then asks clingo).
+class CostlierError : public Error {
+ public:
+  using Error::Error;
+};
+
 /// @brief A grounding or inference budget was exhausted; what() names the statement being
 /// processed (file:line:col) and the limit.
 class BudgetExceededError : public Error {

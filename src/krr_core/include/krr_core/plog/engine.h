@@ -16,6 +16,7 @@
 
 #include <chrono>
 #include <functional>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -43,6 +44,24 @@ class ExactEngine {
   void setTimeBudget(double seconds);
   /// @brief Stop with CancelledError as soon as *flag is true (checked with the time budget).
   void setCancelFlag(const std::atomic<bool>* flag) { cancel_ = flag; }
+
+  /// @brief Before filling any table, the engine plans the tables of the inference (the
+  /// relevant instances' CPTs with their parents, the constraints', derived conflicts' and
+  /// conditions' indicators): when the largest has more than 2^log2_rows rows it throws
+  /// CostlierError instead. Each row evaluates ground bodies, so the largest table is a lower
+  /// bound on the work. Infinity (the default): no cap.
+  /// With recursion among the ground derived atoms (a cyclic SCC, e.g. a transitive closure),
+  /// every row re-evaluates it to a fixpoint, far more work per row than a solver's
+  /// propagation: log2_rows_recursive applies instead.
+  void setCostCap(double log2_rows, double log2_rows_recursive) {
+    cost_cap_log2_ = log2_rows;
+    cost_cap_recursive_log2_ = log2_rows_recursive;
+  }
+  /// @brief Called with the log2 rows of the largest planned table once the plan is made
+  /// (grounding done, no row filled yet): Backend::Auto races clingo on the inference only.
+  void setPlanCallback(std::function<void(double)> callback) { on_plan_ = std::move(callback); }
+  /// @brief log2 of the rows of the largest table planned by the last inference.
+  double lastPlannedLog2() const { return last_planned_log2_; }
 
   /// @brief Intervention do(inst = value index); -1 removes it.
   void setFixed(int inst, int value);
@@ -168,6 +187,10 @@ class ExactEngine {
   std::vector<std::vector<Keyed<int>>> rule_keyed_;  // derived rules, keyed likewise
   std::vector<std::vector<int>> rule_unkeyed_;
   size_t last_factors_ = 0, last_max_factor_ = 0;
+  double cost_cap_log2_ = std::numeric_limits<double>::infinity();
+  double cost_cap_recursive_log2_ = std::numeric_limits<double>::infinity();
+  double last_planned_log2_ = 0;
+  std::function<void(double)> on_plan_;
   std::vector<PendingError> pending_errors_;
   size_t pending_factor_ = 0;
   double budget_seconds_ = 0;

@@ -20,7 +20,11 @@
  */
 #pragma once
 
+#include <algorithm>
+#include <atomic>
 #include <cstdint>
+#include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <set>
@@ -48,6 +52,11 @@ enum class Backend {
   Asp,     ///< clingo (AspBackend) for every query
   Auto     ///< native where its fragment applies (exact and faster), clingo otherwise
 };
+/// @brief log2 of an upper bound on the number of possible worlds clingo enumerates for
+/// the program: the sum over its random selection rules of (ground instances of the attribute
+/// term x log2 |range sort|); infinity when a sort is unknown.
+double aspWorldsLog2(const Program& program);
+
 /// @brief "native", "asp" or "auto".
 const char* backendName(Backend backend);
 /// @brief Inverse of backendName. @throws ConfigError naming the accepted values.
@@ -174,12 +183,29 @@ class Reasoner {
   }
   const GroundingLimits& limits() const { return limits_; }
 
-  /// @brief Engine for later queries (default Backend::Auto). Under Auto, a query the native
-  /// engine has not answered after autoRaceDelay() seconds is also given to clingo, and the
-  /// first answer wins (the other computation is abandoned): the native engine is much
-  /// faster on most programs, clingo on some (e.g. many derived atoms per world, few worlds).
-  /// Tables are not raced.
+  /// @brief Engine for later queries (default Backend::Auto). Under Auto, each query goes to
+  /// the engine its cost estimate favours (see nativeCostCapLog2); a query the native engine
+  /// has not answered autoRaceDelay() seconds after planning its tables is also given to
+  /// clingo, and the first answer wins (the other computation is abandoned). Tables are not
+  /// raced.
   void setBackend(Backend backend) { backend_ = backend; }
+  /// @brief Cost-based choice under Backend::Auto (queries and distributions; tables stay
+  /// native): clingo enumerates possible worlds, at most 2^W of them, W = the sum over the
+  /// random selection rules of (ground instances x log2 |range|) (aspWorldsLog2); the native
+  /// engine fills tables, the largest of 2^N rows (ExactEngine::setCostCap). Rows and worlds
+  /// cost alike per ground rule evaluated, and clingo's worlds are usually far fewer than
+  /// 2^W (observations are constraints that it propagates, the native engine filters rows
+  /// only after filling them). So the native engine answers when N <= max(kNativeFloorLog2,
+  /// W - kAspAdvantageLog2), clingo otherwise, without filling any native table. With
+  /// recursive derived atoms in the ground program (a closure re-evaluated per row, where
+  /// clingo propagates once) there is no floor: native only when N <= W - kAspAdvantageLog2.
+  static constexpr double kNativeFloorLog2 = 12;     ///< 4096 rows: ms natively, always native
+  static constexpr double kAspAdvantageLog2 = 4;     ///< native only with 16x fewer rows
+  static constexpr double kGroundingRaceFactor = 2;  ///< grounding raced after 2 race delays
+  /// @brief The native cost cap for a program whose clingo world bound is 2^asp_log2.
+  static double nativeCostCapLog2(double asp_log2) {
+    return std::max(kNativeFloorLog2, asp_log2 - kAspAdvantageLog2);
+  }
   /// @brief Seconds before clingo joins a query under Backend::Auto (default 0.25).
   void setAutoRaceDelay(double seconds) { race_delay_ = seconds; }
   double autoRaceDelay() const { return race_delay_; }
@@ -273,6 +299,11 @@ class Reasoner {
   Backend backend_ = Backend::Auto;
   ParseOptions parse_options_;
   double race_delay_ = 0.25;
+  /// @brief Set while Backend::Auto races a query: the native engine reports its plan.
+  std::function<void(double)> plan_callback_;
+  /// @brief Cost cap of the native engine while Backend::Auto answers a query (log2 rows).
+  double native_cost_cap_ = std::numeric_limits<double>::infinity();
+  double native_cost_cap_recursive_ = std::numeric_limits<double>::infinity();
   /// @brief Set while racing once clingo has answered: the native computation stops.
   std::atomic<bool> asp_won_{false};
   std::unique_ptr<AspOptions> asp_options_;

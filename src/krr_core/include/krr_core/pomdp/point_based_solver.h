@@ -16,7 +16,9 @@
  * on the way back. Beliefs are sparse (sorted state / probability pairs), so a bound evaluation
  * or backup costs the belief's support, not S; the best vector at each visited belief and at
  * each of its children is cached and only re-scored against vectors added since (what made
- * RockSample 7,8, 12,545 states, reach SARSOP's 60 s lower bound within 10 s). Both bounds are
+ * RockSample 7,8, 12,545 states, reach SARSOP's 60 s lower bound within 10 s). Sawtooth points
+ * that the others dominate are pruned whenever the point set has doubled (prunePoints(): the
+ * upper bound stays the same function, its evaluation gets cheaper). Both bounds are
  * valid for every discounted POMDP; the dialog structure is exploited without being assumed:
  * identity transitions (questions) skip the prediction step, absorbing zero-reward states
  * (after serve) get exact zero bounds and end trials, and the per-action observation support
@@ -65,6 +67,10 @@ struct SolverOptions {
   bool sawtooth = true;
   /// Also prune lower-bound vectors that are not the best at b0 or at any stored point.
   bool witnessPruning = true;
+  /// Drop sawtooth points that the other points (or the FIB vectors) dominate, whenever the
+  /// point set has doubled since the last pruning (see PointBasedSolver::prunePoints()). It
+  /// never changes the upper bound, only the time and memory it costs.
+  bool pointPruning = true;
   /// Seconds the set-up in the constructor may take (0: half the timeout, so that the search
   /// gets the other half even on models whose exact set-up is slow). Every set-up phase checks it
   /// and keeps what it has when it is spent: at worst the blind-policy bound started at
@@ -82,7 +88,9 @@ struct SolverOptions {
 struct SearchProfile {
   double upperBackupSeconds = 0.0, lowerBackupSeconds = 0.0, pruneSeconds = 0.0;
   double sampleSeconds = 0.0;  ///< choosing the next observation along a trial
+  double pointPruneSeconds = 0.0;
   std::size_t upperBackups = 0, lowerBackups = 0, prunes = 0, alphasAdded = 0, pointsAdded = 0;
+  std::size_t pointPrunes = 0, pointsPruned = 0;
   std::size_t depthSum = 0, maxDepth = 0;  ///< over all trials
 };
 
@@ -147,6 +155,15 @@ class PointBasedSolver {
   const SearchProfile& profile() const { return profile_; }
   /// @brief True when the memory limit stopped the search (the bounds stay valid).
   bool memoryLimited() const { return memoryStop_; }
+  /// @brief Remove every sawtooth point whose value is no better than what the other points,
+  /// the corners and the FIB vectors give at its belief; returns how many were removed.
+  /// Such a point is dominated everywhere: the one function that beats it at its own belief is
+  /// convex and at most the corner values, so it is below the point's sawtooth (the
+  /// interpolation between the point and the corners) at every belief. Removing it therefore
+  /// changes the upper bound nowhere. Points are checked oldest first against those still kept,
+  /// so two points that dominate each other are not both removed. The search calls this when
+  /// the point set has doubled since the last pruning (SolverOptions::pointPruning).
+  std::size_t prunePoints() { return prunePointsUntil(false); }
 
   /// @brief Models with at most this many states get exact dense (LU) evaluations in the
   /// set-up; larger ones sparse sweeps that stop at the set-up deadline (an O(S^3) LU of a
@@ -188,6 +205,12 @@ class PointBasedSolver {
   /// max_i alpha_i . b; `arg` receives the maximiser.
   double lowerAt(const SparseBelief& b, std::size_t* arg = nullptr) const;
   double upperAt(const SparseBelief& b) const;
+  /// The upper bound at b minus the corner interpolation `*base` (<= 0): the best of the FIB
+  /// vectors and the sawtooth points, skipping points i with skip[i] != 0 (skip may be null).
+  double upperBelowCorners(const SparseBelief& b, double* base, const char* skip) const;
+  /// prunePoints(); with `interruptible`, it stops (keeping what it removed) once the trial
+  /// under way must be cut.
+  std::size_t prunePointsUntil(bool interruptible);
   double rewardAt(const SparseBelief& b, std::size_t a) const;
   /// children[k]: the vector the plan of `alpha` follows after observation slot k of action.
   /// Returns false (and adds nothing) when the memory limit would be exceeded.
@@ -206,8 +229,10 @@ class PointBasedSolver {
   double gamma_;
   SparseBelief b0_;
   std::vector<std::vector<std::uint32_t>> slotOf_;  // slotOf_[a][o]: slot of obs o after a
-  // Lower bound: flat alpha storage (N x S), action per vector.
-  std::vector<double> alpha_;
+  // Lower bound: one buffer per alpha vector (S entries), action per vector. Not one flat
+  // N x S array: growing that copied it, so that old and new arrays were resident together
+  // (RockSample 11,11: 1025 vectors of 2 MB peaked at 4.5 GB, twice the bounds).
+  std::vector<std::vector<double>> alpha_;
   std::vector<std::size_t> alphaAction_;
   // Per vector, the vectors its plan continues with (one per observation slot of its action).
   // Pruning keeps them (or a vector dominating them): then every vector is at most the backup
@@ -227,6 +252,7 @@ class PointBasedSolver {
   std::vector<std::uint32_t> pointIdx_;
   std::vector<double> pointInv_;  // 1 / b_i(s) on the support
   std::vector<double> improve_;   // v_i - corner . b_i (<= 0)
+  std::size_t pointsPrunedAt_ = 0;  // points kept by the last point pruning
   std::vector<std::vector<std::uint32_t>> firstOf_;  // [s]: points whose support starts at s
   std::unordered_map<std::uint64_t, std::vector<std::size_t>> pointIndex_;
   static constexpr std::size_t kNoPoint = static_cast<std::size_t>(-1);
