@@ -6,6 +6,8 @@
 #include <functional>
 #include <sstream>
 
+#include "scc.h"
+
 namespace krr {
 namespace plog {
 
@@ -250,69 +252,27 @@ void ExactEngine::buildAtomSccs() {
     }
   }
   atom_scc_.assign(na, -1);
-  std::vector<int> index(na, -1), low(na, 0), comp(na, -1);
-  std::vector<char> on(na, 0);
-  std::vector<int> stack;
-  int counter = 0, ncomp = 0;
-  // iterative Tarjan (ground chains can be long)
-  struct Frame {
-    int v;
-    size_t next;
-  };
-  for (size_t root = 0; root < na; ++root) {
-    if (index[root] >= 0 || edges[root].empty()) continue;
-    std::vector<Frame> call{{static_cast<int>(root), 0}};
-    index[root] = low[root] = counter++;
-    stack.push_back(static_cast<int>(root));
-    on[root] = 1;
-    while (!call.empty()) {
-      Frame& f = call.back();
-      size_t v = static_cast<size_t>(f.v);
-      if (f.next < edges[v].size()) {
-        size_t w = static_cast<size_t>(edges[v][f.next++].first);
-        if (index[w] < 0) {
-          index[w] = low[w] = counter++;
-          stack.push_back(static_cast<int>(w));
-          on[w] = 1;
-          call.push_back({static_cast<int>(w), 0});
-        } else if (on[w]) {
-          low[v] = std::min(low[v], index[w]);
+  int ncomp = 0;
+  const std::vector<int> comp = stronglyConnectedComponents(edges, ncomp);
+  std::vector<std::vector<int>> members(static_cast<size_t>(ncomp));
+  for (size_t a = 0; a < na; ++a)
+    if (!edges[a].empty()) members[static_cast<size_t>(comp[a])].push_back(static_cast<int>(a));
+  for (int c = 0; c < ncomp; ++c) {
+    const std::vector<int>& m = members[static_cast<size_t>(c)];
+    if (m.empty()) continue;  // atoms without dependencies are on no cycle
+    bool cyclic = m.size() > 1;
+    bool negative = false;
+    for (int a : m)
+      for (const auto& e : edges[static_cast<size_t>(a)])
+        if (comp[static_cast<size_t>(e.first)] == c) {
+          cyclic = true;  // a self-loop, or an edge inside a larger component
+          negative = negative || e.second;
         }
-        continue;
-      }
-      if (low[v] == index[v]) {
-        std::vector<int> members;
-        int w;
-        do {
-          w = stack.back();
-          stack.pop_back();
-          on[static_cast<size_t>(w)] = 0;
-          comp[static_cast<size_t>(w)] = ncomp;
-          members.push_back(w);
-        } while (w != f.v);
-        bool cyclic = members.size() > 1;
-        if (!cyclic)
-          for (const auto& e : edges[v])
-            if (static_cast<size_t>(e.first) == v) cyclic = true;
-        if (cyclic) {
-          bool negative = false;
-          for (int m : members)
-            for (const auto& e : edges[static_cast<size_t>(m)])
-              if (e.second && comp[static_cast<size_t>(e.first)] == ncomp) negative = true;
-          int id = static_cast<int>(scc_atoms_.size());
-          for (int m : members) atom_scc_[static_cast<size_t>(m)] = id;
-          scc_atoms_.push_back(members);
-          scc_negative_.push_back(negative ? 1 : 0);
-        }
-        ++ncomp;
-      }
-      int done = f.v;
-      call.pop_back();
-      if (!call.empty()) {
-        size_t p = static_cast<size_t>(call.back().v);
-        low[p] = std::min(low[p], low[static_cast<size_t>(done)]);
-      }
-    }
+    if (!cyclic) continue;
+    const int id = static_cast<int>(scc_atoms_.size());
+    for (int a : m) atom_scc_[static_cast<size_t>(a)] = id;
+    scc_atoms_.push_back(m);
+    scc_negative_.push_back(negative ? 1 : 0);
   }
   // A loop through `not` anywhere in the grounding (every attribute on such a loop is in the
   // cone, see relevanceCone) removes or splits possible worlds whether or not the query reads

@@ -21,6 +21,7 @@
 #include "krr_core/plog/engine.h"
 #include "krr_core/plog/grounder.h"
 #include "krr_core/plog/parser.h"
+#include "scc.h"
 
 namespace krr {
 namespace plog {
@@ -705,6 +706,72 @@ double aspWorldsLog2(const Program& program) {
   return total;
 }
 
+std::string negationLoopReason(const Program& program) {
+  for (const auto& r : program.rules)
+    if (r.consistency_restoring)
+      return r.loc.str() + ": consistency-restoring rule (':+')";
+  for (const auto& r : program.random_rules)
+    if (r.consistency_restoring)
+      return r.loc.str() + ": consistency-restoring random selection (':+')";
+  // Nodes: (attribute, head value) for constant head values, (attribute, *) for the others.
+  std::unordered_map<std::string, std::vector<int>> nodes_of;  // attribute -> its nodes
+  std::unordered_map<std::string, int> node_id;                // "attribute=value" -> node
+  std::vector<std::string> node_name;
+  auto constantValue = [](const Term& t, std::string& out) {
+    if (!t.isGround() || t.kind == Term::Kind::Binary || t.kind == Term::Kind::Negate)
+      return false;
+    out = toString(t);
+    return true;
+  };
+  auto nodeOf = [&](const Atom& head) {
+    std::string v;
+    if (!constantValue(head.value, v)) v = "*";
+    std::string name = head.attr.name + "=" + v;
+    auto [it, added] = node_id.emplace(name, static_cast<int>(node_name.size()));
+    if (added) {
+      nodes_of[head.attr.name].push_back(it->second);
+      node_name.push_back(std::move(name));
+    }
+    return it->second;
+  };
+  std::vector<int> head_node(program.rules.size(), -1);
+  for (size_t i = 0; i < program.rules.size(); ++i)
+    if (program.rules[i].head) head_node[i] = nodeOf(*program.rules[i].head);
+  // Edges (target, negative): `not` and `!=` count as negative, as the grounder's check of
+  // static attributes does; a body atom with a constant value depends on that value's rules
+  // and on the rules with a variable value, any other atom on every rule of its attribute.
+  DependencyEdges edges(node_name.size());
+  for (size_t i = 0; i < program.rules.size(); ++i) {
+    if (head_node[i] < 0) continue;
+    auto& out = edges[static_cast<size_t>(head_node[i])];
+    for (const auto& l : program.rules[i].body) {
+      if (l.kind != Literal::Kind::Atom) continue;
+      auto it = nodes_of.find(l.atom.attr.name);
+      if (it == nodes_of.end()) continue;
+      const bool negative = l.naf || l.negated;
+      std::string v;
+      if (!l.negated && constantValue(l.atom.value, v)) {
+        for (const std::string& value : {v, std::string("*")}) {
+          auto n = node_id.find(l.atom.attr.name + "=" + value);
+          if (n != node_id.end()) out.push_back({n->second, negative});
+        }
+      } else {
+        for (int n : it->second) out.push_back({n, negative});
+      }
+    }
+  }
+  // A negative edge inside a strongly connected component is a loop through negation.
+  int ncomp = 0;
+  const std::vector<int> comp = stronglyConnectedComponents(edges, ncomp);
+  for (size_t m = 0; m < edges.size(); ++m)
+    for (const auto& e : edges[m])
+      if (e.second && comp[static_cast<size_t>(e.first)] == comp[m])
+        return node_name[m] + " may depend on " + node_name[static_cast<size_t>(e.first)] +
+               " through negation, and " + node_name[static_cast<size_t>(e.first)] + " on " +
+               node_name[m];
+  return "";
+}
+
 template <typename T, typename Native, typename Asp>
 T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_answer,
                      bool race) {
@@ -749,13 +816,24 @@ T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_
 
   // Auto: the native engine first, under a cost cap (see the class comment); clingo joins
   // after race_delay_ seconds (at once when the native engine refuses the program or its plan
-  // is over the cap) and the first answer wins.
+  // is over the cap) and the first answer wins. A program that may loop through negation
+  // (negationLoopReason) is the other way round: clingo first, the native engine joins.
   struct CapGuard {
     double& cap;
     double& cap_recursive;
     ~CapGuard() { cap = cap_recursive = std::numeric_limits<double>::infinity(); }
   } cap_guard{native_cost_cap_, native_cost_cap_recursive_};
   const double asp_log2 = aspWorldsLog2(program_);
+  // A program that may loop through negation is usually refused by the native engine, but
+  // only once it has grounded the query's cone: clingo starts at once instead of after it.
+  const std::pair<std::uint64_t, std::uint64_t> version{structure_version_, change_seq_};
+  if (!negation_loop_valid_ || negation_loop_version_ != version) {
+    negation_loop_reason_ = negationLoopReason(program_);
+    negation_loop_version_ = version;
+    negation_loop_valid_ = true;
+  }
+  const bool asp_at_once = !negation_loop_reason_.empty();
+  if (asp_at_once) ++stats_.asp_started_at_once;
   native_cost_cap_ = nativeCostCapLog2(asp_log2);
   native_cost_cap_recursive_ = asp_log2 - kAspAdvantageLog2;
   AspBackend& backend = asp();  // made here: the helper thread must not create it
@@ -764,7 +842,7 @@ T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_
   asp_won_ = false;
   std::mutex m;
   std::condition_variable cv;
-  bool start_now = false, stop = false, asp_ran = false;
+  bool start_now = asp_at_once, stop = false, asp_ran = false, asp_finished = false;
   std::optional<T> asp_result;
   std::exception_ptr asp_error;
   // What the native engine has planned (log2 rows of its largest table; NaN: still
@@ -805,6 +883,11 @@ T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_
     } catch (...) {
       asp_error = std::current_exception();
     }
+    {
+      std::lock_guard<std::mutex> lock(m);
+      asp_finished = true;
+    }
+    cv.notify_all();
   });
   auto finish = [&](bool cancel_asp) {
     if (cancel_asp) native_done = true;
@@ -834,6 +917,19 @@ T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_
       throw combined(why, e);
     }
   };
+  if (asp_at_once) {
+    // clingo usually answers these programs: the native engine joins only if it has not
+    // within kGroundingRaceFactor race delays (the two would otherwise share the machine).
+    std::unique_lock<std::mutex> lock(m);
+    cv.wait_for(lock, std::chrono::duration<double>(race_delay_) * kGroundingRaceFactor,
+                [&]() { return asp_finished; });
+  }
+  if (asp_won_) {
+    finish(false);
+    asp_won_ = false;
+    if (asp_result) outside_fragment_[key] = structure_version_;
+    return useAsp("clingo answered first");
+  }
   try {
     T r = native();
     finish(true);

@@ -57,6 +57,13 @@ enum class Backend {
 /// term x log2 |range sort|); infinity when a sort is unknown.
 double aspWorldsLog2(const Program& program);
 
+/// @brief Why the native engine will probably refuse the program, decided from the program
+/// text before any grounding ("" when nothing points that way): a consistency-restoring rule,
+/// or a dependency loop through `not` (or `!=`) between (attribute, value) pairs, arguments
+/// ignored. Conservative: a program whose ground instances happen not to loop is named too
+/// (the native engine may still answer it; Backend::Auto then only starts clingo earlier).
+std::string negationLoopReason(const Program& program);
+
 /// @brief "native", "asp" or "auto".
 const char* backendName(Backend backend);
 /// @brief Inverse of backendName. @throws ConfigError naming the accepted values.
@@ -101,6 +108,9 @@ struct ReasonerStats {
   size_t table_rows_computed = 0;   ///< rows the last table query computed (others reused)
   Backend last_backend = Backend::Native;  ///< engine that answered the last query
   size_t asp_answers = 0;           ///< queries (or tables) answered by clingo so far
+  /// @brief Raced queries on which clingo started with the native engine, not after its
+  /// grounding, because the program may loop through negation (negationLoopReason).
+  size_t asp_started_at_once = 0;
 };
 
 class Reasoner {
@@ -299,6 +309,10 @@ class Reasoner {
   Backend backend_ = Backend::Auto;
   ParseOptions parse_options_;
   double race_delay_ = 0.25;
+  /// @brief negationLoopReason(program_), cached per (structure version, change sequence).
+  std::string negation_loop_reason_;
+  std::pair<std::uint64_t, std::uint64_t> negation_loop_version_{0, 0};
+  bool negation_loop_valid_ = false;
   /// @brief Set while Backend::Auto races a query: the native engine reports its plan.
   std::function<void(double)> plan_callback_;
   /// @brief Cost cap of the native engine while Backend::Auto answers a query (log2 rows).
