@@ -503,13 +503,6 @@ TEST(BackendCrosscheck, LoopsAndRandomDefiningRulesAwayFromTheQuery) {
   EXPECT_GE(c.compared_programs, kPrograms / 5);
 }
 
-}  // namespace
-}  // namespace plog
-}  // namespace krr
-
-namespace krr {
-namespace plog {
-namespace {
 
 TEST(BackendCrosscheck, AutoChoosesTheCheaperEngineByItsCostEstimate) {
   // Five draws of eight cards, observed strictly decreasing (the classic Poker examples'
@@ -547,13 +540,6 @@ TEST(BackendCrosscheck, AutoChoosesTheCheaperEngineByItsCostEstimate) {
   EXPECT_DOUBLE_EQ(Reasoner::nativeCostCapLog2(3.0), Reasoner::kNativeFloorLog2);
 }
 
-}  // namespace
-}  // namespace plog
-}  // namespace krr
-
-namespace krr {
-namespace plog {
-namespace {
 
 std::string repoFile(const std::string& rel) {
   return std::string(KRR_TEST_DATA_DIR) + "/../../../../" + rel;
