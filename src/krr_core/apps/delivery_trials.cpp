@@ -75,7 +75,8 @@ static int mainBody(int argc, char** argv) {
     if (!cli.out.empty()) {
       std::ostringstream csv;
       csv << deliveryCsvHeader() << "\n";
-      for (const auto& r : results) csv << deliveryCsvRow(ex.dialog(), r, p.policy.bounds) << "\n";
+      const double rewardError = ex.rewardError();
+      for (const auto& r : results) csv << deliveryCsvRow(ex.dialog(), rewardError, r, p.policy.bounds) << "\n";
       krr::writeFileAtomic(cli.out, csv.str());
     }
     std::FILE* say = modelReport ? stderr : stdout;

@@ -1,16 +1,20 @@
-// Benchmark: the turn-limited point-based solver on the dialog models the experiments use
-// (Table I: br 0.1 / 0.5 / 0.7 x learned / outdated knowledge, built from the knowledge base
-// exactly as delivery_trials builds them).
+// Benchmark: the certified dialog solver (CertifiedDialogSolver) on the dialog models the
+// experiments use (Table I: br 0.1 / 0.5 / 0.7 x learned / outdated knowledge, built from the
+// knowledge base exactly as delivery_trials builds them).
 //
-// Usage: bench_dialog_pomdp [--timeout 8] [--trials 2000] [--seed 1] [--root DIR]
+// Usage: bench_dialog_pomdp [--timeout 60] [--trials 4000] [--seed 1] [--root DIR]
 //                           [--learned-cache DIR|none] [--models 0.1:learned,0.7:outdated]
-//                           [--export DIR]
-// Per model: bounds at the prior at checkpoints of solver time, the first time the certified
-// gap fell to <= 4, 2 and 1 reward, the bounds at config/dialog.yaml's trial budget (the policy
-// the experiments and dialog_node use) and that policy in --trials delivery trials: mean
-// reward, identification rate and forced-serve rate (serves forced by the 20-turn limit).
-// --export writes each model as Cassandra .pomdp, plain and with the turn counter in the
-// state (pomdp::withTurnCounter), for comparisons with SARSOP.
+//                           [--export DIR] [--sarsop PATH]
+// Per model, single-threaded and cold:
+//  - the configured policy (config/dialog.yaml's solver block, what dialog_node and the
+//    experiments run): its certified bounds at the prior, solve time and size;
+//  - a fresh solve up to --timeout: bounds at checkpoints of solver time, the first time the
+//    certified gap fell to <= 4, 2 and 1 reward, and the search's memory;
+//  - the configured policy in --trials delivery trials: reward, expected reward,
+//    identification and forced-serve rate (serves forced by the 20-turn limit);
+//  - with --sarsop PATH: SARSOP (pomdpsol) on the same model with the turn counter in the state,
+//    exported as Cassandra .pomdp, for the same --timeout; its last bounds line is printed.
+// --export writes each model as Cassandra .pomdp, plain and with the turn counter.
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -28,22 +32,23 @@
 #include "krr_core/experiments/experiment_paths.h"
 #include "krr_core/pomdp/cassandra_io.h"
 #include "krr_core/pomdp/turn_counter_model.h"
-#include "krr_core/pomdp/turn_limited_solver.h"
+#include "krr_core/dialog/certified_dialog_solver.h"
+#include "krr_core/dialog/dialog_policy.h"
 
 using namespace krr;
 using namespace krr::dialog;
 using namespace krr::experiments;
 
 int main(int argc, char** argv) {
-  double timeout = 8.0;
-  std::size_t trials = 2000;
+  double timeout = 60.0;
+  std::size_t trials = 4000;
   std::uint64_t seed = 1;
-  std::string root, cache, exportDir;
+  std::string root, cache, exportDir, sarsop;
   bool haveCache = false;
   std::vector<std::pair<double, KnowledgeCondition>> models;
   OptionParser cli("bench_dialog_pomdp",
-                   "The turn-limited point-based solver on the dialog models of Table I: bounds\n"
-                   "at the prior over solver time, the configured policy in delivery trials.");
+                   "The certified dialog solver on the dialog models of Table I: bounds at the\n"
+                   "prior over solver time, the configured policy in delivery trials.");
   cli.add("--timeout", "S", "solver seconds per model", &timeout);
   cli.add("--trials", "N", "delivery trials per model", &trials);
   cli.add("--seed", "S", "seed of learning and trials", &seed);
@@ -64,6 +69,8 @@ int main(int argc, char** argv) {
           "0.1,0.5,0.7 x learned,outdated");
   cli.add("--export", "DIR", "write each model as Cassandra .pomdp (plain and with turns)",
           &exportDir);
+  cli.add("--sarsop", "PATH", "also run SARSOP's pomdpsol on the model with turns (same timeout)",
+          &sarsop);
   if (const auto status = cli.parse(argc, argv)) return *status;
   if (models.empty())
     for (double br : {0.1, 0.5, 0.7})
@@ -98,55 +105,107 @@ int main(int argc, char** argv) {
         pomdp::saveCassandra(exportDir + "/dialog_" + name + "_turns.pomdp",
                              pomdp::withTurnCounter(d.model(), d.model().initialBelief(), cfg.turn_limit));
       }
-      // The configured solve (what solveDialogPolicy runs), then on to the timeout.
-      pomdp::TurnLimitedSolverOptions so = dialogSolverOptions(cfg);
-      so.timeout = 1e9;
-      pomdp::TurnLimitedSolver solver(d.model(), d.model().initialBelief(), cfg.turn_limit, so);
-      solver.solve();
-      const pomdp::BoundsReport budget = solver.report();
-      ex.setPolicy(solver.policy());
-      solver.setMaxTrials(0);
+      // The configured policy: what dialog_node and the experiments run.
+      PolicyReport conf;
+      const pomdp::TurnLimitedPolicy policy = solveDialogPolicy(d, cfg, "", &conf);
+      std::printf("# %s: configured policy (%zu trials): lower %.3f upper %.3f gap %.3f in %.2f s, "
+                  "%zu vectors, stopped by %s\n", name.c_str(), conf.bounds.trials,
+                  conf.bounds.lower, conf.bounds.upper, conf.bounds.gap(), conf.seconds,
+                  policy.size(), conf.reproducible ? (conf.converged ? "precision" : "trial budget")
+                                                   : "timeout");
+      ex.setPolicy(policy);
+      // A fresh solve, cold, single-threaded: bounds at checkpoints of solver time.
+      CertifiedSolverOptions so;
+      so.precision = 1.0;  // the target gap at the prior
+      so.timeout = timeout;
+      so.maxTrials = 0;
+      CertifiedDialogSolver solver(d, Eigen::VectorXd(), 0, so);
       double reached[3] = {-1, -1, -1};
-      auto mark = [&](const pomdp::BoundsReport& r) {
+      auto mark = [&](const CertifiedReport& r) {
         for (int k = 0; k < 3; ++k)
-          if (reached[k] < 0 && r.gap() <= marks[k]) reached[k] = r.time;
+          if (reached[k] < 0 && r.gap() <= marks[k]) reached[k] = r.seconds;
       };
-      mark(budget);
-      std::printf("%9s %10s %10s %8s %8s %8s\n", "time_s", "lower", "upper", "gap", "trials", "vectors");
-      std::printf("%9.3f %10.3f %10.3f %8.3f %8zu %8zu   <- configured budget\n", budget.time,
-                  budget.lower, budget.upper, budget.gap(), budget.trials, budget.alphas);
-      for (double ck : checkpoints) {
-        if (ck > timeout) break;
-        if (ck <= solver.report().time) continue;
-        while (solver.report().time < ck && !solver.converged()) {
-          solver.runUntil(std::min(ck, solver.report().time + 0.05));
-          mark(solver.report());
-        }
-        const auto r = solver.report();
-        std::printf("%9.3f %10.3f %10.3f %8.3f %8zu %8zu\n", r.time, r.lower, r.upper, r.gap(),
-                    r.trials, r.alphas);
+      std::printf("%9s %10s %10s %8s %9s %10s %10s %9s\n", "time_s", "lower", "upper", "gap",
+                  "trials", "nodes", "sub_nodes", "MiB");
+      auto row = [&](const CertifiedReport& r) {
+        std::printf("%9.3f %10.3f %10.3f %8.3f %9zu %10zu %10zu %9.1f\n", r.seconds, r.lower,
+                    r.upper, r.gap(), r.trials, r.nodes, r.subNodes, r.bytes / 1048576.0);
         std::fflush(stdout);
-        if (solver.converged()) break;
+      };
+      row(solver.report());
+      mark(solver.report());
+      std::size_t ck = 0;
+      for (;;) {
+        const bool done = solver.runTrials(100);
+        const CertifiedReport r = solver.report();
+        mark(r);
+        if (done || r.stop != SolveStop::kRunning) {
+          row(r);
+          std::printf("# %s: stopped by %s\n", name.c_str(), toString(r.stop));
+          break;
+        }
+        while (ck < sizeof(checkpoints) / sizeof(checkpoints[0]) && r.seconds >= checkpoints[ck]) {
+          if (ck + 1 == sizeof(checkpoints) / sizeof(checkpoints[0]) ||
+              r.seconds < checkpoints[ck + 1])
+            row(r);
+          ++ck;
+        }
       }
       for (int k = 0; k < 3; ++k) {
         if (reached[k] >= 0) std::printf("# %s: gap <= %g after %.3f s\n", name.c_str(), marks[k], reached[k]);
         else std::printf("# %s: gap <= %g not reached in %.1f s (gap %.3f)\n", name.c_str(), marks[k],
-                         solver.report().time, solver.report().gap());
+                         solver.report().seconds, solver.report().gap());
       }
+      std::printf("# %s: search memory %.1f MiB (%zu nodes, %zu sub-dialog nodes), peak RSS so "
+                  "far %.1f MiB\n", name.c_str(), solver.report().bytes / 1048576.0,
+                  solver.report().nodes, solver.report().subNodes, peakRssMiB());
+      if (!sarsop.empty()) {
+        const std::string dir = exportDir.empty() ? "/tmp/krr_bench_dialog" : exportDir;
+        makeDirectories(dir);
+        const std::string file = dir + "/dialog_" + name + "_turns.pomdp";
+        pomdp::saveCassandra(file, pomdp::withTurnCounter(d.model(), d.model().initialBelief(),
+                                                          cfg.turn_limit));
+        const std::string cmd = "'" + sarsop + "' --timeout " + formatNumber(timeout, 6) +
+                                " --output /dev/null '" + file + "' 2>&1";
+        std::string out, last;
+        if (FILE* pipe = ::popen(cmd.c_str(), "r")) {
+          char buf[4096];
+          while (std::fgets(buf, sizeof(buf), pipe)) out += buf;
+          ::pclose(pipe);
+        }
+        // The last progress row of pomdpsol's table: time #Trial #Backup LBound UBound ...
+        std::size_t pos = 0;
+        while (pos < out.size()) {
+          const std::size_t end = out.find('\n', pos);
+          const std::string line = out.substr(pos, end == std::string::npos ? std::string::npos : end - pos);
+          double t, lb, ub;
+          long tr, bk;
+          if (std::sscanf(line.c_str(), " %lf %ld %ld %lf %lf", &t, &tr, &bk, &lb, &ub) == 5) last = line;
+          if (end == std::string::npos) break;
+          pos = end + 1;
+        }
+        std::printf("# %s: SARSOP %s, %.0f s: %s\n", name.c_str(), sarsop.c_str(), timeout,
+                    last.empty() ? "no bounds line in its output" : last.c_str());
+      }
+      if (trials == 0) continue;
       const auto res = ex.runTrials(0, trials, 1);
-      double reward = 0, sq = 0, forced = 0, correct = 0;
+      double reward = 0, sq = 0, exp = 0, esq = 0, forced = 0, correct = 0;
       for (const auto& r : res) {
         reward += r.reward.total();
         sq += r.reward.total() * r.reward.total();
+        exp += r.expected_reward;
+        esq += r.expected_reward * r.expected_reward;
         forced += r.delivery.forced;
         correct += r.correct;
       }
       const double n = static_cast<double>(res.size());
-      const double mean = reward / n;
+      const double mean = reward / n, emean = exp / n;
       const double ci = 1.96 * std::sqrt(std::max(0.0, sq / n - mean * mean) / n);
-      std::printf("# %s: configured policy in %zu trials: reward %.2f +- %.2f, identified %.3f, "
-                  "forced serves %.4f%s\n", name.c_str(), res.size(), mean, ci, correct / n,
-                  forced / n, forced / n < 0.01 ? "" : "  (ABOVE 1%)");
+      const double eci = 1.96 * std::sqrt(std::max(0.0, esq / n - emean * emean) / n);
+      std::printf("# %s: policy in %zu delivery trials: reward %.2f +- %.2f, expected reward "
+                  "%.2f +- %.2f, identified %.3f, forced serves %.4f%s\n", name.c_str(),
+                  res.size(), mean, ci, emean, eci, correct / n, forced / n,
+                  forced / n < 0.01 ? "" : "  (ABOVE 1%)");
     }
     std::printf("\n# peak RSS %.1f MiB\n", peakRssMiB());
   } catch (const std::exception& e) {

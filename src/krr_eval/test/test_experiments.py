@@ -308,8 +308,26 @@ class Table1Test(unittest.TestCase):
         self.assertIn("needs n = %d pairs" % need, notes)
         self.assertIn("Achieved in this run (n = 300)", notes)
         self.assertIn("Every joined pair has the same request.", notes)
+        # the decision-theory sanity line: the fake's learned condition is better, so it holds
+        san = t["exp2_sanity"]
+        self.assertEqual([r[0] for r in san.rows], ["0.1", "0.5", "0.7"])
+        self.assertTrue(all(r[-1] == "holds" for r in san.rows), san.rows)
+        self.assertIn("Sanity line.** Holds at every br", notes)
         # facts for exp4's reasons
         self.assertIn((0.1, "learned"), ctx.facts["exp2"])
+
+    def test_sanity_line_flags_a_violation(self):
+        from krr_eval import exp2_delivery
+        o = {"gap": 1.0, "reward_error": 0.1}
+        l_ = {"gap": 0.5, "reward_error": 0.05}
+        # allowed down to -(0.5 + 1.0 + 2 * 0.05) = -1.6
+        ok = exp2_delivery.sanity_row(0.1, o, l_, stats.Estimate(-1.0, 0.5, -1.5, -0.5, 100))
+        self.assertEqual(ok[-1], "holds")
+        self.assertAlmostEqual(ok[5], -1.6)
+        bad = exp2_delivery.sanity_row(0.1, o, l_, stats.Estimate(-3.0, 0.5, -3.5, -2.5, 100))
+        self.assertTrue(bad[-1].startswith("VIOLATED: 0.90 below the line"), bad[-1])
+        self.assertIsNone(exp2_delivery.sanity_row(0.1, {"gap": None, "reward_error": None},
+                                                   l_, stats.Estimate(0.0, 0.1, -0.1, 0.1, 100)))
 
     def test_paired_statistics_join_on_trial_index(self):
         ctx, res = run_exp(experiments.exp2_table1, StubRunner())

@@ -21,9 +21,9 @@ bool fileExists(const std::string& path) {
   return ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
 }
 
-/// A fingerprint of the solver's behaviour (its policy on a small penalised dialog after a
-/// fixed number of trials), part of the cache key: a changed solver never reuses a policy
-/// cached by an older one.
+/// A fingerprint of the solver's behaviour (its bounds and policy on a small penalised
+/// dialog after a fixed number of trials), part of the cache key: a changed solver never
+/// reuses a policy cached by an older one.
 std::uint64_t solverFingerprint() {
   static const std::uint64_t fp = [] {
     DialogSpec spec;
@@ -36,13 +36,16 @@ std::uint64_t solverFingerprint() {
     spec.serveCost = 40.0 * (Eigen::MatrixXd::Ones(4, 4) - Eigen::MatrixXd::Identity(4, 4));
     spec.turnLimit = 6;
     const DialogPomdp d(spec);
-    pomdp::TurnLimitedSolverOptions o;
+    CertifiedSolverOptions o;
     o.precision = 1e-12;
     o.timeout = 1e9;
     o.maxTrials = 25;
-    pomdp::TurnLimitedSolver s(d.model(), d.model().initialBelief(), spec.turnLimit, o);
+    CertifiedDialogSolver s(d, Eigen::VectorXd(), 0, o);
     s.solve();
-    return stableHash(s.policy().toText());
+    std::ostringstream t;
+    t.precision(17);
+    t << s.report().lower << " " << s.report().upper << "\n" << s.policy().toText();
+    return stableHash(t.str());
   }();
   return fp;
 }
@@ -76,8 +79,8 @@ void readBounds(const std::string& file, PolicyReport& r) {
 
 }  // namespace
 
-pomdp::TurnLimitedSolverOptions dialogSolverOptions(const DialogConfig& config) {
-  pomdp::TurnLimitedSolverOptions o;
+CertifiedSolverOptions certifiedSolverOptions(const DialogConfig& config) {
+  CertifiedSolverOptions o;
   o.precision = config.solver_precision;
   o.timeout = config.solver_timeout;
   o.maxTrials = config.solver_max_trials;
@@ -90,15 +93,15 @@ pomdp::TurnLimitedPolicy solveDialogPolicy(const DialogPomdp& dialog,
   config.validate();
   Stopwatch clock;
   PolicyReport rep;
-  const pomdp::TurnLimitedSolverOptions so = dialogSolverOptions(config);
+  const CertifiedSolverOptions so = certifiedSolverOptions(config);
   const int limit = dialog.spec().turnLimit;
   std::unique_ptr<FileLock> lock;  // parallel trial processes solve each model once
   if (!cache_dir.empty()) {
     std::ostringstream key;
     key.precision(17);
-    key << "turn-limited v1|" << solverFingerprint() << "|" << limit << "|" << so.precision << "|"
-        << so.maxTrials << "|" << so.trialGapFactor << "|" << so.lowerGuidedEvery << "|"
-        << dialog.exportCassandra();
+    key << "certified v1|" << solverFingerprint() << "|" << limit << "|" << so.precision << "|"
+        << so.maxTrials << "|" << so.seed << "|" << so.lowerGuidedEvery << "|"
+        << so.lookaheadLower << "|" << dialog.exportCassandra();
     char name[64];
     std::snprintf(name, sizeof(name), "policy_%016llx",
                   static_cast<unsigned long long>(stableHash(key.str())));
@@ -126,12 +129,20 @@ pomdp::TurnLimitedPolicy solveDialogPolicy(const DialogPomdp& dialog,
       return p;
     }
   }
-  pomdp::TurnLimitedSolver solver(dialog.model(), dialog.model().initialBelief(), limit, so);
-  rep.converged = solver.solve();
-  rep.bounds = solver.report();
-  rep.reproducible = rep.converged || (so.maxTrials > 0 && rep.bounds.trials >= so.maxTrials &&
-                                       rep.bounds.time < so.timeout);
+  CertifiedDialogSolver solver(dialog, Eigen::VectorXd(), 0, so);
+  solver.solve();
+  const CertifiedReport cr = solver.report();
   pomdp::TurnLimitedPolicy policy = solver.policy();
+  // The certified lower bound is what the exported policy guarantees at the prior.
+  rep.bounds.lower = policy.value(dialog.model().initialBelief(), 0);
+  rep.bounds.upper = cr.upper;
+  rep.bounds.time = cr.seconds;
+  rep.bounds.trials = cr.trials;
+  rep.bounds.points = cr.nodes;
+  rep.bounds.bytes = cr.bytes;
+  rep.bounds.alphas = policy.size();
+  rep.converged = rep.bounds.gap() <= so.precision;
+  rep.reproducible = cr.reproducible();
   if (!rep.file.empty() && rep.reproducible) {
     // Bounds first: the policy file's presence marks a complete entry.
     writeFileAtomic(rep.file.substr(0, rep.file.size() - 4) + ".bounds", boundsText(rep));

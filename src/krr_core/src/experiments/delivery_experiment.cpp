@@ -1,6 +1,7 @@
 #include "krr_core/common/parallel.h"
 #include "krr_core/experiments/delivery_experiment.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -168,6 +169,15 @@ void DeliveryExperiment::setPolicy(const pomdp::TurnLimitedPolicy& policy) {
   policy_ = policy;
 }
 
+double DeliveryExperiment::rewardError() const {
+  double e = 0.0;
+  for (std::size_t s = 0; s < dialog_->numRequests(); ++s)
+    for (std::size_t a = 0; a < dialog_->numRequests(); ++a)
+      e = std::max(e, std::abs(dialog_->model().getExpectedReward(s, dialog_->serveAction(a)) -
+                               true_dialog_->model().getExpectedReward(s, true_dialog_->serveAction(a))));
+  return e;
+}
+
 DeliveryTrialResult DeliveryExperiment::runTrial(std::size_t index, long fixed_request,
                                                  DecisionMemo* memo) const {
   const DialogPomdp& d = *dialog_;
@@ -212,24 +222,24 @@ std::vector<DeliveryTrialResult> DeliveryExperiment::runTrials(std::size_t begin
 std::string deliveryCsvHeader() {
   return "trial,room,reward,fulfilled,qa_cost,turns,entropy,request,served,served_room,correct,"
          "forced,served_probability,max_probability,trips,nav_moves,nav_failed,redelivered,"
-         "delivery_reward,nav_cost,penalty,policy_lower,policy_upper,expected_reward";
+         "delivery_reward,nav_cost,penalty,policy_lower,policy_upper,expected_reward,reward_error";
 }
 
-std::string deliveryCsvRow(const DialogPomdp& d, const DeliveryTrialResult& r,
+std::string deliveryCsvRow(const DialogPomdp& d, double rewardError, const DeliveryTrialResult& r,
                            const pomdp::BoundsReport& policy) {
   const auto& rooms = d.spec().rooms;
   const DeliveryRecord& x = r.delivery;
   char buf[640];
   std::snprintf(buf, sizeof(buf),
                 "%zu,%s,%.6g,%d,%.6g,%d,%.6g,%s,%s,%s,%d,%d,%.6g,%.6g,%zu,%zu,%d,%d,%.6g,%.6g,%.6g,"
-                "%.10g,%.10g,%.10g",
+                "%.10g,%.10g,%.10g,%.10g",
                 r.trial, rooms[d.requestParts(r.request)[1]].c_str(), r.reward.total(),
                 r.fulfilled ? 1 : 0, x.qa_cost, x.turns, x.entropy, d.requestName(r.request).c_str(),
                 d.requestName(x.served).c_str(), rooms[d.requestParts(x.served)[1]].c_str(),
                 r.correct ? 1 : 0, x.forced ? 1 : 0, x.served_probability, x.max_probability,
                 x.legs.empty() ? 0 : x.legs.size() - 1, x.navMoves(), x.navFailed() ? 1 : 0,
                 x.redelivered ? 1 : 0, r.reward.delivery, r.reward.navigation, r.reward.penalty,
-                policy.lower, policy.upper, r.expected_reward);
+                policy.lower, policy.upper, r.expected_reward, rewardError);
   return buf;
 }
 

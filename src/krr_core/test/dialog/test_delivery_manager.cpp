@@ -9,7 +9,7 @@
 
 #include "krr_core/common/errors.h"
 #include "krr_core/dialog/delivery_manager.h"
-#include "krr_core/pomdp/turn_limited_solver.h"
+#include "krr_core/dialog/certified_dialog_solver.h"
 
 namespace {
 
@@ -37,9 +37,9 @@ struct Fixture {
     return s;
   }
   static pomdp::TurnLimitedPolicy solve(const DialogPomdp& d) {
-    pomdp::TurnLimitedSolverOptions o;
+    CertifiedSolverOptions o;
     o.precision = 1e-6;
-    pomdp::TurnLimitedSolver s(d.model(), d.model().initialBelief(), d.spec().turnLimit, o);
+    CertifiedDialogSolver s(d, Eigen::VectorXd(), 0, o);
     s.solve();
     return s.policy();
   }

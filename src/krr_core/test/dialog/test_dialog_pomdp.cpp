@@ -7,7 +7,7 @@
 #include "krr_core/common/random.h"
 #include "krr_core/pomdp/belief.h"
 #include "krr_core/dialog/dialog_pomdp.h"
-#include "krr_core/pomdp/turn_limited_solver.h"
+#include "krr_core/dialog/certified_dialog_solver.h"
 
 namespace krr {
 namespace dialog {
@@ -176,10 +176,10 @@ TEST(DialogPomdp, HarderRoomMeansMoreQuestions) {
     spec.prior = Eigen::Vector2d(0.7, 0.3);
     spec.delivery = deliveryMatrix(1, Eigen::Vector2d(reachA, 0.6), 1);
     DialogPomdp d(spec);
-    pomdp::TurnLimitedSolverOptions opt;
+    CertifiedSolverOptions opt;
     opt.precision = 0.02;
-    pomdp::TurnLimitedSolver solver(d.model(), d.model().initialBelief(), spec.turnLimit, opt);
-    EXPECT_TRUE(solver.runUntil(2.0));
+    CertifiedDialogSolver solver(d, Eigen::VectorXd(), 0, opt);
+    EXPECT_TRUE(solver.solve());
     return meanQuestions(d, solver.policy(), 0, 2000, 7);
   };
   const double easy = questions(0.95), hard = questions(0.6);

@@ -5,7 +5,7 @@
 
 #include "krr_core/common/errors.h"
 #include "krr_core/dialog/dialog_script.h"
-#include "krr_core/pomdp/turn_limited_solver.h"
+#include "krr_core/dialog/certified_dialog_solver.h"
 
 namespace krr {
 namespace dialog {
@@ -71,10 +71,10 @@ TEST(DialogScript, Figure4BeliefMovesTowardsCokeBobRoom2) {
 TEST(DialogScript, PolicyDrivenScriptAsksWhatThePolicySays) {
   DialogPomdp d = officeDialog();
   LanguageFrontEnd lang(d, shippedConfig());
-  pomdp::TurnLimitedSolverOptions opt;
+  CertifiedSolverOptions opt;
   opt.precision = 1.0;
   opt.maxTrials = 30;  // any policy will do: the runner must follow it, whatever it says
-  pomdp::TurnLimitedSolver solver(d.model(), d.model().initialBelief(), d.spec().turnLimit, opt);
+  CertifiedDialogSolver solver(d, Eigen::VectorXd(), 0, opt);
   solver.solve();
   const pomdp::TurnLimitedPolicy policy = solver.policy();
   ScriptResult r = runDialogScript(d, lang, &policy, {}, kFigure4);

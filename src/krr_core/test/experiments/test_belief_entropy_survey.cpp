@@ -8,7 +8,7 @@
 #include "krr_core/experiments/belief_entropy_survey.h"
 #include "krr_core/dialog/dialog_session.h"
 #include "krr_core/pomdp/belief.h"
-#include "krr_core/pomdp/turn_limited_solver.h"
+#include "krr_core/dialog/certified_dialog_solver.h"
 
 namespace {
 
@@ -110,9 +110,9 @@ TEST(BeliefEntropySurvey, RecordsTheEntropyOfBeliefsUnderWhichThePolicyDelivers)
 
 TEST(BeliefEntropySurvey, SuggestsTheRobotsActionAtTheStartOfADialog) {
   const auto d = penalisedTinyDialog();
-  pomdp::TurnLimitedSolverOptions o;
+  dialog::CertifiedSolverOptions o;
   o.maxTrials = 60;
-  pomdp::TurnLimitedSolver solver(d.model(), d.model().initialBelief(), d.spec().turnLimit, o);
+  dialog::CertifiedDialogSolver solver(d, Eigen::VectorXd(), 0, o);
   solver.solve();
   const pomdp::TurnLimitedPolicy pol = solver.policy();
   BeliefEntropySurvey survey(d, pol, BeliefSamplerOptions(), 5);

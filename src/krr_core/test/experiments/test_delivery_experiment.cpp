@@ -74,7 +74,7 @@ std::vector<std::string> rows(const DeliveryExperiment& ex, std::size_t begin, s
                               std::size_t threads) {
   std::vector<std::string> out;
   for (const auto& r : ex.runTrials(begin, n, threads))
-    out.push_back(deliveryCsvRow(ex.dialog(), r, ex.preparation().policy.bounds));
+    out.push_back(deliveryCsvRow(ex.dialog(), ex.rewardError(), r, ex.preparation().policy.bounds));
   return out;
 }
 
@@ -313,6 +313,10 @@ TEST(DeliveryExperiment, ConditionsUseKnowledgeLearnedAtTheirBlockingRate) {
   EXPECT_LT(learned.dialog().spec().delivery(s, s), outdated.dialog().spec().delivery(s, s));
   EXPECT_LT(learned.navigation().trips().reachFromShop()(1),
             outdated.navigation().trips().reachFromShop()(1));
+  // The serve rewards of the outdated knowledge are further from the true world's (the
+  // decision-theory sanity line of Table I uses this error).
+  EXPECT_GE(learned.rewardError(), 0.0);
+  EXPECT_GT(outdated.rewardError(), learned.rewardError());
   EXPECT_EQ(conditionFromString("outdated"), KnowledgeCondition::kOutdated);
   EXPECT_THROW(conditionFromString("fresh"), ConfigError);
   o.blocking_rate = -0.1;

@@ -81,11 +81,36 @@ def delivery_data(t):
          "room": [norm_room(r) for r in t.strings("room")],
          "served_room": [norm_room(r) for r in t.strings("served_room")]
          if t.has("served_room") else None}
-    for k in ("policy_lower", "policy_upper"):
+    for k in ("policy_lower", "policy_upper", "reward_error"):
         d[k] = float(t.floats(k)[0]) if t.has(k) and len(t) else None
     d["gap"] = (d["policy_upper"] - d["policy_lower"]
                 if d["policy_lower"] is not None and d["policy_upper"] is not None else None)
     return d
+
+
+SANITY_NOTE = (
+    "An optimal policy on accurate knowledge cannot lose. With pi_L the learned model's policy, "
+    "certified to within gap_L of its model's optimum, and e_L = max |R_learned(s, a) - "
+    "R_true(s, a)| over the serve rewards (reward error learned; the P^N error's effect), "
+    "V_true(pi_L) >= V_true(optimum) - gap_L - 2 e_L >= V_true(pi_O) - gap_L - 2 e_L for any "
+    "outdated policy pi_O; the line also allows gap_O: d >= -(gap_L + gap_O + 2 e_L). verdict: "
+    "holds when the paired 95% CI of d reaches the line, else VIOLATED. The argument is about "
+    "the dialog POMDP's discounted value (discount 0.99 per question); the trials' expected "
+    "reward is undiscounted, so a violation smaller than the discount's effect (a few percent "
+    "of the rewards) may come from that.")
+
+
+def sanity_row(br, o, l, e):
+    """One exp2_sanity row, or None without the columns (old or fake data)."""
+    if o["gap"] is None or l["gap"] is None or l["reward_error"] is None:
+        return None
+    line = -(l["gap"] + o["gap"] + 2.0 * l["reward_error"])
+    ok = e.mean + e.half >= line
+    verdict = "holds" if ok else (
+        "VIOLATED: %.2f below the line; either a policy earns less than its certificate in "
+        "the true world or the discount/undiscounted mismatch" % (line - e.mean - e.half))
+    return ["%g" % br, Est(e.mean, e.half, "%+.2f"), l["gap"], o["gap"], l["reward_error"], line,
+            verdict]
 
 
 def _mean(a):
@@ -363,6 +388,7 @@ def exp2_table1(ctx):
              % OUTDATED_BR))
 
     sig, rates, counts, pairs_sd = [], [], [], collections.OrderedDict()
+    sanity = []
     mismatched = []
     for br in brs:
         o, l = data[br, "outdated"], data[br, "learned"]
@@ -388,6 +414,10 @@ def exp2_table1(ctx):
               "%d / %d" % mc(key)[1:] if mc(key) else None,
               P(mc(key)[0].p) if mc(key) else None]
              for key in ("identified", "nav_ok", "delivered")), []))
+        if "expected" in s:
+            row = sanity_row(br, o, l, s["expected"][0])
+            if row:
+                sanity.append(row)
         if "expected" in s:
             pairs_sd[br] = (s["expected_sd"], s["expected"][0].half, s["n"])
             counts.append(["%g" % br, s["n"], s["expected_sd"], s.get("reward_sd"),
@@ -477,6 +507,20 @@ def exp2_table1(ctx):
             formats={"SD d expected": "%.2f", "SD d realised": "%.2f",
                      "half-width expected": "%.2f", "half-width realised": "%.2f"}))
     res.tables.append(serve_reward_ablation(ctx, tables, specs))
+    if sanity:
+        res.tables.append(Table(
+            "exp2_sanity", "Decision-theory sanity line: learned minus outdated expected reward "
+            "against what certified policies allow",
+            ["br", "d expected (learned - outdated)", "gap learned", "gap outdated",
+             "reward error learned", "allowed down to", "verdict"], sanity,
+            formats={"gap learned": "%.2f", "gap outdated": "%.2f",
+                     "reward error learned": "%.3f", "allowed down to": "%.2f"},
+            note=SANITY_NOTE))
+        bad = [r for r in sanity if r[-1].startswith("VIOLATED")]
+        res.notes.append("**Sanity line.** " + (
+            "Violated at br %s: see exp2_sanity." % ", ".join(r[0] for r in bad) if bad else
+            "Holds at every br: the learned-minus-outdated difference is within what the "
+            "certified gaps and the learned knowledge's reward error allow."))
 
     if has_exp:
         e_sd = float(np.mean([stats.std(d["expected"]) for d in data.values()]))

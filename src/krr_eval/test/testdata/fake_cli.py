@@ -80,7 +80,7 @@ DELIVERY_HEADER = ["trial", "room", "reward", "fulfilled", "qa_cost", "turns", "
                    "request", "served", "served_room", "correct", "forced", "served_probability",
                    "max_probability", "trips", "nav_moves", "nav_failed", "redelivered",
                    "delivery_reward", "nav_cost", "penalty", "policy_lower", "policy_upper",
-                   "expected_reward"]
+                   "expected_reward", "reward_error"]
 REACH = {"room1": 0.0, "room2": 0.3, "room3": 0.2, "room4": 0.0, "room5": 0.4}
 
 
@@ -117,7 +117,8 @@ def delivery_row(opts, i):
            "%.4f" % abs(own.gauss(0.2, 0.05)), request, served, served_room, int(correct), 0,
            "%.4f" % (0.94 + 0.01 * good), "%.4f" % (0.94 + 0.01 * good), 1 if correct else 3,
            25, int(nav_failed), int(not correct), "%.0f" % delivery, "%.0f" % nav_cost,
-           "%.0f" % penalty, "%.4f" % lower, "%.4f" % (lower + 0.5), "%.4f" % expected]
+           "%.0f" % penalty, "%.4f" % lower, "%.4f" % (lower + 0.5), "%.4f" % expected,
+           "%.4f" % (0.05 * br)]
     if os.environ.get("FAKE_KRR_OLD"):
         keep = ["trial", "room", "reward", "fulfilled", "qa_cost", "turns", "entropy"]
         return keep, [row[DELIVERY_HEADER.index(k)] for k in keep]

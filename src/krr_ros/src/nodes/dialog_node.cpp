@@ -13,8 +13,12 @@
 // the knowledge base, and the trips of the navigation model of Procedure 2 from reasoner_node's
 // build_task_model, or built locally, or given P^N); its turn-limited policy comes from
 // solveDialogPolicy with the config's solver options and the shared policy cache, so the robot
-// runs the policy the experiments measure for the same knowledge. After a knowledge update the
-// model and policy are rebuilt before the next dialog.
+// runs the policy the experiments measure for the same knowledge. The first model is built and
+// solved before the node serves. After a knowledge update the model is rebuilt and its policy
+// solved in a background thread (one run at a time; an update during a run schedules one more
+// run after it) while the node keeps serving with the current policy; the new model replaces
+// the current one only between dialogs (when the next dialog starts, or on an idle timer). A
+// failed rebuild is logged and the current model kept.
 #include <actionlib/client/simple_action_client.h>
 #include <krr_msgs/BuildTaskModel.h>
 #include <krr_msgs/DeliveryStatus.h>
@@ -27,8 +31,13 @@
 #include <std_msgs/String.h>
 
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <memory>
+#include <mutex>
 #include <string>
+#include <system_error>
+#include <thread>
 #include <vector>
 
 #include "krr_core/common/errors.h"
@@ -121,7 +130,11 @@ class DialogNode {
       model_client_ = nh.serviceClient<krr_msgs::BuildTaskModel>(p_.model_service);
     cache_dir_ = p_.policy_cache == "none" ? ""
                  : p_.policy_cache.empty() ? krr::dialog::defaultCacheDir() : p_.policy_cache;
-    rebuild();
+    {
+      krr::Stopwatch clock;
+      model_ = buildModel();  // before serving, in this thread (a failure stops the node)
+      logModel(*model_, "", clock.seconds());
+    }
     utterance_pub_ = nh.advertise<RobotUtterance>("robot_utterance", 20);
     belief_pub_ = nh.advertise<krr_msgs::DialogBelief>("dialog_belief", 10, true);
     status_pub_ = nh.advertise<DeliveryStatus>("delivery_status", 20, true);
@@ -130,11 +143,27 @@ class DialogNode {
     if (!p_.updates_topic.empty())
       updates_sub_ = nh.subscribe(p_.updates_topic, 10, &DialogNode::onKnowledgeUpdate, this);
     timer_nh_ = pnh;
+    install_timer_ = nh.createTimer(ros::Duration(kInstallPeriod), [this](const ros::TimerEvent&) {
+      if (idle()) installPending();
+    });
+  }
+
+  ~DialogNode() {
+    if (worker_.joinable()) worker_.join();
+  }
+
+  /// @brief True while a background rebuild is running (or about to run again).
+  bool rebuilding() {
+    std::lock_guard<std::mutex> lock(rebuild_mutex_);
+    return worker_running_;
   }
 
  private:
   using Phase = krr::dialog::DeliveryPhase;
+  static constexpr double kInstallPeriod = 0.2;  ///< s between checks for a rebuilt model when idle
   krr::dialog::DeliveryManager& manager() { return *model_->manager; }
+  /// @brief No dialog or delivery in progress: the model may be replaced.
+  bool idle() { return manager().phase() == Phase::kIdle || manager().phase() == Phase::kDone; }
 
   // --- model --------------------------------------------------------------------------------
   /// @brief Procedure 2's navigation model for the configured time of day.
@@ -166,10 +195,11 @@ class DialogNode {
     return nav.trips();
   }
 
-  /// @brief (Re)build the dialog model from the knowledge base and get its policy (solved, or
-  /// the experiments' cached one for the same model).
-  void rebuild() {
-    krr::Stopwatch clock;
+  /// @brief Build the dialog model from the knowledge base and get its policy (solved, or the
+  /// experiments' cached one for the same model). Touches only state no callback uses
+  /// (knowledge_, domain_, nav_kb_, model_client_, read-only config), so it runs in the
+  /// background worker too (one build at a time: the constructor's, then the worker's).
+  std::unique_ptr<DialogModel> buildModel() {
     auto m = std::make_unique<DialogModel>();
     const krr::dialog::TripTable t = trips();
     m->reach = t.reachFromShop();
@@ -179,29 +209,96 @@ class DialogNode {
     m->policy = krr::dialog::solveDialogPolicy(*m->pomdp, config_, cache_dir_, &m->report);
     m->manager = std::make_unique<krr::dialog::DeliveryManager>(*m->pomdp, m->policy,
                                                                 m->language.get(), config_);
-    model_ = std::move(m);
-    dirty_ = false;
+    return m;
+  }
+
+  /// @brief Log a model, its policy and its bounds at the prior; `what` prefixes the line.
+  void logModel(const DialogModel& m, const std::string& what, double seconds) const {
     std::string reach;
-    for (Eigen::Index r = 0; r < model_->reach.size(); ++r)
-      reach += (r ? ", " : "") + model_->pomdp->spec().rooms[static_cast<std::size_t>(r)] + " " +
-               std::to_string(model_->reach(r)).substr(0, 5);
-    const krr::dialog::PolicyReport& rep = model_->report;
-    ROS_INFO_NAMED(kLog, "dialog model (%s): %zu requests, p_general %.3f, p_yesno %.3f, "
+    for (Eigen::Index r = 0; r < m.reach.size(); ++r)
+      reach += (r ? ", " : "") + m.pomdp->spec().rooms[static_cast<std::size_t>(r)] + " " +
+               std::to_string(m.reach(r)).substr(0, 5);
+    const krr::dialog::PolicyReport& rep = m.report;
+    ROS_INFO_NAMED(kLog, "%sdialog model (%s): %zu requests, p_general %.3f, p_yesno %.3f, "
                    "P^N(shop, room): %s; policy %s: bounds [%.2f, %.2f] at the prior (gap %.2f, "
-                   "%zu trials), %zu vectors; built in %.2f s", p_.model_source.c_str(),
-                   model_->pomdp->numRequests(), model_->pomdp->spec().pGeneral,
-                   model_->pomdp->spec().pYesNo, reach.c_str(), rep.from_cache ? "cached" : "solved",
+                   "%zu trials), %zu vectors; built in %.2f s", what.c_str(),
+                   p_.model_source.c_str(), m.pomdp->numRequests(), m.pomdp->spec().pGeneral,
+                   m.pomdp->spec().pYesNo, reach.c_str(), rep.from_cache ? "cached" : "solved",
                    rep.bounds.lower, rep.bounds.upper, rep.bounds.gap(), rep.bounds.trials,
-                   model_->policy.size(), clock.seconds());
+                   m.policy.size(), seconds);
     if (!rep.converged)
       ROS_WARN_NAMED(kLog, "the dialog policy is not certified to the configured precision %.2f "
                      "(gap %.2f at the prior)", config_.solver_precision, rep.bounds.gap());
   }
 
+  /// @brief A knowledge update: rebuild in the background (or once more after the running
+  /// rebuild); the current model keeps serving until the new one is installed.
   void onKnowledgeUpdate(const krr_msgs::KnowledgeUpdate::ConstPtr& u) {
-    dirty_ = true;
-    ROS_INFO_NAMED(kLog, "knowledge update from '%s': the dialog model will be rebuilt before "
-                   "the next dialog", u->source.c_str());
+    std::lock_guard<std::mutex> lock(rebuild_mutex_);
+    if (worker_running_) {
+      rerun_ = true;
+      ROS_INFO_NAMED(kLog, "knowledge update from '%s': a background rebuild is running, another "
+                     "one will follow it", u->source.c_str());
+      return;
+    }
+    if (worker_.joinable()) worker_.join();  // its run has ended (worker_running_ is false)
+    ROS_INFO_NAMED(kLog, "knowledge update from '%s': background rebuild started (building the "
+                   "dialog model and solving its policy; serving with the current policy "
+                   "meanwhile)", u->source.c_str());
+    try {
+      worker_ = std::thread(&DialogNode::rebuildInBackground, this);
+      worker_running_ = true;
+    } catch (const std::system_error& e) {
+      ROS_ERROR_NAMED(kLog, "cannot start the background rebuild, keeping the current dialog "
+                      "model: %s", e.what());
+    }
+  }
+
+  /// @brief The worker thread: build + solve, hand the model over (pending_), again while
+  /// updates arrived during a run. Every exception stops at this boundary: the current model
+  /// (and any model already pending) stays.
+  void rebuildInBackground() {
+    for (;;) {
+      try {
+        krr::Stopwatch clock;
+        std::unique_ptr<DialogModel> m = buildModel();
+        logModel(*m, "background rebuild done, installed when no dialog is in progress: ",
+                 clock.seconds());
+        std::lock_guard<std::mutex> lock(rebuild_mutex_);
+        pending_ = std::move(m);
+      } catch (const std::exception& e) {
+        ROS_ERROR_NAMED(kLog, "background rebuild failed, keeping the current dialog model: %s",
+                        e.what());
+      } catch (...) {
+        ROS_ERROR_NAMED(kLog, "background rebuild failed (unknown exception), keeping the current "
+                        "dialog model");
+      }
+      std::lock_guard<std::mutex> lock(rebuild_mutex_);
+      if (!rerun_) {
+        worker_running_ = false;
+        return;
+      }
+      rerun_ = false;
+      ROS_INFO_NAMED(kLog, "background rebuild started again (knowledge updated during the "
+                     "last run)");
+    }
+  }
+
+  /// @brief Swap in the model the worker finished, if any. Called from callbacks only (one
+  /// spinner thread) and only between dialogs, so no dialog sees its model change.
+  void installPending() {
+    std::unique_ptr<DialogModel> old;
+    {
+      std::lock_guard<std::mutex> lock(rebuild_mutex_);
+      if (!pending_) return;
+      old = std::move(model_);
+      model_ = std::move(pending_);
+    }
+    const krr::dialog::PolicyReport& rep = model_->report;
+    ROS_INFO_NAMED(kLog, "new dialog policy installed (%s): bounds [%.2f, %.2f] at the prior "
+                   "(gap %.2f, %zu trials), %zu vectors", rep.from_cache ? "cached" : "solved",
+                   rep.bounds.lower, rep.bounds.upper, rep.bounds.gap(), rep.bounds.trials,
+                   model_->policy.size());
   }
 
   // --- user utterances ----------------------------------------------------------------------
@@ -229,7 +326,7 @@ class DialogNode {
   }
 
   void startDialog(const std::string& text) {
-    if (dirty_) rebuild();
+    installPending();  // a model rebuilt since the last dialog
     manager().start();
     const krr::dialog::HearResult h = manager().hear(text);
     report(h);
@@ -541,8 +638,15 @@ class DialogNode {
   std::unique_ptr<krr::kb::NavigationKnowledge> nav_kb_;
   std::string cache_dir_;
   ros::ServiceClient model_client_;
-  std::unique_ptr<DialogModel> model_;
-  bool dirty_ = false;
+  std::unique_ptr<DialogModel> model_;  ///< the serving model (callbacks only)
+  // Background rebuild: rebuild_mutex_ guards worker_running_, rerun_, pending_ and the swap
+  // of model_ with pending_ (worker_ itself is started and joined in callbacks only).
+  std::mutex rebuild_mutex_;
+  std::thread worker_;
+  bool worker_running_ = false;
+  bool rerun_ = false;                     ///< an update arrived during the running rebuild
+  std::unique_ptr<DialogModel> pending_;   ///< rebuilt, not yet installed
+  ros::Timer install_timer_;
   unsigned dialog_id_ = 0;
   std::size_t published_ = 0;  // decisions of the current delivery already published
   ros::Time wait_start_;
@@ -571,6 +675,16 @@ int main(int argc, char** argv) {
     return 1;
   }
   ROS_INFO_NAMED(kLog, "ready: talk to me on user_utterance");
-  ros::spin();
+  ros::spin();  // one thread: every callback; a background rebuild needs none of them
+  if (node->rebuilding()) {
+    // The solve cannot be interrupted; joining it could delay shutdown by up to the solver's
+    // timeout. Nothing half-written stays behind: cache files are written atomically. (rosconsole
+    // is shut down with ros::spin's return, hence stderr.)
+    std::fprintf(stderr, "[ WARN] dialog_node: shutting down during a background rebuild: the "
+                 "rebuild is abandoned\n");
+    std::fflush(stdout);
+    std::fflush(stderr);
+    std::_Exit(0);
+  }
   return 0;
 }

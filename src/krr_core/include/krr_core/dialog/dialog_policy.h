@@ -3,8 +3,9 @@
  * @brief Solve once, use everywhere: the one way a dialog model becomes the policy that the
  * robot (dialog_node, dialog_script) and the experiments (delivery trials, Table II) run.
  *
- * The dialog POMDP is solved with its turn limit (TurnLimitedSolver: the policy knows it must
- * serve after turn_limit questions) under config/dialog.yaml's solver options. With a cache
+ * The dialog POMDP is solved with its turn limit by CertifiedDialogSolver (a search over the
+ * dialog's sufficient statistics with proven bounds; the policy knows it must serve after
+ * turn_limit questions) under config/dialog.yaml's solver options. With a cache
  * directory the policy is saved under a hash of everything that determines it (the exact
  * model as Cassandra text, the turn limit, the solver options and a fingerprint of the
  * solver's behaviour), with its bounds beside it, so a process that builds the same model
@@ -18,15 +19,18 @@
 
 #include "krr_core/dialog/dialog_config.h"
 #include "krr_core/dialog/dialog_pomdp.h"
+#include "krr_core/dialog/certified_dialog_solver.h"
+#include "krr_core/pomdp/point_based_solver.h"
 #include "krr_core/pomdp/turn_limited_policy.h"
-#include "krr_core/pomdp/turn_limited_solver.h"
 
 namespace krr {
 namespace dialog {
 
 /// @brief How a dialog policy was obtained and how good it is certified to be.
 struct PolicyReport {
-  pomdp::BoundsReport bounds;   ///< at the prior, turn 0 (also for cached policies)
+  /// At the prior, turn 0 (also for cached policies). lower: the exported policy's value
+  /// there (what executing it guarantees); upper: the proven bound on the optimum.
+  pomdp::BoundsReport bounds;
   bool converged = false;       ///< bounds.gap() <= config precision
   bool reproducible = false;    ///< stopped by the precision or the trial budget
   bool from_cache = false;
@@ -45,7 +49,7 @@ pomdp::TurnLimitedPolicy solveDialogPolicy(const DialogPomdp& dialog,
                                            PolicyReport* report = nullptr);
 
 /// @brief The solver options solveDialogPolicy uses for `config`.
-pomdp::TurnLimitedSolverOptions dialogSolverOptions(const DialogConfig& config);
+CertifiedSolverOptions certifiedSolverOptions(const DialogConfig& config);
 
 /**
  * @brief Default directory of solved policies (and of the experiments' learned knowledge):

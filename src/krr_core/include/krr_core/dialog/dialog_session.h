@@ -10,7 +10,7 @@
  * once the model's turnLimit questions have been asked, nextAction() serves the most likely
  * request (paper: "in case a dialog does not end after 20 turns, the robot is forced to work
  * on the most likely delivery"); the policy is solved knowing that limit
- * (TurnLimitedSolver), so it must itself serve there, and a policy that still asks is
+ * (CertifiedDialogSolver), so it must itself serve there, and a policy that still asks is
  * reported as an error instead of being silently overridden. Nothing the user says can crash
  * the session: unknown words, ignored answers and observations the model deems impossible
  * are reported in the HearResult.

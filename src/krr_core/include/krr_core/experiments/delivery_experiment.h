@@ -120,6 +120,10 @@ class DeliveryExperiment {
   void setPolicy(const pomdp::TurnLimitedPolicy& policy);
 
   const dialog::DialogPomdp& dialog() const { return *dialog_; }
+  /// @brief max over requests s and serve actions a of |R(s, serve a) of the robot's model -
+  /// R(s, serve a) under the true world|: what the knowledge's P^N error does to the rewards.
+  /// An optimal policy of the robot's model loses at most twice this against the true optimum.
+  double rewardError() const;
   const pomdp::TurnLimitedPolicy& policy() const { return policy_; }
   const dialog::DeliveryNavigation& navigation() const { return *nav_; }
   /// @brief The trips of the robot's navigation policies in the true world at the trial's br.
@@ -149,7 +153,8 @@ class DeliveryExperiment {
 /// @brief CSV header of delivery trial rows (trial index first).
 std::string deliveryCsvHeader();
 /// @brief One CSV row (no newline) of a trial; `policy` are the bounds of the policy used.
-std::string deliveryCsvRow(const dialog::DialogPomdp& dialog, const DeliveryTrialResult& r,
+std::string deliveryCsvRow(const dialog::DialogPomdp& dialog, double rewardError,
+                           const DeliveryTrialResult& r,
                            const pomdp::BoundsReport& policy);
 
 }  // namespace experiments

@@ -1,6 +1,6 @@
 /**
  * @file turn_counter_model.h
- * @brief The turn-limited problem of TurnLimitedSolver written as an ordinary discounted
+ * @brief The turn-limited dialog problem (dialog::CertifiedDialogSolver) written as an ordinary discounted
  * POMDP with the turn count in the state, for comparisons with other solvers (our
  * PointBasedSolver, SARSOP through a Cassandra .pomdp file).
  *
@@ -9,7 +9,7 @@
  * at t = turnLimit it is not allowed: it ends the episode (in the first terminal state) with
  * a reward below every ending action's, so no optimal policy takes it. Terminal states stay
  * absorbing with zero reward. The value at the initial belief (turn 0) equals the
- * finite-horizon value V_0(b0) that TurnLimitedSolver bounds. Dense: (S (L + 1))^2 entries
+ * finite-horizon value V_0(b0) that the turn-limited solver bounds. Dense: (S (L + 1))^2 entries
  * per action, meant for exports and tests, not for the robot.
  */
 #pragma once
@@ -20,7 +20,7 @@ namespace krr {
 namespace pomdp {
 
 /// @brief The model with a turn counter (see the file comment), initial belief b0 at turn 0.
-/// @throws ConfigError as TurnLimitedSolver does (negative limit, no ending action, b0).
+/// @throws ConfigError for a negative limit, a model without an ending action, or a bad b0.
 Model withTurnCounter(const Model& model, const Belief& b0, int turnLimit);
 
 }  // namespace pomdp

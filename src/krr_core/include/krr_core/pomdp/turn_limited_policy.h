@@ -10,7 +10,7 @@
  * asked leave at least as many to spare); vectors tagged turnLimit are plans that end at
  * once. At turn t the policy takes the action of the best vector among those with stage >= t:
  * executed greedily this way, the policy earns at least that vector's value (the solver
- * keeps only vectors whose plans stay available, see TurnLimitedSolver).
+ * exports only vectors of plans that stay available, see dialog::CertifiedDialogSolver).
  */
 #pragma once
 

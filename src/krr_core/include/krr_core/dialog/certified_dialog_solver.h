@@ -1,0 +1,139 @@
+/**
+ * @file certified_dialog_solver.h
+ * @brief The dialog POMDP solved through its own structure, with certified bounds at the
+ * prior: the one dialog solver of the robot, the experiments and the benchmarks.
+ *
+ * Structure used (DialogPomdp): the request never changes during the dialog, each answer
+ * depends only on the asked slot's true value, answers are independent given the request,
+ * and serving ends the episode with a known reward. The belief after any dialog is therefore
+ * b(s) ~ root(s) * prod_k lambda_k(v_k(s)), one likelihood vector per slot (item, room,
+ * person), and lambda_k(v) = g_k^{a_v} h^{d_v}: a_v answers "v" to the general question,
+ * d_v = yeses minus noes to "is it v?", g_k = p_general (n_k - 1) / (1 - p_general),
+ * h = p_yesno / (1 - p_yesno). The integers (a_v, d_v) are a sufficient statistic, and when
+ * log g_k / log h is a small rational p / q (8, 16, 4 and 4 for the office: 3/2, 2, 1) one
+ * integer e_v = p a_v + q d_v is. A belief node is the turn count and these integers, shifted
+ * so that each slot's minimum is 0, with the values of each slot that the root belief and the
+ * rewards treat alike (the office's items) sorted: two dialogs with the same statistics reach
+ * exactly the same belief, so the reachable beliefs form a finite DAG of depth turnLimit.
+ * (Answer accuracies of exactly 0 or 1 exclude values instead; that is kept as a flag.)
+ *
+ * Search: HSVI-style trials over that DAG, with one scalar lower and upper bound per node
+ * (no alpha vectors, no interpolation: nodes are exact beliefs). A trial follows the action
+ * of the best upper bound and samples an answer with probability proportional to
+ * P(answer) x bound gap (a seeded stream: runs are reproducible), and backs up both bounds
+ * exactly on the way back. At turnLimit the node's value is exact (serve the best request).
+ *
+ * Bounds at a node that has not been expanded:
+ *  - lower: serve now, the best serve action's expected reward (a plan the robot can run);
+ *  - upper: the room revealed for free (generally: the slot with most values). The belief
+ *    is the mixture sum_r b(room = r) b(. | room = r), the finite-horizon value V_t is
+ *    convex (a maximum of linear functions of the belief), so V_t(b) <= sum_r b(r) V_t(b | r).
+ *    V_t(b | r) is computed exactly: with the room known, room questions carry no information
+ *    and the sub-dialog over the other slots is small (memoised exact dynamic programming
+ *    over its own sufficient statistics). This is the information relaxation "room answered
+ *    perfectly at no cost"; a more informative experiment is worth at least as much
+ *    (Blackwell), so the bound is a proof, not an estimate.
+ * Expanded nodes take the Bellman backup of their children's bounds (upper: the minimum of
+ * the backup and the relaxation; both stay valid).
+ *
+ * The policy: the greedy policy of the lower bound, exported as alpha vectors
+ * (pomdp::TurnLimitedPolicy) by walking the policy's DAG from the root: each node's vector is
+ * the value, per true request, of the plan the node starts; the vector at the root is the
+ * certified lower bound. The vectors serve every belief the language front end can produce
+ * (max over vectors usable at that turn, each a plan's guaranteed value).
+ */
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "krr_core/dialog/dialog_pomdp.h"
+#include "krr_core/pomdp/turn_limited_policy.h"
+
+namespace krr {
+namespace dialog {
+
+/// @brief Solver parameters (config/dialog.yaml's `solver` block).
+struct CertifiedSolverOptions {
+  double precision = 1.0;        ///< stop when upper - lower <= precision at the root
+  std::size_t maxTrials = 0;     ///< stop after this many trials (0: no limit); reproducible
+  double timeout = 600.0;        ///< safety stop in seconds (not reproducible: reported)
+  std::size_t memoryBudget = 0;  ///< bytes for the search's tables; 0: krr::memoryBudget()
+  std::uint64_t seed = 1;        ///< the trials' answer sampling
+  /// Every k-th trial follows the lower bound's greedy action instead of the upper bound's
+  /// (0: never): trials along the policy improve the policy itself.
+  std::size_t lowerGuidedEvery = 2;
+  /// A new node's lower bound is the best of serving now and one question then serving
+  /// (a plan the robot can run) instead of serving now alone.
+  bool lookaheadLower = true;
+};
+
+/// @brief Why a solve stopped.
+enum class SolveStop { kRunning, kPrecision, kTrials, kTimeout, kMemory };
+const char* toString(SolveStop s);
+
+/// @brief The bounds at the root and the size of the search.
+struct CertifiedReport {
+  double lower = 0.0;         ///< value the exported policy guarantees at the root belief
+  double upper = 0.0;         ///< proven upper bound on the optimal value at the root
+  double seconds = 0.0;       ///< wall time of the search
+  std::size_t trials = 0;
+  std::size_t nodes = 0;      ///< belief nodes stored
+  std::size_t expanded = 0;   ///< nodes backed up from their children
+  std::size_t subNodes = 0;   ///< nodes of the revealed-slot sub-dialogs (upper bound)
+  std::size_t bytes = 0;      ///< memory held by the tables
+  SolveStop stop = SolveStop::kRunning;
+  double gap() const { return upper - lower; }
+  /// @brief Stopped by the precision or the trial budget: the same on every run.
+  bool reproducible() const { return stop == SolveStop::kPrecision || stop == SolveStop::kTrials; }
+};
+
+/// @brief See the file comment.
+class CertifiedDialogSolver {
+ public:
+  /**
+   * @param dialog the model (referenced: it must outlive the solver)
+   * @param root belief over requests (numRequests() entries, a distribution); empty: the
+   *        model's prior
+   * @param turnsUsed questions already asked at the root (the remaining horizon is
+   *        turnLimit - turnsUsed)
+   * @throws ConfigError for a root that is not a distribution, turnsUsed outside
+   *         [0, turnLimit], bad options, or a turn limit whose statistics would not fit.
+   */
+  CertifiedDialogSolver(const DialogPomdp& dialog, const Eigen::VectorXd& root = {},
+                        int turnsUsed = 0, CertifiedSolverOptions options = {});
+  ~CertifiedDialogSolver();
+  CertifiedDialogSolver(const CertifiedDialogSolver&) = delete;
+  CertifiedDialogSolver& operator=(const CertifiedDialogSolver&) = delete;
+
+  /// @brief Run trials until the precision, the trial budget, the timeout or the memory
+  /// budget. @return true when the root gap is <= precision.
+  bool solve();
+  /// @brief Run at most `trials` more trials (then stop as solve() would).
+  bool runTrials(std::size_t trials);
+  CertifiedReport report() const;
+
+  /// @brief The lower bound's greedy action at the root (a model action index).
+  std::size_t rootAction() const;
+  /// @brief The lower bound's policy as alpha vectors tagged with their turns (see the file
+  /// comment); its value at the root belief is report().lower.
+  pomdp::TurnLimitedPolicy policy() const;
+
+  /// @brief Exact value V_t of the model at the root by exhaustive dynamic programming over
+  /// the statistics (no bounds, no pruning): a reference for small models and tests.
+  /// @throws ConfigError when more than maxNodes nodes would be needed.
+  static double exactValue(const DialogPomdp& dialog, std::size_t maxNodes = 2000000);
+
+  class Impl;  ///< the search (certified_dialog_solver.cpp)
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace dialog
+}  // namespace krr

@@ -1,0 +1,1167 @@
+#include "krr_core/dialog/certified_dialog_solver.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <functional>
+#include <limits>
+#include <map>
+#include <numeric>
+#include <unordered_map>
+
+#include "krr_core/common/errors.h"
+#include "krr_core/common/limits.h"
+#include "krr_core/common/random.h"
+#include "krr_core/common/resources.h"
+
+namespace krr {
+namespace dialog {
+
+const char* toString(SolveStop s) {
+  switch (s) {
+    case SolveStop::kRunning: return "running";
+    case SolveStop::kPrecision: return "precision";
+    case SolveStop::kTrials: return "trial budget";
+    case SolveStop::kTimeout: return "timeout";
+    case SolveStop::kMemory: return "memory budget";
+  }
+  return "?";
+}
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
+constexpr int kSlots = 3;
+constexpr std::size_t kMaxValues = 64;  // values of one slot
+
+/// @brief Open-addressing table of fixed-stride int16 keys -> dense indices (a 32-bit hash
+/// tag beside each slot spares most key comparisons).
+class KeyTable {
+ public:
+  explicit KeyTable(std::size_t stride) : stride_(stride) {
+    slots_.assign(1024, 0);
+    tags_.assign(1024, 0);
+  }
+  std::size_t size() const { return count_; }
+  std::size_t stride() const { return stride_; }
+  const std::int16_t* key(std::size_t i) const { return &keys_[i * stride_]; }
+  std::size_t bytes() const {
+    return keys_.capacity() * sizeof(std::int16_t) + slots_.capacity() * 2 * sizeof(std::uint32_t);
+  }
+  std::size_t bytesPerEntry() const { return stride_ * sizeof(std::int16_t) + 4 * sizeof(std::uint32_t); }
+
+  std::size_t find(const std::int16_t* k) const {
+    const std::uint64_t hv = hash(k);
+    const std::uint32_t tag = static_cast<std::uint32_t>(hv >> 32);
+    const std::size_t mask = slots_.size() - 1;
+    for (std::size_t h = hv & mask;; h = (h + 1) & mask) {
+      const std::uint32_t v = slots_[h];
+      if (v == 0) return kNone;
+      if (tags_[h] == tag && std::memcmp(key(v - 1), k, stride_ * sizeof(std::int16_t)) == 0) return v - 1;
+    }
+  }
+  /// @return {index, inserted}
+  std::pair<std::size_t, bool> insert(const std::int16_t* k) {
+    if ((count_ + 1) * 2 > slots_.size()) grow();
+    const std::uint64_t hv = hash(k);
+    const std::uint32_t tag = static_cast<std::uint32_t>(hv >> 32);
+    const std::size_t mask = slots_.size() - 1;
+    std::size_t h = hv & mask;
+    for (;; h = (h + 1) & mask) {
+      const std::uint32_t v = slots_[h];
+      if (v == 0) break;
+      if (tags_[h] == tag && std::memcmp(key(v - 1), k, stride_ * sizeof(std::int16_t)) == 0) return {v - 1, false};
+    }
+    keys_.insert(keys_.end(), k, k + stride_);
+    slots_[h] = static_cast<std::uint32_t>(++count_);
+    tags_[h] = tag;
+    return {count_ - 1, true};
+  }
+
+ private:
+  std::uint64_t hash(const std::int16_t* k) const {
+    std::uint64_t h = 0x243f6a8885a308d3ULL;
+    for (std::size_t i = 0; i < stride_; ++i)
+      h = (h ^ static_cast<std::uint16_t>(k[i])) * 0x100000001b3ULL;
+    return splitMix64(h);
+  }
+  void grow() {
+    std::vector<std::uint32_t> slots(slots_.size() * 2, 0), tags(slots_.size() * 2, 0);
+    const std::size_t mask = slots.size() - 1;
+    for (std::size_t i = 0; i < count_; ++i) {
+      const std::uint64_t hv = hash(key(i));
+      std::size_t h = hv & mask;
+      while (slots[h] != 0) h = (h + 1) & mask;
+      slots[h] = static_cast<std::uint32_t>(i + 1);
+      tags[h] = static_cast<std::uint32_t>(hv >> 32);
+    }
+    slots_.swap(slots);
+    tags_.swap(tags);
+  }
+  std::size_t stride_;
+  std::size_t count_ = 0;
+  std::vector<std::int16_t> keys_;
+  std::vector<std::uint32_t> slots_, tags_;
+};
+
+enum class QKind { kAsk, kConfirm, kStall };
+
+struct Question {
+  QKind kind;
+  int slot;
+  std::size_t value;   // confirmed value
+  double cost;
+  std::size_t action;  // model action index
+};
+
+/// How an answer changes one slot's statistics.
+struct SlotCode {
+  std::size_t n = 1;          // values
+  int channels = 0;           // finite log-likelihood channels (0..2)
+  int askStep[2] = {0, 0};    // per channel: added to e_w for answer w to the general question
+  int confStep[2] = {0, 0};   // per channel: +- for yes / no to "is it x?"
+  double unit[2] = {0, 0};    // log-likelihood per unit of each channel
+  bool excl = false;          // accuracies of exactly 0 or 1: values get excluded
+  int width = 0;              // int16 entries per value: channels + excl
+  std::size_t offset = 0;     // first entry of the slot in a key
+  double pAsk = 0, pConf = 0; // accuracies
+  bool askInformative = false, confInformative = false;
+  std::vector<int> cls;       // symmetry class of each value (values alike in root and rewards)
+  bool sortable = false;      // some class has two values or more
+  std::vector<std::vector<std::size_t>> groups;  // the classes of two values or more
+};
+
+}  // namespace
+
+class CertifiedDialogSolver::Impl {
+ public:
+  Impl(const DialogPomdp& dialog, const Eigen::VectorXd& root, int turnsUsed,
+       CertifiedSolverOptions options, bool boundsSearch);
+
+  // --- the model, in the statistics' terms ---
+  const DialogPomdp& d_;
+  CertifiedSolverOptions o_;
+  std::size_t nReq_;
+  int turnsUsed_, horizon_;
+  double gamma_;
+  Eigen::VectorXd root_;
+  Eigen::MatrixXd serveR_;                    // nReq x nReq: R(s, serve a)
+  std::vector<std::array<std::size_t, kSlots>> parts_;
+  SlotCode slot_[kSlots];
+  std::vector<Question> questions_;
+  std::size_t stride_;
+  int revealed_ = 1;                          // the slot revealed by the upper bound
+  std::vector<std::size_t> subQuestions_;     // questions that inform in the sub-dialog
+
+  // --- search ---
+  struct Node {
+    double upper, lower;
+    bool expanded;
+  };
+  KeyTable table_;
+  std::vector<Node> nodes_;
+  KeyTable subTable_;                         // revealed-slot sub-dialog: exact values
+  std::vector<double> subValue_;
+  std::size_t rootIndex_ = 0;
+  std::size_t trials_ = 0, expanded_ = 0;
+  SolveStop stop_ = SolveStop::kRunning;
+  double seconds_ = 0.0;
+  std::size_t maxEntries_ = 0;
+  Rng rng_;
+
+  // scratch
+  mutable std::vector<std::int16_t> scratch_;
+
+  // --- statistics and beliefs ---
+  /// Shift each slot's statistics to minimum 0 and sort values alike; `perm` (if given)
+  /// receives, per slot in order, the original value at each canonical position. skipSlot:
+  /// left as it is (the revealed slot of a sub-dialog key).
+  void canonicalize(std::int16_t* key, std::vector<std::size_t>* perm = nullptr,
+                    int skipSlot = -1, bool sort = true) const;
+  /// The lower bound's greedy choice at a canonical key: a question index, or kNone (serve).
+  std::size_t lowerChoice(const std::int16_t* canonicalKey) const;
+  /// Alpha vector (over requests) of the lower bound's plan from an actual (unsorted) key.
+  /// The question of a canonical choice at the actual key whose canonical permutation is perm.
+  Question actualQuestion(std::size_t choice, const std::vector<std::size_t>& perm) const;
+  /// Probability of reaching each actual (shifted) key under the lower bound's policy; keys
+  /// below `floor` are not followed further.
+  std::unordered_map<std::string, double> policyReach(double floor) const;
+  const Eigen::VectorXd& planVector(const std::int16_t* key,
+                                    const std::unordered_map<std::string, double>& reach,
+                                    double floor,
+                                    std::unordered_map<std::string, std::size_t>& memo,
+                                    std::vector<Eigen::VectorXd>& vectors,
+                                    std::vector<std::pair<std::size_t, int>>& tags) const;
+  /// Belief over requests of a key (any order of values, canonical or not); `fixedSlot` >= 0:
+  /// restricted to requests whose value of that slot is `fixedValue`. @return false if empty.
+  bool belief(const std::int16_t* key, Eigen::VectorXd& b, int fixedSlot = -1,
+              std::size_t fixedValue = 0) const;
+  void marginals(const Eigen::VectorXd& b, std::array<Eigen::VectorXd, kSlots>& m) const;
+  double serveValue(const Eigen::VectorXd& b, std::size_t* best = nullptr) const;
+  /// Children of question q at a key whose marginals are m: (probability, child key).
+  std::size_t numAnswers(const Question& q) const;
+  /// P(answer | slot value v) of question q (confirm: answer 1 = yes, 0 = no).
+  double answerLikelihood(const Question& q, std::size_t answer, std::size_t v) const;
+  double answerProb(const Eigen::VectorXd& slotMarginal, const Question& q, std::size_t answer) const;
+  void childKey(const std::int16_t* key, const Question& q, std::size_t answer, std::int16_t* child) const;
+  template <class F>
+  void forEachChild(const std::int16_t* key, const std::array<Eigen::VectorXd, kSlots>& m,
+                    const Question& q, F&& f) const;
+  void applyExclusion(std::int16_t* key, int k, std::size_t v, bool keepOnlyV) const;
+
+  // --- bounds ---
+  /// Exact value of the sub-dialog with the revealed slot known: key's revealed section
+  /// holds {value, 0, ...}, the others are canonical; depth = key[0].
+  double subDialogValue(const std::int16_t* key);
+  double upperRelaxation(const std::int16_t* key, int depth, const Eigen::VectorXd& b);
+
+  /// The node of a canonical key, created if new (hint: its belief, if known).
+  std::size_t nodeFor(const std::int16_t* key, int depth, const Eigen::VectorXd* hint = nullptr);
+  /// Belief after `answer` to q (probability p) at belief b.
+  void childBelief(const Eigen::VectorXd& b, const Question& q, std::size_t answer, double p,
+                   Eigen::VectorXd& out) const;
+  /// in, with each slot's values moved to their canonical positions (canonicalize's perm).
+  void permuteBelief(const Eigen::VectorXd& in, const std::vector<std::size_t>& perm,
+                     Eigen::VectorXd& out) const;
+  /// Best "one question, then serve the best request at each answer" value at belief b.
+  double lookaheadValue(const Eigen::VectorXd& b) const;
+  struct Backup {
+    double serve = 0;
+    std::size_t serveAction = 0;
+    std::size_t bestUpper = kNone;  // question index of the best upper Q (kNone: serve)
+    std::size_t bestLower = kNone;
+  };
+  Backup backup(std::size_t n);
+  void trial();
+  bool memoryExceeded() const;
+  std::size_t bytes() const;
+  bool run(std::size_t maxMore);
+
+  double exactValue(std::int16_t* key, int depth, std::unordered_map<std::string, double>& memo,
+                    std::size_t maxNodes);
+};
+
+namespace {
+
+bool isRational(double ratio, int& p, int& q) {
+  for (q = 1; q <= 12; ++q) {
+    const double pr = ratio * q;
+    const double r = std::round(pr);
+    if (r != 0.0 && std::abs(pr - r) <= 1e-9 * std::max(1.0, std::abs(pr)) &&
+        std::abs(r) <= 64.0) {
+      p = static_cast<int>(r);
+      return true;
+    }
+  }
+  return false;
+}
+
+bool closeTo(double a, double b) {
+  return std::abs(a - b) <= 1e-12 * std::max({1.0, std::abs(a), std::abs(b)});
+}
+
+}  // namespace
+
+CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::VectorXd& root,
+                                  int turnsUsed, CertifiedSolverOptions options, bool)
+    : d_(dialog), o_(options), nReq_(dialog.numRequests()), turnsUsed_(turnsUsed),
+      horizon_(dialog.spec().turnLimit - turnsUsed), gamma_(dialog.spec().discount),
+      table_(1), subTable_(1), rng_(makeRng(options.seed, "certified-dialog-solver")) {
+  const DialogSpec& sp = d_.spec();
+  if (turnsUsed < 0 || turnsUsed > sp.turnLimit)
+    throw ConfigError("certified dialog solver: " + std::to_string(turnsUsed) +
+                      " questions asked, outside [0, turn limit " +
+                      std::to_string(sp.turnLimit) + "]");
+  if (!(o_.precision > 0.0) || !(o_.timeout >= 0.0))
+    throw ConfigError("certified dialog solver: precision must be > 0 and timeout >= 0");
+  if (!(gamma_ > 0.0 && gamma_ <= 1.0))
+    throw ConfigError("certified dialog solver: discount " + std::to_string(gamma_) +
+                      " outside (0, 1]");
+  root_ = root.size() == 0 ? sp.prior : root;
+  if (static_cast<std::size_t>(root_.size()) != nReq_ || !root_.allFinite() ||
+      root_.minCoeff() < 0.0 || std::abs(root_.sum() - 1.0) > 1e-6)
+    throw ConfigError("certified dialog solver: the root belief is not a distribution over the " +
+                      std::to_string(nReq_) + " requests");
+  root_ /= root_.sum();
+  const auto& r = d_.model().rewardMatrix();
+  serveR_.resize(static_cast<Eigen::Index>(nReq_), static_cast<Eigen::Index>(nReq_));
+  for (std::size_t s = 0; s < nReq_; ++s)
+    for (std::size_t a = 0; a < nReq_; ++a)
+      serveR_(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(a)) =
+          r(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(d_.serveAction(a)));
+  for (std::size_t s = 0; s < nReq_; ++s) parts_.push_back(d_.requestParts(s));
+
+  // Statistics of each slot.
+  const std::size_t sizes[kSlots] = {sp.items.size(), sp.rooms.size(), sp.persons.size()};
+  std::size_t offset = 1;  // entry 0: depth
+  int maxStep = 1;
+  for (int k = 0; k < kSlots; ++k) {
+    SlotCode& c = slot_[k];
+    c.n = sizes[k];
+    if (c.n > kMaxValues)
+      throw ConfigError("certified dialog solver: " + std::to_string(c.n) + " values in one slot, at most " +
+                        std::to_string(kMaxValues));
+    c.pAsk = sp.pGeneral;
+    c.pConf = sp.pYesNo;
+    const bool askDegenerate = c.n >= 2 && (c.pAsk == 0.0 || c.pAsk == 1.0);
+    const bool confDegenerate = c.n >= 2 && (c.pConf == 0.0 || c.pConf == 1.0);
+    c.excl = askDegenerate || confDegenerate;
+    double lg = 0.0, lh = 0.0;
+    if (c.n >= 2 && !askDegenerate) lg = std::log(c.pAsk * (c.n - 1.0) / (1.0 - c.pAsk));
+    if (c.n >= 2 && !confDegenerate) lh = std::log(c.pConf / (1.0 - c.pConf));
+    if (std::abs(lg) < 1e-15) lg = 0.0;
+    if (std::abs(lh) < 1e-15) lh = 0.0;
+    c.askInformative = askDegenerate || lg != 0.0;
+    c.confInformative = confDegenerate || lh != 0.0;
+    int p = 0, q = 0;
+    if (lg != 0.0 && lh != 0.0 && isRational(lg / lh, p, q)) {
+      c.channels = 1;
+      c.askStep[0] = p;
+      c.confStep[0] = q;
+      c.unit[0] = lh / q;
+    } else {
+      if (lg != 0.0) {
+        c.askStep[c.channels] = 1;
+        c.unit[c.channels++] = lg;
+      }
+      if (lh != 0.0) {
+        c.confStep[c.channels] = 1;
+        c.unit[c.channels++] = lh;
+      }
+    }
+    for (int ch = 0; ch < c.channels; ++ch)
+      maxStep = std::max({maxStep, std::abs(c.askStep[ch]), std::abs(c.confStep[ch])});
+    c.width = c.channels + (c.excl ? 1 : 0);
+    c.offset = offset;
+    offset += c.n * static_cast<std::size_t>(c.width);
+  }
+  stride_ = offset;
+  if (static_cast<long>(maxStep) * (horizon_ + 1) > 30000)
+    throw ConfigError("certified dialog solver: turn limit " + std::to_string(sp.turnLimit) +
+                      " too long for the answer statistics");
+
+  // Symmetry classes: values v, w of a slot are alike when swapping them changes neither the
+  // root belief nor any serve reward (the answer model treats all values alike already).
+  for (int k = 0; k < kSlots; ++k) {
+    SlotCode& c = slot_[k];
+    std::vector<int> parent(c.n);
+    std::iota(parent.begin(), parent.end(), 0);
+    std::function<int(int)> findRoot = [&](int x) {
+      return parent[x] == x ? x : parent[x] = findRoot(parent[x]);
+    };
+    auto swapOf = [&](std::size_t s, std::size_t v, std::size_t w) {
+      auto pt = parts_[s];
+      if (pt[k] == v) pt[k] = w;
+      else if (pt[k] == w) pt[k] = v;
+      return d_.requestIndex(pt[0], pt[1], pt[2]);
+    };
+    for (std::size_t v = 0; v < c.n; ++v)
+      for (std::size_t w = v + 1; w < c.n; ++w) {
+        if (findRoot(static_cast<int>(v)) == findRoot(static_cast<int>(w))) continue;
+        bool same = true;
+        for (std::size_t s = 0; s < nReq_ && same; ++s) {
+          const std::size_t ss = swapOf(s, v, w);
+          same = closeTo(root_(static_cast<Eigen::Index>(s)), root_(static_cast<Eigen::Index>(ss)));
+          for (std::size_t a = 0; a < nReq_ && same; ++a)
+            same = closeTo(serveR_(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(a)),
+                           serveR_(static_cast<Eigen::Index>(ss),
+                                   static_cast<Eigen::Index>(swapOf(a, v, w))));
+        }
+        if (same) parent[findRoot(static_cast<int>(w))] = findRoot(static_cast<int>(v));
+      }
+    c.cls.resize(c.n);
+    for (std::size_t v = 0; v < c.n; ++v) c.cls[v] = findRoot(static_cast<int>(v));
+    for (std::size_t v = 0; v < c.n; ++v) {
+      std::vector<std::size_t> g;
+      for (std::size_t w = 0; w < c.n; ++w)
+        if (c.cls[w] == static_cast<int>(v)) g.push_back(w);
+      if (g.size() >= 2) c.groups.push_back(g);
+    }
+    c.sortable = !c.groups.empty();
+  }
+
+  // Questions, without duplicates: equal experiments keep the cheapest (lowest index on ties),
+  // uninformative questions are one "stall" action (the cheapest).
+  std::vector<Question> all;
+  const std::size_t nI = sizes[0], nR = sizes[1];
+  for (int k = 0; k < kSlots; ++k) {
+    const SlotCode& c = slot_[k];
+    all.push_back({QKind::kAsk, k, 0, sp.generalCost, static_cast<std::size_t>(k)});
+    for (std::size_t v = 0; v < c.n; ++v) {
+      const std::size_t a = k == 0 ? d_.confirmItem(v) : k == 1 ? d_.confirmRoom(v) : d_.confirmPerson(v);
+      all.push_back({QKind::kConfirm, k, v, sp.confirmCost, a});
+    }
+  }
+  (void)nI;
+  (void)nR;
+  const Question* stall = nullptr;
+  for (const Question& q : all) {
+    const SlotCode& c = slot_[q.slot];
+    const bool informative = q.kind == QKind::kAsk ? c.askInformative : c.confInformative;
+    if (!informative) {
+      if (!stall || q.cost < stall->cost) stall = &q;
+      continue;
+    }
+    if (q.kind == QKind::kConfirm && c.n == 2 && q.value == 1) continue;  // = confirm value 0
+    if (c.n == 2 && c.pAsk == c.pConf && c.askInformative) {
+      // ask and confirm are the same experiment on a two-valued slot: keep the cheaper
+      const bool askCheaper = sp.generalCost < sp.confirmCost;
+      if (q.kind == QKind::kAsk && !askCheaper) continue;
+      if (q.kind == QKind::kConfirm && askCheaper) continue;
+    }
+    questions_.push_back(q);
+  }
+  // Stall: some question that changes nothing. Questions on the revealed slot are stalls in
+  // the sub-dialog (handled there); here only globally uninformative ones.
+  if (stall) {
+    Question s = *stall;
+    s.kind = QKind::kStall;
+    questions_.push_back(s);
+  }
+
+  // The slot revealed by the upper bound: the one with most values.
+  revealed_ = 0;
+  for (int k = 1; k < kSlots; ++k)
+    if (slot_[k].n >= slot_[revealed_].n) revealed_ = k;
+  for (std::size_t i = 0; i < questions_.size(); ++i)
+    if (questions_[i].kind == QKind::kStall || questions_[i].slot != revealed_)
+      subQuestions_.push_back(i);
+
+  table_ = KeyTable(stride_);
+  subTable_ = KeyTable(stride_);
+  const std::size_t budget = o_.memoryBudget ? o_.memoryBudget : memoryBudget();
+  const std::size_t perEntry = table_.bytesPerEntry() * 2 + sizeof(Node) + sizeof(double);
+  maxEntries_ = std::max<std::size_t>(1024, budget / perEntry);
+  if (maxEntries_ > std::numeric_limits<std::uint32_t>::max() / 4)
+    maxEntries_ = std::numeric_limits<std::uint32_t>::max() / 4;
+
+  scratch_.assign(stride_, 0);
+  std::vector<std::int16_t> k0(stride_, 0);
+  k0[0] = 0;
+  rootIndex_ = nodeFor(k0.data(), 0);
+}
+
+void CertifiedDialogSolver::Impl::applyExclusion(std::int16_t* key, int k, std::size_t v,
+                                                 bool keepOnlyV) const {
+  const SlotCode& c = slot_[k];
+  for (std::size_t w = 0; w < c.n; ++w) {
+    const bool exclude = keepOnlyV ? w != v : w == v;
+    if (exclude) key[c.offset + w * c.width + c.channels] = 1;
+  }
+}
+
+void CertifiedDialogSolver::Impl::canonicalize(std::int16_t* key, std::vector<std::size_t>* perm,
+                                               int skipSlot, bool sort) const {
+  if (perm) perm->clear();
+  for (int k = 0; k < kSlots; ++k) {
+    const SlotCode& c = slot_[k];
+    if (k == skipSlot) {
+      if (perm)
+        for (std::size_t v = 0; v < c.n; ++v) perm->push_back(v);
+      continue;
+    }
+    std::int16_t* e = key + c.offset;
+    const int W = c.width;
+    if (c.excl)
+      for (std::size_t v = 0; v < c.n; ++v)
+        if (e[v * W + c.channels])
+          for (int ch = 0; ch < c.channels; ++ch) e[v * W + ch] = 0;
+    for (int ch = 0; ch < c.channels; ++ch) {
+      int lo = std::numeric_limits<int>::max();
+      for (std::size_t v = 0; v < c.n; ++v)
+        if (!c.excl || !e[v * W + c.channels]) lo = std::min(lo, static_cast<int>(e[v * W + ch]));
+      if (lo == std::numeric_limits<int>::max()) continue;
+      for (std::size_t v = 0; v < c.n; ++v)
+        if (!c.excl || !e[v * W + c.channels]) e[v * W + ch] = static_cast<std::int16_t>(e[v * W + ch] - lo);
+    }
+    // Sort each class's values by their statistics (descending), remembering where each
+    // canonical position came from; a class's positions (ascending) receive its values sorted.
+    std::size_t order[kMaxValues];
+    for (std::size_t v = 0; v < c.n; ++v) order[v] = v;
+    if (W > 0 && sort && c.sortable) {
+      std::int16_t copy[kMaxValues * 3];
+      std::memcpy(copy, e, c.n * W * sizeof(std::int16_t));
+      auto greater = [&](std::size_t x, std::size_t y) {  // statistics of x above y's
+        for (int i = 0; i < W; ++i)
+          if (copy[x * W + i] != copy[y * W + i]) return copy[x * W + i] > copy[y * W + i];
+        return false;
+      };
+      for (const auto& pos : c.groups) {
+        std::size_t vals[kMaxValues];
+        const std::size_t m = pos.size();
+        for (std::size_t j = 0; j < m; ++j) {  // insertion sort, stable
+          std::size_t x = pos[j], i = j;
+          while (i > 0 && greater(x, vals[i - 1])) vals[i] = vals[i - 1], --i;
+          vals[i] = x;
+        }
+        for (std::size_t j = 0; j < m; ++j) order[pos[j]] = vals[j];
+      }
+      for (std::size_t v = 0; v < c.n; ++v)
+        std::memcpy(e + v * W, &copy[order[v] * W], W * sizeof(std::int16_t));
+    }
+    if (perm) perm->insert(perm->end(), order, order + c.n);
+  }
+}
+
+bool CertifiedDialogSolver::Impl::belief(const std::int16_t* key, Eigen::VectorXd& b,
+                                         int fixedSlot, std::size_t fixedValue) const {
+  double lam[kSlots][kMaxValues];
+  std::vector<double> big;
+  for (int k = 0; k < kSlots; ++k) {
+    const SlotCode& c = slot_[k];
+    const std::int16_t* e = key + c.offset;
+    double hi = -kInf;
+    double tmp[kMaxValues];
+    for (std::size_t v = 0; v < c.n; ++v) {
+      double l = 0.0;
+      for (int ch = 0; ch < c.channels; ++ch) l += c.unit[ch] * e[v * c.width + ch];
+      if (c.excl && e[v * c.width + c.channels]) l = -kInf;
+      if (k == fixedSlot && v != fixedValue) l = -kInf;
+      tmp[v] = l;
+      hi = std::max(hi, l);
+    }
+    if (hi == -kInf) return false;
+    for (std::size_t v = 0; v < c.n; ++v) lam[k][v] = std::exp(tmp[v] - hi);
+  }
+  b.resize(static_cast<Eigen::Index>(nReq_));
+  double sum = 0.0;
+  for (std::size_t s = 0; s < nReq_; ++s) {
+    const auto& pt = parts_[s];
+    const double x = root_(static_cast<Eigen::Index>(s)) * lam[0][pt[0]] * lam[1][pt[1]] * lam[2][pt[2]];
+    b(static_cast<Eigen::Index>(s)) = x;
+    sum += x;
+  }
+  if (!(sum > 0.0)) return false;
+  b /= sum;
+  return true;
+}
+
+void CertifiedDialogSolver::Impl::marginals(const Eigen::VectorXd& b,
+                                            std::array<Eigen::VectorXd, kSlots>& m) const {
+  for (int k = 0; k < kSlots; ++k) m[k].setZero(static_cast<Eigen::Index>(slot_[k].n));
+  for (std::size_t s = 0; s < nReq_; ++s) {
+    const double x = b(static_cast<Eigen::Index>(s));
+    for (int k = 0; k < kSlots; ++k) m[k](static_cast<Eigen::Index>(parts_[s][k])) += x;
+  }
+}
+
+double CertifiedDialogSolver::Impl::serveValue(const Eigen::VectorXd& b, std::size_t* best) const {
+  Eigen::Index i = 0;
+  const double v = (serveR_.transpose() * b).maxCoeff(&i);
+  if (best) *best = static_cast<std::size_t>(i);
+  return v;
+}
+
+std::size_t CertifiedDialogSolver::Impl::numAnswers(const Question& q) const {
+  return q.kind == QKind::kStall ? 1 : q.kind == QKind::kAsk ? slot_[q.slot].n : 2;
+}
+
+double CertifiedDialogSolver::Impl::answerLikelihood(const Question& q, std::size_t answer,
+                                                     std::size_t v) const {
+  const SlotCode& c = slot_[q.slot];
+  if (q.kind == QKind::kStall) return 1.0;
+  if (q.kind == QKind::kAsk) {
+    if (c.n == 1) return 1.0;
+    return answer == v ? c.pAsk : (1.0 - c.pAsk) / (c.n - 1.0);
+  }
+  const bool match = v == q.value;
+  return answer == 1 ? (match ? c.pConf : 1.0 - c.pConf) : (match ? 1.0 - c.pConf : c.pConf);
+}
+
+double CertifiedDialogSolver::Impl::answerProb(const Eigen::VectorXd& mk, const Question& q,
+                                               std::size_t answer) const {
+  if (q.kind == QKind::kStall) return 1.0;
+  if (q.kind == QKind::kAsk) {
+    const double x = mk(static_cast<Eigen::Index>(answer));
+    return x * answerLikelihood(q, answer, answer) +
+           (1.0 - x) * (slot_[q.slot].n > 1 ? answerLikelihood(q, answer, answer + 1 == slot_[q.slot].n ? 0 : answer + 1) : 0.0);
+  }
+  const double x = mk(static_cast<Eigen::Index>(q.value));
+  return x * answerLikelihood(q, answer, q.value) +
+         (1.0 - x) * answerLikelihood(q, answer, q.value + 1 == slot_[q.slot].n ? 0 : q.value + 1);
+}
+
+void CertifiedDialogSolver::Impl::childKey(const std::int16_t* key, const Question& q,
+                                           std::size_t answer, std::int16_t* child) const {
+  std::memcpy(child, key, stride_ * sizeof(std::int16_t));
+  ++child[0];
+  if (q.kind == QKind::kStall) return;
+  const SlotCode& c = slot_[q.slot];
+  std::int16_t* e = child + c.offset;
+  if (q.kind == QKind::kAsk) {
+    if (c.n == 1) return;
+    for (int ch = 0; ch < c.channels; ++ch)
+      e[answer * c.width + ch] = static_cast<std::int16_t>(e[answer * c.width + ch] + c.askStep[ch]);
+    if (c.excl && (c.pAsk == 0.0 || c.pAsk == 1.0)) applyExclusion(child, q.slot, answer, c.pAsk == 1.0);
+    return;
+  }
+  const int sign = answer == 1 ? 1 : -1;
+  for (int ch = 0; ch < c.channels; ++ch)
+    e[q.value * c.width + ch] = static_cast<std::int16_t>(e[q.value * c.width + ch] + sign * c.confStep[ch]);
+  if (c.excl && (c.pConf == 0.0 || c.pConf == 1.0))
+    applyExclusion(child, q.slot, q.value, (c.pConf == 1.0) == (answer == 1));
+}
+
+template <class F>
+void CertifiedDialogSolver::Impl::forEachChild(const std::int16_t* key,
+                                               const std::array<Eigen::VectorXd, kSlots>& m,
+                                               const Question& q, F&& f) const {
+  std::int16_t* child = scratch_.data();
+  const std::size_t na = numAnswers(q);
+  for (std::size_t ans = 0; ans < na; ++ans) {
+    const std::size_t answer = q.kind == QKind::kConfirm ? 1 - ans : ans;  // yes first
+    const double p = answerProb(m[q.slot], q, answer);
+    if (!(p > 1e-300)) continue;
+    childKey(key, q, answer, child);
+    f(p, child);
+  }
+}
+
+double CertifiedDialogSolver::Impl::subDialogValue(const std::int16_t* key) {
+  const std::size_t found = subTable_.find(key);
+  if (found != kNone) return subValue_[found];
+  const int depth = key[0];
+  const SlotCode& rc = slot_[revealed_];
+  const std::size_t value = static_cast<std::size_t>(key[rc.offset]);
+  std::vector<std::int16_t> own(key, key + stride_);
+  // The belief: the revealed slot's statistics do not matter once its value is known.
+  std::fill(own.begin() + static_cast<long>(rc.offset),
+            own.begin() + static_cast<long>(rc.offset + rc.n * rc.width), 0);
+  Eigen::VectorXd b;
+  double v = -kInf;
+  if (belief(own.data(), b, revealed_, value)) {
+    v = serveValue(b);
+    if (depth < horizon_) {
+      std::array<Eigen::VectorXd, kSlots> m;
+      marginals(b, m);
+      std::vector<std::pair<double, std::vector<std::int16_t>>> kids;
+      double stallCost = kInf;  // questions on the known slot inform nothing: a stall
+      for (const Question& q : questions_) {
+        if (q.kind == QKind::kStall || q.slot == revealed_) {
+          stallCost = std::min(stallCost, q.cost);
+          continue;
+        }
+        kids.clear();
+        forEachChild(own.data(), m, q, [&](double p, const std::int16_t* ck) {
+          kids.emplace_back(p, std::vector<std::int16_t>(ck, ck + stride_));
+        });
+        double acc = 0.0;
+        for (auto& kid : kids) {
+          canonicalize(kid.second.data(), nullptr, revealed_);
+          kid.second[rc.offset] = static_cast<std::int16_t>(value);
+          acc += kid.first * subDialogValue(kid.second.data());
+        }
+        v = std::max(v, -q.cost + gamma_ * acc);
+      }
+      if (stallCost < kInf) {
+        std::vector<std::int16_t> ck(key, key + stride_);
+        ++ck[0];
+        v = std::max(v, -stallCost + gamma_ * subDialogValue(ck.data()));
+      }
+    }
+  }
+  subTable_.insert(key);
+  subValue_.push_back(v);
+  return v;
+}
+
+double CertifiedDialogSolver::Impl::upperRelaxation(const std::int16_t* key, int depth,
+                                                    const Eigen::VectorXd& b) {
+  (void)depth;
+  const SlotCode& rc = slot_[revealed_];
+  Eigen::VectorXd mr = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(rc.n));
+  for (std::size_t s = 0; s < nReq_; ++s) mr(static_cast<Eigen::Index>(parts_[s][revealed_])) += b(static_cast<Eigen::Index>(s));
+  std::vector<std::int16_t> sub(key, key + stride_);
+  std::fill(sub.begin() + static_cast<long>(rc.offset),
+            sub.begin() + static_cast<long>(rc.offset + rc.n * rc.width), 0);
+  double u = 0.0;
+  for (std::size_t r = 0; r < rc.n; ++r) {
+    const double w = mr(static_cast<Eigen::Index>(r));
+    if (!(w > 0.0)) continue;
+    sub[rc.offset] = static_cast<std::int16_t>(r);
+    u += w * subDialogValue(sub.data());
+  }
+  return u;
+}
+
+void CertifiedDialogSolver::Impl::childBelief(const Eigen::VectorXd& b, const Question& q,
+                                              std::size_t answer, double p,
+                                              Eigen::VectorXd& out) const {
+  out.resize(b.size());
+  const double inv = 1.0 / p;
+  for (std::size_t s = 0; s < nReq_; ++s)
+    out(static_cast<Eigen::Index>(s)) = b(static_cast<Eigen::Index>(s)) * inv *
+                                        answerLikelihood(q, answer, parts_[s][q.slot]);
+}
+
+void CertifiedDialogSolver::Impl::permuteBelief(const Eigen::VectorXd& in,
+                                                const std::vector<std::size_t>& perm,
+                                                Eigen::VectorXd& out) const {
+  out.resize(in.size());
+  const std::size_t o1 = slot_[0].n, o2 = o1 + slot_[1].n;
+  for (std::size_t s = 0; s < nReq_; ++s) {
+    const auto& pt = parts_[s];
+    out(static_cast<Eigen::Index>(s)) =
+        in(static_cast<Eigen::Index>(d_.requestIndex(perm[pt[0]], perm[o1 + pt[1]], perm[o2 + pt[2]])));
+  }
+}
+
+double CertifiedDialogSolver::Impl::lookaheadValue(const Eigen::VectorXd& b) const {
+  // The serve vector after an answer is a combination of R^T b and the per-value partial
+  // sums R^T (b restricted to one value of the asked slot), divided by P(answer).
+  const Eigen::Index nA = static_cast<Eigen::Index>(nReq_);
+  std::size_t rows = 0;
+  for (int k = 0; k < kSlots; ++k) rows += slot_[k].n;
+  Eigen::MatrixXd part = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(rows), nA);
+  const std::size_t off[kSlots] = {0, slot_[0].n, slot_[0].n + slot_[1].n};
+  for (std::size_t s = 0; s < nReq_; ++s) {
+    const double x = b(static_cast<Eigen::Index>(s));
+    if (x == 0.0) continue;
+    for (int k = 0; k < kSlots; ++k)
+      part.row(static_cast<Eigen::Index>(off[k] + parts_[s][k])) += x * serveR_.row(static_cast<Eigen::Index>(s));
+  }
+  const Eigen::RowVectorXd total = part.topRows(static_cast<Eigen::Index>(slot_[0].n)).colwise().sum();
+  std::array<Eigen::VectorXd, kSlots> m;
+  marginals(b, m);
+  double best = -kInf;
+  Eigen::RowVectorXd comb(nA);
+  for (const Question& q : questions_) {
+    double acc = 0.0;
+    if (q.kind == QKind::kStall) {
+      acc = total.maxCoeff();
+    } else {
+      const SlotCode& c = slot_[q.slot];
+      for (std::size_t answer = 0; answer < numAnswers(q); ++answer) {
+        if (!(answerProb(m[q.slot], q, answer) > 1e-300)) continue;
+        // likelihood: `base` for every value, `hit` for the marked value
+        std::size_t marked;
+        double hit, base;
+        if (q.kind == QKind::kAsk) {
+          marked = answer;
+          hit = answerLikelihood(q, answer, answer);
+          base = c.n > 1 ? answerLikelihood(q, answer, answer == 0 ? 1 : 0) : hit;
+        } else {
+          marked = q.value;
+          hit = answerLikelihood(q, answer, q.value);
+          base = c.n > 1 ? answerLikelihood(q, answer, q.value == 0 ? 1 : 0) : hit;
+        }
+        comb = base * total + (hit - base) * part.row(static_cast<Eigen::Index>(off[q.slot] + marked));
+        acc += comb.maxCoeff();  // = P(answer) * best serve value after it
+      }
+    }
+    best = std::max(best, -q.cost + gamma_ * acc);
+  }
+  return best;
+}
+
+std::size_t CertifiedDialogSolver::Impl::nodeFor(const std::int16_t* key, int depth,
+                                                 const Eigen::VectorXd* hint) {
+  const std::size_t found = table_.find(key);
+  if (found != kNone) return found;
+  Eigen::VectorXd own;
+  if (!hint) {
+    if (!belief(key, own)) throw ConfigError("certified dialog solver: a reachable belief is empty");
+    hint = &own;
+  }
+  const Eigen::VectorXd& b = *hint;
+  const double serve = serveValue(b);
+  double upper = serve, lower = serve;
+  if (depth < horizon_) {
+    upper = std::max(serve, upperRelaxation(key, depth, b));
+    if (o_.lookaheadLower) lower = std::max(lower, lookaheadValue(b));  // a plan the robot can run
+  }
+  const auto ins = table_.insert(key);
+  const std::size_t n = ins.first;
+  nodes_.push_back({upper, lower, false});
+  return n;
+}
+
+CertifiedDialogSolver::Impl::Backup CertifiedDialogSolver::Impl::backup(std::size_t n) {
+  Backup r;
+  std::vector<std::int16_t> key(table_.key(n), table_.key(n) + stride_);
+  const int depth = key[0];
+  Eigen::VectorXd b;
+  belief(key.data(), b);
+  r.serve = serveValue(b, &r.serveAction);
+  if (depth >= horizon_) {
+    nodes_[n].upper = nodes_[n].lower = r.serve;
+    return r;
+  }
+  std::array<Eigen::VectorXd, kSlots> m;
+  marginals(b, m);
+  double bestU = r.serve, bestL = r.serve;
+  std::vector<std::int16_t> kid(stride_);
+  std::vector<std::size_t> perm;
+  Eigen::VectorXd cb, pb;
+  for (std::size_t qi = 0; qi < questions_.size(); ++qi) {
+    const Question& q = questions_[qi];
+    double qu = 0.0, ql = 0.0;
+    for (std::size_t answer = 0; answer < numAnswers(q); ++answer) {
+      const double p = answerProb(m[q.slot], q, answer);
+      if (!(p > 1e-300)) continue;
+      childKey(key.data(), q, answer, kid.data());
+      canonicalize(kid.data(), &perm);
+      std::size_t c = table_.find(kid.data());
+      if (c == kNone) {
+        childBelief(b, q, answer, p, cb);
+        permuteBelief(cb, perm, pb);
+        c = nodeFor(kid.data(), depth + 1, &pb);
+      }
+      qu += p * nodes_[c].upper;
+      ql += p * nodes_[c].lower;
+    }
+    qu = -q.cost + gamma_ * qu;
+    ql = -q.cost + gamma_ * ql;
+    if (qu > bestU) bestU = qu, r.bestUpper = qi;
+    if (ql > bestL) bestL = ql, r.bestLower = qi;
+  }
+  Node& nd = nodes_[n];
+  if (!nd.expanded) ++expanded_;
+  nd.expanded = true;
+  nd.upper = std::min(nd.upper, bestU);
+  nd.lower = std::max(nd.lower, bestL);
+  if (nd.upper < nd.lower) nd.upper = nd.lower;  // rounding
+  return r;
+}
+
+void CertifiedDialogSolver::Impl::trial() {
+  const Node& rt = nodes_[rootIndex_];
+  // HSVI's trial precision: the target gap at the root, grown by 1 / discount per level.
+  (void)rt;
+  const double thr0 = o_.precision;
+  std::vector<std::size_t> path{rootIndex_};
+  std::vector<std::int16_t> key;
+  std::vector<std::pair<double, std::size_t>> cand;
+  std::array<Eigen::VectorXd, kSlots> m;
+  Eigen::VectorXd b;
+  double thr = thr0;
+  const bool lowerGuided = o_.lowerGuidedEvery > 0 && trials_ % o_.lowerGuidedEvery == 1;
+  for (int depth = 0; depth < horizon_; ++depth) {
+    const std::size_t n = path.back();
+    const Backup bk = backup(n);
+    const std::size_t act = lowerGuided ? bk.bestLower : bk.bestUpper;
+    if (nodes_[n].upper - nodes_[n].lower <= thr || act == kNone) break;
+    thr /= gamma_;
+    key.assign(table_.key(n), table_.key(n) + stride_);
+    belief(key.data(), b);
+    marginals(b, m);
+    cand.clear();
+    double total = 0.0;
+    std::vector<std::vector<std::int16_t>> kidKeys;
+    forEachChild(key.data(), m, questions_[act], [&](double p, const std::int16_t* ck) {
+      kidKeys.emplace_back(ck, ck + stride_);
+      cand.push_back({p, 0});
+    });
+    for (std::size_t i = 0; i < kidKeys.size(); ++i) {
+      canonicalize(kidKeys[i].data());
+      const std::size_t c = nodeFor(kidKeys[i].data(), depth + 1);
+      const double gap = nodes_[c].upper - nodes_[c].lower;
+      cand[i].second = c;
+      // HSVI's excess uncertainty, sampled (following the largest one stalls on this model)
+      cand[i].first = gap > thr ? cand[i].first * (gap - thr) : 0.0;
+      total += cand[i].first;
+    }
+    if (!(total > 0.0)) break;
+    double u = uniform01(rng_) * total;
+    std::size_t pick = cand.size() - 1;
+    for (std::size_t i = 0; i < cand.size(); ++i) {
+      if (cand[i].first <= 0.0) continue;
+      pick = i;
+      if (u < cand[i].first) break;
+      u -= cand[i].first;
+    }
+    path.push_back(cand[pick].second);
+  }
+  for (auto it = path.rbegin(); it != path.rend(); ++it) backup(*it);
+  ++trials_;
+}
+
+std::size_t CertifiedDialogSolver::Impl::bytes() const {
+  return table_.bytes() + subTable_.bytes() + nodes_.capacity() * sizeof(Node) +
+         subValue_.capacity() * sizeof(double);
+}
+
+bool CertifiedDialogSolver::Impl::memoryExceeded() const {
+  return table_.size() + subTable_.size() > maxEntries_;
+}
+
+bool CertifiedDialogSolver::Impl::run(std::size_t maxMore) {
+  Stopwatch clock;
+  const double before = seconds_;
+  std::size_t ran = 0;
+  stop_ = SolveStop::kRunning;
+  for (;;) {
+    const Node& rt = nodes_[rootIndex_];
+    if (rt.upper - rt.lower <= o_.precision) { stop_ = SolveStop::kPrecision; break; }
+    if (o_.maxTrials > 0 && trials_ >= o_.maxTrials) { stop_ = SolveStop::kTrials; break; }
+    if (ran >= maxMore) break;
+    if (before + clock.seconds() >= o_.timeout) { stop_ = SolveStop::kTimeout; break; }
+    if (memoryExceeded()) { stop_ = SolveStop::kMemory; break; }
+    trial();
+    ++ran;
+  }
+  seconds_ = before + clock.seconds();
+  return stop_ == SolveStop::kPrecision;
+}
+
+double CertifiedDialogSolver::Impl::exactValue(std::int16_t* key, int depth,
+                                               std::unordered_map<std::string, double>& memo,
+                                               std::size_t maxNodes) {
+  const std::string k(reinterpret_cast<const char*>(key), stride_ * sizeof(std::int16_t));
+  const auto it = memo.find(k);
+  if (it != memo.end()) return it->second;
+  if (memo.size() >= maxNodes)
+    throw ConfigError("certified dialog solver: exact value needs more than " +
+                      std::to_string(maxNodes) + " nodes");
+  Eigen::VectorXd b;
+  belief(key, b);
+  double v = serveValue(b);
+  if (depth < horizon_) {
+    std::array<Eigen::VectorXd, kSlots> m;
+    marginals(b, m);
+    for (const Question& q : questions_) {
+      std::vector<std::pair<double, std::vector<std::int16_t>>> kids;
+      forEachChild(key, m, q, [&](double p, const std::int16_t* ck) {
+        kids.emplace_back(p, std::vector<std::int16_t>(ck, ck + stride_));
+      });
+      double acc = 0.0;
+      for (auto& kid : kids) {
+        canonicalize(kid.second.data());
+        acc += kid.first * exactValue(kid.second.data(), depth + 1, memo, maxNodes);
+      }
+      v = std::max(v, -q.cost + gamma_ * acc);
+    }
+  }
+  memo.emplace(k, v);
+  return v;
+}
+
+std::size_t CertifiedDialogSolver::Impl::lowerChoice(const std::int16_t* ck) const {
+  const std::size_t n = table_.find(ck);
+  const int depth = ck[0];
+  if (n == kNone || !nodes_[n].expanded || depth >= horizon_) return kNone;
+  Eigen::VectorXd b;
+  belief(ck, b);
+  const double serve = serveValue(b);
+  std::array<Eigen::VectorXd, kSlots> m;
+  marginals(b, m);
+  std::size_t best = kNone;
+  double bestL = serve + 1e-9 * (1.0 + std::abs(serve));
+  std::vector<std::int16_t> kid(stride_);
+  for (std::size_t qi = 0; qi < questions_.size(); ++qi) {
+    const Question& q = questions_[qi];
+    double ql = 0.0;
+    bool complete = true;
+    forEachChild(ck, m, q, [&](double p, const std::int16_t* c) {
+      std::copy(c, c + stride_, kid.begin());
+      canonicalize(kid.data());
+      const std::size_t ci = table_.find(kid.data());
+      if (ci == kNone) complete = false;
+      else ql += p * nodes_[ci].lower;
+    });
+    if (!complete) continue;
+    ql = -q.cost + gamma_ * ql;
+    if (ql > bestL) bestL = ql, best = qi;
+  }
+  return best;
+}
+
+Question CertifiedDialogSolver::Impl::actualQuestion(
+    std::size_t choice, const std::vector<std::size_t>& perm) const {
+  Question q = questions_[choice];
+  if (q.kind == QKind::kConfirm) {
+    std::size_t off = 0;
+    for (int k = 0; k < q.slot; ++k) off += slot_[k].n;
+    q.value = perm[off + q.value];
+    q.action = q.slot == 0 ? d_.confirmItem(q.value)
+                           : q.slot == 1 ? d_.confirmRoom(q.value) : d_.confirmPerson(q.value);
+  }
+  return q;
+}
+
+std::unordered_map<std::string, double> CertifiedDialogSolver::Impl::policyReach(double floor) const {
+  std::unordered_map<std::string, double> reach;
+  std::vector<std::vector<std::string>> layers(static_cast<std::size_t>(horizon_) + 1);
+  const std::string k0(stride_ * sizeof(std::int16_t), '\0');
+  reach[k0] = 1.0;
+  layers[0].push_back(k0);
+  std::vector<std::int16_t> key(stride_), canon(stride_), kid(stride_);
+  std::vector<std::size_t> perm;
+  Eigen::VectorXd b;
+  std::array<Eigen::VectorXd, kSlots> m;
+  for (int d = 0; d < horizon_; ++d)
+    for (const std::string& k : layers[static_cast<std::size_t>(d)]) {
+      const double r = reach[k];
+      if (r < floor) continue;
+      std::memcpy(key.data(), k.data(), k.size());
+      canon = key;
+      canonicalize(canon.data(), &perm);
+      const std::size_t choice = lowerChoice(canon.data());
+      if (choice == kNone) continue;
+      const Question q = actualQuestion(choice, perm);
+      belief(key.data(), b);
+      marginals(b, m);
+      for (std::size_t answer = 0; answer < numAnswers(q); ++answer) {
+        const double p = answerProb(m[q.slot], q, answer);
+        if (!(p > 1e-300)) continue;
+        childKey(key.data(), q, answer, kid.data());
+        canonicalize(kid.data(), nullptr, -1, false);
+        const std::string ck(reinterpret_cast<const char*>(kid.data()), k.size());
+        const auto ins = reach.emplace(ck, 0.0);
+        if (ins.second) layers[static_cast<std::size_t>(d) + 1].push_back(ck);
+        ins.first->second += r * p;
+      }
+    }
+  return reach;
+}
+
+const Eigen::VectorXd& CertifiedDialogSolver::Impl::planVector(
+    const std::int16_t* key, const std::unordered_map<std::string, double>& reach, double floor,
+    std::unordered_map<std::string, std::size_t>& memo,
+    std::vector<Eigen::VectorXd>& vectors, std::vector<std::pair<std::size_t, int>>& tags) const {
+  const std::string mk(reinterpret_cast<const char*>(key), stride_ * sizeof(std::int16_t));
+  const auto it = memo.find(mk);
+  if (it != memo.end()) return vectors[it->second];
+
+  const int depth = key[0];
+  std::vector<std::int16_t> canon(key, key + stride_);
+  std::vector<std::size_t> perm;
+  canonicalize(canon.data(), &perm);
+  std::size_t choice = lowerChoice(canon.data());
+  const auto rit = reach.find(mk);
+  const bool truncated = rit == reach.end() || rit->second < floor;
+  if (truncated) choice = kNone;  // rarely reached: its plan is the frontier's below
+  Eigen::VectorXd b;
+  belief(key, b);
+  std::size_t serveA = 0;
+  serveValue(b, &serveA);
+  Eigen::VectorXd alpha(static_cast<Eigen::Index>(nReq_));
+  std::size_t action;
+  if (choice == kNone && depth < horizon_ && o_.lookaheadLower) {
+    // The plan behind a lookahead lower bound: one question, then serve at each answer.
+    std::array<Eigen::VectorXd, kSlots> m;
+    marginals(b, m);
+    alpha = serveR_.col(static_cast<Eigen::Index>(serveA));
+    action = d_.serveAction(serveA);
+    double best = alpha.dot(b) + 1e-9 * (1.0 + std::abs(alpha.dot(b)));
+    std::vector<std::int16_t> kid(stride_);
+    Eigen::VectorXd cb, cand(static_cast<Eigen::Index>(nReq_));
+    for (const Question& q : questions_) {
+      cand.setConstant(-q.cost);
+      for (std::size_t answer = 0; answer < numAnswers(q); ++answer) {
+        std::size_t a = serveA;
+        childKey(key, q, answer, kid.data());
+        if (answerProb(m[q.slot], q, answer) > 1e-300 && belief(kid.data(), cb)) serveValue(cb, &a);
+        for (std::size_t s = 0; s < nReq_; ++s)
+          cand(static_cast<Eigen::Index>(s)) += gamma_ * answerLikelihood(q, answer, parts_[s][q.slot]) *
+                                                serveR_(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(a));
+      }
+      const double v = cand.dot(b);
+      if (v > best) best = v, alpha = cand, action = q.action;
+    }
+  } else if (choice == kNone) {
+    alpha = serveR_.col(static_cast<Eigen::Index>(serveA));
+    action = d_.serveAction(serveA);
+  } else {
+    const Question q = actualQuestion(choice, perm);
+    action = q.action;
+    std::array<Eigen::VectorXd, kSlots> m;
+    marginals(b, m);
+    alpha.setConstant(-q.cost);
+    std::vector<std::int16_t> kid(stride_);
+    for (std::size_t answer = 0; answer < numAnswers(q); ++answer) {
+      childKey(key, q, answer, kid.data());
+      canonicalize(kid.data(), nullptr, -1, false);
+      Eigen::VectorXd sub;
+      if (answerProb(m[q.slot], q, answer) > 1e-300) {
+        sub = planVector(kid.data(), reach, floor, memo, vectors, tags);
+      } else {
+        sub = serveR_.col(static_cast<Eigen::Index>(serveA));  // unreachable here: serve
+      }
+      for (std::size_t s = 0; s < nReq_; ++s)
+        alpha(static_cast<Eigen::Index>(s)) +=
+            gamma_ * answerLikelihood(q, answer, parts_[s][q.slot]) * sub(static_cast<Eigen::Index>(s));
+    }
+  }
+  vectors.push_back(alpha);
+  tags.push_back({action, turnsUsed_ + depth});
+  memo.emplace(mk, vectors.size() - 1);
+  return vectors.back();
+}
+
+// ---------------------------------------------------------------------------------------------
+
+CertifiedDialogSolver::CertifiedDialogSolver(const DialogPomdp& dialog, const Eigen::VectorXd& root,
+                                             int turnsUsed, CertifiedSolverOptions options)
+    : impl_(std::make_unique<Impl>(dialog, root, turnsUsed, options, true)) {}
+
+CertifiedDialogSolver::~CertifiedDialogSolver() = default;
+
+bool CertifiedDialogSolver::solve() { return impl_->run(std::numeric_limits<std::size_t>::max()); }
+
+bool CertifiedDialogSolver::runTrials(std::size_t trials) { return impl_->run(trials); }
+
+CertifiedReport CertifiedDialogSolver::report() const {
+  CertifiedReport r;
+  const auto& nd = impl_->nodes_[impl_->rootIndex_];
+  r.lower = nd.lower;
+  r.upper = nd.upper;
+  r.seconds = impl_->seconds_;
+  r.trials = impl_->trials_;
+  r.nodes = impl_->table_.size();
+  r.expanded = impl_->expanded_;
+  r.subNodes = impl_->subTable_.size();
+  r.bytes = impl_->bytes();
+  r.stop = impl_->stop_;
+  return r;
+}
+
+std::size_t CertifiedDialogSolver::rootAction() const {
+  const Impl& m = *impl_;
+  const std::int16_t* k = m.table_.key(m.rootIndex_);
+  const std::size_t q = m.lowerChoice(k);
+  if (q != kNone) return m.questions_[q].action;
+  Eigen::VectorXd b;
+  m.belief(k, b);
+  std::size_t a = 0;
+  m.serveValue(b, &a);
+  return m.d_.serveAction(a);
+}
+
+pomdp::TurnLimitedPolicy CertifiedDialogSolver::policy() const {
+  const Impl& m = *impl_;
+  const int limit = m.d_.spec().turnLimit;
+  pomdp::TurnLimitedPolicy pol(m.nReq_ + 1, limit);
+  std::unordered_map<std::string, std::size_t> memo;
+  std::vector<Eigen::VectorXd> vectors;
+  std::vector<std::pair<std::size_t, int>> tags;
+  std::vector<std::int16_t> k0(m.stride_, 0);
+  const double floor = 1e-7;  // reach probability below which a plan ends at the frontier
+  const auto reach = m.policyReach(floor);
+  m.planVector(k0.data(), reach, floor, memo, vectors, tags);
+  Eigen::VectorXd full(static_cast<Eigen::Index>(m.nReq_ + 1));
+  for (std::size_t i = 0; i < vectors.size(); ++i) {
+    full.head(static_cast<Eigen::Index>(m.nReq_)) = vectors[i];
+    full(static_cast<Eigen::Index>(m.nReq_)) = 0.0;
+    pol.add(full, tags[i].first, tags[i].second);
+  }
+  for (std::size_t a = 0; a < m.nReq_; ++a) {  // "serve now" plans, usable at every turn
+    full.head(static_cast<Eigen::Index>(m.nReq_)) = m.serveR_.col(static_cast<Eigen::Index>(a));
+    full(static_cast<Eigen::Index>(m.nReq_)) = 0.0;
+    pol.add(full, m.d_.serveAction(a), limit);
+  }
+  return pol;
+}
+
+double CertifiedDialogSolver::exactValue(const DialogPomdp& dialog, std::size_t maxNodes) {
+  Impl impl(dialog, Eigen::VectorXd(), 0, CertifiedSolverOptions{}, false);
+  std::unordered_map<std::string, double> memo;
+  std::vector<std::int16_t> k0(impl.stride_, 0);
+  return impl.exactValue(k0.data(), 0, memo, maxNodes);
+}
+
+}  // namespace dialog
+}  // namespace krr

@@ -1,0 +1,272 @@
+#!/usr/bin/python3
+"""rostest: dialog_node rebuilds its dialog model and re-solves the policy in the background
+after a knowledge update. A request said just after an update is answered within 0.5 s by the
+current policy (the old node solved first, for seconds); the new policy is installed only
+between dialogs; an update during a rebuild schedules one more rebuild; later dialogs run on
+the new policy; the node shuts down promptly during a rebuild.
+
+The test starts dialog_node itself (model_source reach, policy_cache none: every rebuild
+solves) with a copy of config/dialog.yaml whose solver.max_trials is ~max_trials, so that one
+solve takes seconds. What the node logs (/rosout) tells when a rebuild starts, ends and is
+installed."""
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+import unittest
+
+import rospy
+import rostest
+import yaml
+from krr_msgs.msg import DeliveryStatus, KnowledgeUpdate, RobotUtterance, UserUtterance
+from rosgraph_msgs.msg import Log
+
+from krr_test_utils import node_binary
+
+QUESTIONS = (RobotUtterance.ASK_ITEM, RobotUtterance.ASK_ROOM, RobotUtterance.ASK_PERSON,
+             RobotUtterance.CONFIRM_ITEM, RobotUtterance.CONFIRM_ROOM,
+             RobotUtterance.CONFIRM_PERSON)
+REPLIES = QUESTIONS + (RobotUtterance.SERVE,)
+FINAL = (DeliveryStatus.FULFILLED, DeliveryStatus.UNCONFIRMED, DeliveryStatus.FAILED)
+REQUEST = {"item": "coke", "room": "room2", "person": "bob"}
+SENTENCE = "a coke for bob to room2"
+NODE = "dialog"
+UPDATES = "/reasoner/knowledge_updates"
+MAX_LATENCY = 0.5   # s from the request to the robot's first reply
+SOLVE_WAIT = 180.0  # s for one background rebuild
+
+STARTED = "background rebuild started ("
+QUEUED = "another one will follow it"
+AGAIN = "background rebuild started again"
+DONE = "background rebuild done"
+INSTALLED = "new dialog policy installed"
+FAILED = "background rebuild failed"
+
+
+def dialog_config(root, tmp, max_trials):
+    """config/dialog.yaml with solver.max_trials replaced (knowledge paths made absolute)."""
+    path = os.path.join(root, "config", "dialog.yaml")
+    with open(path) as f:
+        c = yaml.safe_load(f)
+    c["solver"]["max_trials"] = max_trials
+    for k, v in c["knowledge"].items():
+        c["knowledge"][k] = os.path.join(os.path.dirname(os.path.abspath(path)), v)
+    out = os.path.join(tmp, "dialog.yaml")
+    with open(out, "w") as f:
+        yaml.safe_dump(c, f)
+    return out
+
+
+class DialogResolveTest(unittest.TestCase):
+    """Runs in name order against one dialog_node: the steps build on each other."""
+
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("test_dialog_resolve")
+        root = os.path.realpath(rospy.get_param("~root"))  # catkin_ws/src links to src/
+        tmp = rospy.get_param("~tmp_dir")
+        os.makedirs(tmp, exist_ok=True)
+        params = {}
+        for f in ("navigation_kb.yaml", "dialog_node.yaml"):
+            with open(os.path.join(root, "config", f)) as fh:
+                params.update(yaml.safe_load(fh))
+        params.update({
+            "base_dir": root, "model_source": "reach",
+            "reach_probabilities": [0.95, 0.65, 0.75, 0.95, 0.5],
+            "dialog_config": dialog_config(root, tmp, int(rospy.get_param("~max_trials"))),
+            "policy_cache": "none", "knowledge_updates": UPDATES, "server_wait": 1.0,
+            "check_timeout": 3.0})
+        rospy.set_param("/" + NODE, params)
+
+        cls.lock = threading.Lock()
+        cls.utterances, cls.statuses, cls.logs = [], [], []  # (receipt time, message)
+        cls.subs = [
+            rospy.Subscriber("robot_utterance", RobotUtterance, cls._append(cls.utterances)),
+            rospy.Subscriber("delivery_status", DeliveryStatus, cls._append(cls.statuses)),
+            rospy.Subscriber("/rosout", Log, cls._log, queue_size=1000),
+        ]
+        cls.pub = rospy.Publisher("user_utterance", UserUtterance, queue_size=10)
+        cls.updates = rospy.Publisher(UPDATES, KnowledgeUpdate, queue_size=10)
+
+        cls.log_file = os.path.join(tmp, "dialog_node.log")
+        cls.out = open(cls.log_file, "w")
+        cls.proc = subprocess.Popen([node_binary("dialog_node"), "__name:=" + NODE],
+                                    stdout=cls.out, stderr=subprocess.STDOUT,
+                                    env=dict(os.environ, ROSCONSOLE_STDOUT_LINE_BUFFERED="1"))
+        deadline = time.time() + SOLVE_WAIT  # the node solves its first model before serving
+        while time.time() < deadline and not rospy.is_shutdown() and cls.proc.poll() is None:
+            if (cls.pub.get_num_connections() > 0 and cls.updates.get_num_connections() > 0 and
+                    all(s.get_num_connections() > 0 for s in cls.subs[:2])):
+                break
+            time.sleep(0.1)
+        time.sleep(0.5)
+
+    @classmethod
+    def tearDownClass(cls):
+        if cls.proc.poll() is None:
+            cls.proc.send_signal(signal.SIGKILL)
+            cls.proc.wait(10)
+        cls.out.close()
+        rospy.delete_param("/" + NODE)
+
+    @classmethod
+    def _append(cls, target):
+        def cb(msg):
+            with cls.lock:
+                target.append((time.time(), msg))
+        return cb
+
+    @classmethod
+    def _log(cls, msg):
+        if msg.name == "/" + NODE:
+            with cls.lock:
+                cls.logs.append((time.time(), msg))
+
+    # --- helpers ----------------------------------------------------------------------------
+    def node_output(self):
+        with open(self.log_file) as f:
+            return "".join(f.readlines()[-60:])
+
+    def setUp(self):
+        self.assertIsNone(self.proc.poll(), "dialog_node exited:\n" + self.node_output())
+
+    def say(self, text):
+        self.pub.publish(UserUtterance(text=text))
+
+    def update(self, source):
+        self.updates.publish(KnowledgeUpdate(source=source))
+
+    def mark(self):
+        with self.lock:
+            return len(self.utterances), len(self.statuses), len(self.logs)
+
+    def wait_for(self, items, pred, start, timeout=10.0, what="message"):
+        """The first (receipt time, message) of items[start:] with pred(message), or fail."""
+        deadline = time.time() + timeout
+        while time.time() < deadline and not rospy.is_shutdown():
+            with self.lock:
+                for t, m in items[start:]:
+                    if pred(m):
+                        return t, m
+            time.sleep(0.01)
+        with self.lock:
+            got = [getattr(m, "text", getattr(m, "msg", getattr(m, "status", m)))
+                   for _, m in items[start:]]
+        self.fail("timed out after %.0f s waiting for %s; got %r\nnode output:\n%s" %
+                  (timeout, what, got, self.node_output()))
+
+    def logged(self, text, start=0):
+        """The node's log messages since start that contain text."""
+        with self.lock:
+            return [m for _, m in self.logs[start:] if text in m.msg]
+
+    def wait_log(self, text, start, timeout=SOLVE_WAIT):
+        return self.wait_for(self.logs, lambda m: text in m.msg, start, timeout, repr(text))[1]
+
+    def request(self, dialog_id):
+        """Say SENTENCE; the robot's first reply must come within MAX_LATENCY. Returns it."""
+        nu, _, _ = self.mark()
+        sent = time.time()
+        self.say(SENTENCE)
+        t, reply = self.wait_for(self.utterances, lambda m: m.kind in REPLIES, nu, timeout=120,
+                                 what="the robot's first reply")
+        latency = t - sent
+        rospy.loginfo("dialog %d: first reply '%s' %.3f s after the request", dialog_id,
+                      reply.text, latency)
+        print("dialog %d: first reply %.3f s after the request" % (dialog_id, latency))
+        self.assertEqual(reply.dialog_id, dialog_id)
+        self.assertLess(latency, MAX_LATENCY, "the robot answered %.2f s after the request "
+                        "(must be < %.1f s: the rebuild must not block the dialog)" %
+                        (latency, MAX_LATENCY))
+        return reply
+
+    def converse(self, request, max_questions=25):
+        """Answer the robot's questions truthfully until it serves; the serve."""
+        for _ in range(max_questions + 1):
+            nu, _, _ = self.mark()
+            with self.lock:
+                m = [u for _, u in self.utterances if u.kind in REPLIES][-1]
+            if m.kind == RobotUtterance.SERVE:
+                return m
+            factor = m.kind.split("_")[1]
+            self.say(request[factor] if m.kind.startswith("ask") else
+                     ("yes" if m.value == request[factor] else "no"))
+            self.wait_for(self.utterances, lambda u: u.kind in REPLIES, nu, what="a reply")
+        self.fail("the robot never served within %d questions" % max_questions)
+
+    def finish_delivery(self, dialog_id):
+        """Serve the request; no navigation server: the delivery fails after ~server_wait."""
+        _, ns, _ = self.mark()
+        served = self.converse(REQUEST)
+        self.assertEqual((served.request.item, served.request.room, served.request.person),
+                         ("coke", "room2", "bob"))
+        return self.wait_for(self.statuses, lambda m: m.dialog_id == dialog_id and
+                             m.status in FINAL, ns, timeout=15, what="the delivery's end")[1]
+
+    # --- steps ------------------------------------------------------------------------------
+    def test_1_request_just_after_an_update_is_answered_at_once(self):
+        self.assertTrue(self.pub.get_num_connections() > 0, "dialog_node never subscribed:\n" +
+                        self.node_output())
+        _, _, nl = self.mark()
+        self.update("test_dialog_resolve 1")
+        time.sleep(0.1)
+        reply = self.request(1)
+        self.wait_log(STARTED, nl, timeout=5)
+        # A second update while the rebuild runs: one more rebuild after it.
+        time.sleep(0.2)
+        self.update("test_dialog_resolve 2")
+        self.wait_log(QUEUED, nl, timeout=5)
+        # The test is only meaningful if the solve outlasted the reply (else the old,
+        # synchronous node would have passed too): the rebuild ends after the reply.
+        done = self.wait_log(DONE, nl)
+        self.assertGreater(done.header.stamp, reply.header.stamp,
+                           "the background solve ended before the reply: raise max_trials")
+        self.assertGreater((done.header.stamp - reply.header.stamp).to_sec(), 1.0,
+                           "the background solve is too fast to test: raise max_trials")
+
+    def test_2_the_new_policy_is_installed_only_after_the_dialog(self):
+        # Dialog 1 is still open (the robot asked, nobody answered yet): nothing installed.
+        time.sleep(3 * 0.2)  # > the node's idle check period
+        self.assertEqual(self.logged(INSTALLED), [])
+        ended = self.finish_delivery(1)
+        installed = self.wait_log(INSTALLED, 0, timeout=5)  # idle now: installed at once
+        self.assertEqual(len(self.logged(INSTALLED)), 1)
+        self.assertIn("bounds [", installed.msg)
+        self.assertGreaterEqual(installed.header.stamp, ended.header.stamp)
+
+    def test_3_the_queued_rebuild_runs_and_later_dialogs_use_the_new_policy(self):
+        self.wait_log(AGAIN, 0, timeout=10)
+        deadline = time.time() + SOLVE_WAIT
+        while len(self.logged(DONE)) < 2 and time.time() < deadline:
+            time.sleep(0.1)
+        self.assertEqual(len(self.logged(DONE)), 2, "the queued rebuild did not finish")
+        second = self.logged(DONE)[1]
+        # The node is idle: the rerun's model is installed at once.
+        self.wait_for(self.logs, lambda m: INSTALLED in m.msg and
+                      m.header.stamp >= second.header.stamp, 0, 5, "the second install")
+        self.assertEqual(len(self.logged(STARTED)), 1)   # the second ran as the first's rerun
+        self.assertEqual(self.logged(FAILED), [])
+        # Dialog 2 on the new policy, idle node: as before, a reply at once and the right serve.
+        self.request(2)
+        self.finish_delivery(2)
+
+    def test_4_shutdown_during_a_rebuild_is_prompt(self):
+        _, _, nl = self.mark()
+        self.update("test_dialog_resolve 3")
+        self.wait_log(STARTED, nl, timeout=5)
+        time.sleep(0.2)
+        start = time.time()
+        self.proc.send_signal(signal.SIGINT)
+        try:
+            code = self.proc.wait(10)
+        except subprocess.TimeoutExpired:
+            self.fail("dialog_node did not stop within 10 s of SIGINT during a rebuild")
+        rospy.loginfo("dialog_node stopped %.2f s after SIGINT", time.time() - start)
+        self.assertEqual(code, 0, self.node_output())
+        self.assertIn("shutting down during a background rebuild", self.node_output())
+
+
+if __name__ == "__main__":
+    rostest.rosrun("krr_ros", "dialog_resolve", DialogResolveTest, sys.argv)
