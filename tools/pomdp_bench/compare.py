@@ -295,7 +295,7 @@ def write_doc(args, rows):
                 "(`dialog_policy.h`), not with `pomdp_solve`. Its bounds from `bench_dialog_pomdp "
                 "--timeout B`: the policy it ships (config/dialog.yaml's trial budget; the robot "
                 "stops there) and its last checkpoint (1, 2, 4, 8, ... s of solver time, set-up "
-                "not counted) within the budget:", "",
+                "included) within the budget:", "",
                 "| problem | budget s | shipped policy (dialog.yaml trial budget): s, lower / upper "
                 "| last checkpoint within the budget: s, lower / upper |", "|---|---|---|---|"]
         for r in product:

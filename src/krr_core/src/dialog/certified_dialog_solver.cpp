@@ -215,7 +215,14 @@ class CertifiedDialogSolver::Impl {
   // --- bounds ---
   /// Exact value of the sub-dialog with the revealed slot known: key's revealed section
   /// holds {value, 0, ...}, the others are canonical; depth = key[0].
-  double subDialogValue(const std::int16_t* key);
+  double subDialogValue(const std::int16_t* key, const Eigen::VectorXd* hint = nullptr);
+  struct SubScratch {  // one per depth: the sub-dialog recursion's buffers
+    std::vector<std::int16_t> own, kid;
+    std::vector<std::size_t> perm;
+    Eigen::VectorXd b, cb, pb;
+    std::array<Eigen::VectorXd, kSlots> m;
+  };
+  std::vector<SubScratch> subScratch_;
   double upperRelaxation(const std::int16_t* key, int depth, const Eigen::VectorXd& b);
 
   /// The node of a canonical key, created if new (hint: its belief, if known).
@@ -270,6 +277,7 @@ CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::Vector
     : d_(dialog), o_(options), nReq_(dialog.numRequests()), turnsUsed_(turnsUsed),
       horizon_(dialog.spec().turnLimit - turnsUsed), gamma_(dialog.spec().discount),
       table_(1), subTable_(1), rng_(makeRng(options.seed, "certified-dialog-solver")) {
+  Stopwatch setup;
   const DialogSpec& sp = d_.spec();
   if (turnsUsed < 0 || turnsUsed > sp.turnLimit)
     throw ConfigError("certified dialog solver: " + std::to_string(turnsUsed) +
@@ -432,6 +440,8 @@ CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::Vector
 
   table_ = KeyTable(stride_);
   subTable_ = KeyTable(stride_);
+  subScratch_.resize(static_cast<std::size_t>(horizon_) + 2);
+  for (SubScratch& sc : subScratch_) sc.kid.assign(stride_, 0);
   const std::size_t budget = o_.memoryBudget ? o_.memoryBudget : memoryBudget();
   const std::size_t perEntry = table_.bytesPerEntry() * 2 + sizeof(Node) + sizeof(double);
   maxEntries_ = std::max<std::size_t>(1024, budget / perEntry);
@@ -442,6 +452,7 @@ CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::Vector
   std::vector<std::int16_t> k0(stride_, 0);
   k0[0] = 0;
   rootIndex_ = nodeFor(k0.data(), 0);
+  seconds_ = setup.seconds();  // the root's relaxation solves the sub-dialog: part of the solve
 }
 
 void CertifiedDialogSolver::Impl::applyExclusion(std::int16_t* key, int k, std::size_t v,
@@ -620,46 +631,58 @@ void CertifiedDialogSolver::Impl::forEachChild(const std::int16_t* key,
   }
 }
 
-double CertifiedDialogSolver::Impl::subDialogValue(const std::int16_t* key) {
+double CertifiedDialogSolver::Impl::subDialogValue(const std::int16_t* key,
+                                                   const Eigen::VectorXd* hint) {
   const std::size_t found = subTable_.find(key);
   if (found != kNone) return subValue_[found];
   const int depth = key[0];
   const SlotCode& rc = slot_[revealed_];
   const std::size_t value = static_cast<std::size_t>(key[rc.offset]);
-  std::vector<std::int16_t> own(key, key + stride_);
+  SubScratch& sc = subScratch_[static_cast<std::size_t>(depth)];
+  sc.own.assign(key, key + stride_);
   // The belief: the revealed slot's statistics do not matter once its value is known.
-  std::fill(own.begin() + static_cast<long>(rc.offset),
-            own.begin() + static_cast<long>(rc.offset + rc.n * rc.width), 0);
-  Eigen::VectorXd b;
+  std::fill(sc.own.begin() + static_cast<long>(rc.offset),
+            sc.own.begin() + static_cast<long>(rc.offset + rc.n * rc.width), 0);
   double v = -kInf;
-  if (belief(own.data(), b, revealed_, value)) {
-    v = serveValue(b);
+  bool ok = true;
+  if (hint) sc.b = *hint;
+  else ok = belief(sc.own.data(), sc.b, revealed_, value);
+  if (ok) {
+    v = serveValue(sc.b);
     if (depth < horizon_) {
-      std::array<Eigen::VectorXd, kSlots> m;
-      marginals(b, m);
-      std::vector<std::pair<double, std::vector<std::int16_t>>> kids;
+      marginals(sc.b, sc.m);
       double stallCost = kInf;  // questions on the known slot inform nothing: a stall
       for (const Question& q : questions_) {
         if (q.kind == QKind::kStall || q.slot == revealed_) {
           stallCost = std::min(stallCost, q.cost);
           continue;
         }
-        kids.clear();
-        forEachChild(own.data(), m, q, [&](double p, const std::int16_t* ck) {
-          kids.emplace_back(p, std::vector<std::int16_t>(ck, ck + stride_));
-        });
         double acc = 0.0;
-        for (auto& kid : kids) {
-          canonicalize(kid.second.data(), nullptr, revealed_);
-          kid.second[rc.offset] = static_cast<std::int16_t>(value);
-          acc += kid.first * subDialogValue(kid.second.data());
+        for (std::size_t answer = 0; answer < numAnswers(q); ++answer) {
+          const double p = answerProb(sc.m[q.slot], q, answer);
+          if (!(p > 1e-300)) continue;
+          childKey(sc.own.data(), q, answer, sc.kid.data());
+          canonicalize(sc.kid.data(), &sc.perm, revealed_);
+          sc.kid[rc.offset] = static_cast<std::int16_t>(value);
+          double cv;
+          const std::size_t known = subTable_.find(sc.kid.data());
+          if (known != kNone) {
+            cv = subValue_[known];
+          } else {
+            childBelief(sc.b, q, answer, p, sc.cb);
+            permuteBelief(sc.cb, sc.perm, sc.pb);
+            const std::vector<std::int16_t> kid = sc.kid;  // the recursion reuses deeper buffers only
+            cv = subDialogValue(kid.data(), &sc.pb);
+          }
+          acc += p * cv;
         }
         v = std::max(v, -q.cost + gamma_ * acc);
       }
       if (stallCost < kInf) {
         std::vector<std::int16_t> ck(key, key + stride_);
         ++ck[0];
-        v = std::max(v, -stallCost + gamma_ * subDialogValue(ck.data()));
+        const Eigen::VectorXd same = sc.b;
+        v = std::max(v, -stallCost + gamma_ * subDialogValue(ck.data(), &same));
       }
     }
   }

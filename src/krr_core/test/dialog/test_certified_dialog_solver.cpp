@@ -90,19 +90,25 @@ TEST(CertifiedDialogSolver, ExactValueEqualsBruteForceOnSmallModels) {
   EXPECT_GE(checked, 10);
 }
 
+/// 3 items x 2 rooms x 2 persons, each person's own office with probability 0.8.
+DialogSpec threeByTwoByTwo(double farReach, int turnLimit) {
+  DialogSpec s;
+  s.items = {"coke", "coffee", "soda"};
+  s.rooms = {"room1", "room2"};
+  s.persons = {"alice", "bob"};
+  s.prior = ownOfficePrior(3, 2, {0, 1}, 0.8);
+  Eigen::VectorXd reach(2);
+  reach << 1.0, farReach;
+  s.delivery = deliveryMatrix(3, reach, 2);
+  s.turnLimit = turnLimit;
+  return s;
+}
+
 TEST(CertifiedDialogSolver, SymmetricItemsAndTwoValuedSlotsAgreeWithBruteForce) {
   // Uniform items (sorted as alike by the solver), a two-valued person slot whose ask and
   // confirm are the same experiment (kept once), powers-of-two likelihood ratios.
-  DialogSpec s;
-  s.items = {"a", "b", "c"};
-  s.rooms = {"x", "y"};
-  s.persons = {"p", "q"};
-  s.prior = ownOfficePrior(3, 2, {0, 1}, 0.8);
-  Eigen::VectorXd reach(2);
-  reach << 1.0, 0.7;
-  s.delivery = deliveryMatrix(3, reach, 2);
+  DialogSpec s = threeByTwoByTwo(0.7, 4);
   s.serveCost = 60.0 * (Eigen::MatrixXd::Ones(12, 12) - Eigen::MatrixXd::Identity(12, 12));
-  s.turnLimit = 4;
   const DialogPomdp d(s);
   const double brute = bruteForce(d, d.model().initialBelief(), 0);
   EXPECT_NEAR(CertifiedDialogSolver::exactValue(d), brute, 1e-9);
@@ -259,16 +265,8 @@ TEST(CertifiedDialogSolver, TheExecutedPolicyEarnsItsCertifiedLowerBound) {
 TEST(CertifiedDialogSolver, AgreesWithTheGenericSolverOnTheTurnCounterModel) {
   // The same problem with the turn count in the state (the file SARSOP is given), solved by
   // the generic point-based solver: a conformance check independent of the statistics.
-  DialogSpec spec;
-  spec.items = {"coke", "coffee", "soda"};
-  spec.rooms = {"room1", "room2"};
-  spec.persons = {"alice", "bob"};
-  spec.prior = ownOfficePrior(3, 2, {0, 1}, 0.8);
-  Eigen::VectorXd reach(2);
-  reach << 1.0, 0.4;
-  spec.delivery = deliveryMatrix(3, reach, 2);
+  DialogSpec spec = threeByTwoByTwo(0.4, 3);
   spec.discount = 0.95;
-  spec.turnLimit = 3;
   const DialogPomdp d(spec);
   CertifiedSolverOptions o;
   o.precision = 1e-9;
