@@ -174,15 +174,20 @@ TEST(CertifiedDialogSolver, OptimumKnownByHand) {
   EXPECT_NEAR(CertifiedDialogSolver::exactValue(DialogPomdp(s)), 5.0, 1e-12);
 }
 
-TEST(CertifiedDialogSolver, ReproducibleAndBracketingAtEveryBudget) {
-  DialogSpec s;  // the paper's 3 x 5 x 2 dialog with an own-office prior, 8 turns
+/// The paper's 3 x 5 x 2 dialog: own-office prior, the office's reach, wrong-serve penalty.
+DialogSpec officeShaped(int turnLimit) {
+  DialogSpec s;
   s.prior = ownOfficePrior(3, 5, {4, 1}, 0.8);
   Eigen::VectorXd reach(5);
   reach << 1.0, 0.9, 0.94, 1.0, 0.85;
   s.delivery = deliveryMatrix(3, reach, 2);
   s.serveCost = 120.0 * (Eigen::MatrixXd::Ones(30, 30) - Eigen::MatrixXd::Identity(30, 30));
-  s.turnLimit = 8;
-  const DialogPomdp d(s);
+  s.turnLimit = turnLimit;
+  return s;
+}
+
+TEST(CertifiedDialogSolver, ReproducibleAndBracketingAtEveryBudget) {
+  const DialogPomdp d(officeShaped(8));  // the paper's 3 x 5 x 2 dialog, 8 turns
   CertifiedSolverOptions o;
   o.maxTrials = 300;
   o.precision = 1e-6;
@@ -209,14 +214,7 @@ TEST(CertifiedDialogSolver, ReproducibleAndBracketingAtEveryBudget) {
 TEST(CertifiedDialogSolver, TheExecutedPolicyEarnsItsCertifiedLowerBound) {
   // The robot's decision rule (decideAction) on the exported policy, in simulated dialogs:
   // the mean reward's 95% interval must reach the certified lower bound.
-  DialogSpec s;
-  s.prior = ownOfficePrior(3, 5, {4, 1}, 0.8);
-  Eigen::VectorXd reach(5);
-  reach << 1.0, 0.9, 0.94, 1.0, 0.85;
-  s.delivery = deliveryMatrix(3, reach, 2);
-  s.serveCost = 120.0 * (Eigen::MatrixXd::Ones(30, 30) - Eigen::MatrixXd::Identity(30, 30));
-  s.turnLimit = 10;
-  const DialogPomdp d(s);
+  const DialogPomdp d(officeShaped(10));
   CertifiedSolverOptions o;
   o.maxTrials = 3000;
   CertifiedDialogSolver solver(d, Eigen::VectorXd(), 0, o);
