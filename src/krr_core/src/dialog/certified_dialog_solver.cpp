@@ -139,7 +139,7 @@ struct SlotCode {
 class CertifiedDialogSolver::Impl {
  public:
   Impl(const DialogPomdp& dialog, const Eigen::VectorXd& root, int turnsUsed,
-       CertifiedSolverOptions options, bool boundsSearch);
+       CertifiedSolverOptions options);
 
   // --- the model, in the statistics' terms ---
   const DialogPomdp& d_;
@@ -154,7 +154,6 @@ class CertifiedDialogSolver::Impl {
   std::vector<Question> questions_;
   std::size_t stride_;
   int revealed_ = 1;                          // the slot revealed by the upper bound
-  std::vector<std::size_t> subQuestions_;     // questions that inform in the sub-dialog
 
   // --- search ---
   struct Node {
@@ -183,12 +182,12 @@ class CertifiedDialogSolver::Impl {
                     int skipSlot = -1, bool sort = true) const;
   /// The lower bound's greedy choice at a canonical key: a question index, or kNone (serve).
   std::size_t lowerChoice(const std::int16_t* canonicalKey) const;
-  /// Alpha vector (over requests) of the lower bound's plan from an actual (unsorted) key.
   /// The question of a canonical choice at the actual key whose canonical permutation is perm.
   Question actualQuestion(std::size_t choice, const std::vector<std::size_t>& perm) const;
   /// Probability of reaching each actual (shifted) key under the lower bound's policy; keys
   /// below `floor` are not followed further.
   std::unordered_map<std::string, double> policyReach(double floor) const;
+  /// Alpha vector (over requests) of the lower bound's plan from an actual (unsorted) key.
   const Eigen::VectorXd& planVector(const std::int16_t* key,
                                     const std::unordered_map<std::string, double>& reach,
                                     double floor,
@@ -201,12 +200,12 @@ class CertifiedDialogSolver::Impl {
               std::size_t fixedValue = 0) const;
   void marginals(const Eigen::VectorXd& b, std::array<Eigen::VectorXd, kSlots>& m) const;
   double serveValue(const Eigen::VectorXd& b, std::size_t* best = nullptr) const;
-  /// Children of question q at a key whose marginals are m: (probability, child key).
   std::size_t numAnswers(const Question& q) const;
   /// P(answer | slot value v) of question q (confirm: answer 1 = yes, 0 = no).
   double answerLikelihood(const Question& q, std::size_t answer, std::size_t v) const;
   double answerProb(const Eigen::VectorXd& slotMarginal, const Question& q, std::size_t answer) const;
   void childKey(const std::int16_t* key, const Question& q, std::size_t answer, std::int16_t* child) const;
+  /// Children of question q at a key whose marginals are m: f(probability, child key).
   template <class F>
   void forEachChild(const std::int16_t* key, const std::array<Eigen::VectorXd, kSlots>& m,
                     const Question& q, F&& f) const;
@@ -223,7 +222,10 @@ class CertifiedDialogSolver::Impl {
     std::array<Eigen::VectorXd, kSlots> m;
   };
   std::vector<SubScratch> subScratch_;
-  double upperRelaxation(const std::int16_t* key, int depth, const Eigen::VectorXd& b);
+  std::size_t subCapped_ = 0;  // sub-dialog values replaced by the full-information bound
+  bool subCut_ = false;        // the sub-dialog hit the memory budget or the timeout
+  Stopwatch created_;          // the timeout counts from construction (set-up included)
+  double upperRelaxation(const std::int16_t* key, const Eigen::VectorXd& b);
 
   /// The node of a canonical key, created if new (hint: its belief, if known).
   std::size_t nodeFor(const std::int16_t* key, int depth, const Eigen::VectorXd* hint = nullptr);
@@ -236,11 +238,13 @@ class CertifiedDialogSolver::Impl {
   /// Best "one question, then serve the best request at each answer" value at belief b.
   double lookaheadValue(const Eigen::VectorXd& b) const;
   struct Backup {
-    double serve = 0;
-    std::size_t serveAction = 0;
     std::size_t bestUpper = kNone;  // question index of the best upper Q (kNone: serve)
     std::size_t bestLower = kNone;
   };
+  /// The children backup() read, per question qi: kidProb_ / kidNode_ from kidStart_[qi] to
+  /// kidStart_[qi + 1] (valid until the next backup()).
+  std::vector<double> kidProb_;
+  std::vector<std::size_t> kidNode_, kidStart_;
   Backup backup(std::size_t n);
   void trial();
   bool memoryExceeded() const;
@@ -273,7 +277,7 @@ bool closeTo(double a, double b) {
 }  // namespace
 
 CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::VectorXd& root,
-                                  int turnsUsed, CertifiedSolverOptions options, bool)
+                                  int turnsUsed, CertifiedSolverOptions options)
     : d_(dialog), o_(options), nReq_(dialog.numRequests()), turnsUsed_(turnsUsed),
       horizon_(dialog.spec().turnLimit - turnsUsed), gamma_(dialog.spec().discount),
       table_(1), subTable_(1), rng_(makeRng(options.seed, "certified-dialog-solver")) {
@@ -394,7 +398,6 @@ CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::Vector
   // Questions, without duplicates: equal experiments keep the cheapest (lowest index on ties),
   // uninformative questions are one "stall" action (the cheapest).
   std::vector<Question> all;
-  const std::size_t nI = sizes[0], nR = sizes[1];
   for (int k = 0; k < kSlots; ++k) {
     const SlotCode& c = slot_[k];
     all.push_back({QKind::kAsk, k, 0, sp.generalCost, static_cast<std::size_t>(k)});
@@ -403,8 +406,6 @@ CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::Vector
       all.push_back({QKind::kConfirm, k, v, sp.confirmCost, a});
     }
   }
-  (void)nI;
-  (void)nR;
   const Question* stall = nullptr;
   for (const Question& q : all) {
     const SlotCode& c = slot_[q.slot];
@@ -434,9 +435,6 @@ CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::Vector
   revealed_ = 0;
   for (int k = 1; k < kSlots; ++k)
     if (slot_[k].n >= slot_[revealed_].n) revealed_ = k;
-  for (std::size_t i = 0; i < questions_.size(); ++i)
-    if (questions_[i].kind == QKind::kStall || questions_[i].slot != revealed_)
-      subQuestions_.push_back(i);
 
   table_ = KeyTable(stride_);
   subTable_ = KeyTable(stride_);
@@ -647,6 +645,19 @@ double CertifiedDialogSolver::Impl::subDialogValue(const std::int16_t* key,
   bool ok = true;
   if (hint) sc.b = *hint;
   else ok = belief(sc.own.data(), sc.b, revealed_, value);
+  if (!subCut_ && (subTable_.size() >= maxEntries_ / 2 ||
+                   (subTable_.size() % 4096 == 4095 && created_.seconds() >= o_.timeout)))
+    subCut_ = true;
+  if (ok && subCut_) {
+    // Past its half of the memory budget, or the solver's timeout, the sub-dialog is not
+    // expanded further: the full-information value (every request known, no question asked)
+    // still bounds it from above, and the bounds built on it stay valid, only looser.
+    double full = 0.0;
+    for (std::size_t s = 0; s < nReq_; ++s)
+      full += sc.b(static_cast<Eigen::Index>(s)) * serveR_.row(static_cast<Eigen::Index>(s)).maxCoeff();
+    ++subCapped_;
+    return full;
+  }
   if (ok) {
     v = serveValue(sc.b);
     if (depth < horizon_) {
@@ -691,9 +702,8 @@ double CertifiedDialogSolver::Impl::subDialogValue(const std::int16_t* key,
   return v;
 }
 
-double CertifiedDialogSolver::Impl::upperRelaxation(const std::int16_t* key, int depth,
+double CertifiedDialogSolver::Impl::upperRelaxation(const std::int16_t* key,
                                                     const Eigen::VectorXd& b) {
-  (void)depth;
   const SlotCode& rc = slot_[revealed_];
   Eigen::VectorXd mr = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(rc.n));
   for (std::size_t s = 0; s < nReq_; ++s) mr(static_cast<Eigen::Index>(parts_[s][revealed_])) += b(static_cast<Eigen::Index>(s));
@@ -793,7 +803,7 @@ std::size_t CertifiedDialogSolver::Impl::nodeFor(const std::int16_t* key, int de
   const double serve = serveValue(b);
   double upper = serve, lower = serve;
   if (depth < horizon_) {
-    upper = std::max(serve, upperRelaxation(key, depth, b));
+    upper = std::max(serve, upperRelaxation(key, b));
     if (o_.lookaheadLower) lower = std::max(lower, lookaheadValue(b));  // a plan the robot can run
   }
   const auto ins = table_.insert(key);
@@ -808,14 +818,17 @@ CertifiedDialogSolver::Impl::Backup CertifiedDialogSolver::Impl::backup(std::siz
   const int depth = key[0];
   Eigen::VectorXd b;
   belief(key.data(), b);
-  r.serve = serveValue(b, &r.serveAction);
+  const double serve = serveValue(b);
+  kidProb_.clear();
+  kidNode_.clear();
+  kidStart_.assign(1, 0);
   if (depth >= horizon_) {
-    nodes_[n].upper = nodes_[n].lower = r.serve;
+    nodes_[n].upper = nodes_[n].lower = serve;
     return r;
   }
   std::array<Eigen::VectorXd, kSlots> m;
   marginals(b, m);
-  double bestU = r.serve, bestL = r.serve;
+  double bestU = serve, bestL = serve;
   std::vector<std::int16_t> kid(stride_);
   std::vector<std::size_t> perm;
   Eigen::VectorXd cb, pb;
@@ -835,7 +848,10 @@ CertifiedDialogSolver::Impl::Backup CertifiedDialogSolver::Impl::backup(std::siz
       }
       qu += p * nodes_[c].upper;
       ql += p * nodes_[c].lower;
+      kidProb_.push_back(p);
+      kidNode_.push_back(c);
     }
+    kidStart_.push_back(kidNode_.size());
     qu = -q.cost + gamma_ * qu;
     ql = -q.cost + gamma_ * ql;
     if (qu > bestU) bestU = qu, r.bestUpper = qi;
@@ -851,16 +867,10 @@ CertifiedDialogSolver::Impl::Backup CertifiedDialogSolver::Impl::backup(std::siz
 }
 
 void CertifiedDialogSolver::Impl::trial() {
-  const Node& rt = nodes_[rootIndex_];
   // HSVI's trial precision: the target gap at the root, grown by 1 / discount per level.
-  (void)rt;
-  const double thr0 = o_.precision;
+  double thr = o_.precision;
   std::vector<std::size_t> path{rootIndex_};
-  std::vector<std::int16_t> key;
   std::vector<std::pair<double, std::size_t>> cand;
-  std::array<Eigen::VectorXd, kSlots> m;
-  Eigen::VectorXd b;
-  double thr = thr0;
   const bool lowerGuided = o_.lowerGuidedEvery > 0 && trials_ % o_.lowerGuidedEvery == 1;
   for (int depth = 0; depth < horizon_; ++depth) {
     const std::size_t n = path.back();
@@ -868,24 +878,18 @@ void CertifiedDialogSolver::Impl::trial() {
     const std::size_t act = lowerGuided ? bk.bestLower : bk.bestUpper;
     if (nodes_[n].upper - nodes_[n].lower <= thr || act == kNone) break;
     thr /= gamma_;
-    key.assign(table_.key(n), table_.key(n) + stride_);
-    belief(key.data(), b);
-    marginals(b, m);
+    // The chosen question's children, as backup() just read them (sampled in forEachChild's
+    // order: yes before no).
     cand.clear();
     double total = 0.0;
-    std::vector<std::vector<std::int16_t>> kidKeys;
-    forEachChild(key.data(), m, questions_[act], [&](double p, const std::int16_t* ck) {
-      kidKeys.emplace_back(ck, ck + stride_);
-      cand.push_back({p, 0});
-    });
-    for (std::size_t i = 0; i < kidKeys.size(); ++i) {
-      canonicalize(kidKeys[i].data());
-      const std::size_t c = nodeFor(kidKeys[i].data(), depth + 1);
+    const bool yesFirst = questions_[act].kind == QKind::kConfirm;
+    for (std::size_t j = kidStart_[act]; j < kidStart_[act + 1]; ++j) {
+      const std::size_t i = yesFirst ? kidStart_[act + 1] - 1 - (j - kidStart_[act]) : j;
+      const std::size_t c = kidNode_[i];
       const double gap = nodes_[c].upper - nodes_[c].lower;
-      cand[i].second = c;
       // HSVI's excess uncertainty, sampled (following the largest one stalls on this model)
-      cand[i].first = gap > thr ? cand[i].first * (gap - thr) : 0.0;
-      total += cand[i].first;
+      cand.push_back({gap > thr ? kidProb_[i] * (gap - thr) : 0.0, c});
+      total += cand.back().first;
     }
     if (!(total > 0.0)) break;
     double u = uniform01(rng_) * total;
@@ -1119,7 +1123,7 @@ const Eigen::VectorXd& CertifiedDialogSolver::Impl::planVector(
 
 CertifiedDialogSolver::CertifiedDialogSolver(const DialogPomdp& dialog, const Eigen::VectorXd& root,
                                              int turnsUsed, CertifiedSolverOptions options)
-    : impl_(std::make_unique<Impl>(dialog, root, turnsUsed, options, true)) {}
+    : impl_(std::make_unique<Impl>(dialog, root, turnsUsed, options)) {}
 
 CertifiedDialogSolver::~CertifiedDialogSolver() = default;
 
@@ -1137,6 +1141,7 @@ CertifiedReport CertifiedDialogSolver::report() const {
   r.nodes = impl_->table_.size();
   r.expanded = impl_->expanded_;
   r.subNodes = impl_->subTable_.size();
+  r.subCapped = impl_->subCapped_;
   r.bytes = impl_->bytes();
   r.stop = impl_->stop_;
   return r;
@@ -1180,7 +1185,7 @@ pomdp::TurnLimitedPolicy CertifiedDialogSolver::policy() const {
 }
 
 double CertifiedDialogSolver::exactValue(const DialogPomdp& dialog, std::size_t maxNodes) {
-  Impl impl(dialog, Eigen::VectorXd(), 0, CertifiedSolverOptions{}, false);
+  Impl impl(dialog, Eigen::VectorXd(), 0, CertifiedSolverOptions{});
   std::unordered_map<std::string, double> memo;
   std::vector<std::int16_t> k0(impl.stride_, 0);
   return impl.exactValue(k0.data(), 0, memo, maxNodes);

@@ -281,6 +281,22 @@ TEST(CertifiedDialogSolver, AgreesWithTheGenericSolverOnTheTurnCounterModel) {
   EXPECT_LE(generic.report().lower, ours.report().upper + 1e-9);
 }
 
+TEST(CertifiedDialogSolver, BoundsStayValidWhenTheMemoryBudgetCutsTheSearch) {
+  // A budget of about 1024 entries: the room-revealed sub-dialog is cut off with the
+  // full-information value; the bounds still bracket V (and expansion closes the gap).
+  const DialogPomdp d(threeByTwoByTwo(0.7, 6));
+  const double exact = CertifiedDialogSolver::exactValue(d);
+  CertifiedSolverOptions o;
+  o.memoryBudget = 1;
+  o.precision = 1e-9;
+  CertifiedDialogSolver s(d, Eigen::VectorXd(), 0, o);
+  s.solve();
+  EXPECT_GT(s.report().subCapped, 0u);
+  EXPECT_LE(s.report().lower, exact + 1e-9);
+  EXPECT_GE(s.report().upper, exact - 1e-9);
+  EXPECT_GE(s.policy().value(d.model().initialBelief(), 0), s.report().lower - 1e-9);
+}
+
 TEST(CertifiedDialogSolver, RefusesBadInput) {
   const DialogPomdp d{DialogSpec()};
   EXPECT_THROW(CertifiedDialogSolver(d, Eigen::VectorXd::Ones(3), 0), ConfigError);

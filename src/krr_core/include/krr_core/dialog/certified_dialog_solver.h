@@ -32,7 +32,10 @@
  *    and the sub-dialog over the other slots is small (memoised exact dynamic programming
  *    over its own sufficient statistics). This is the information relaxation "room answered
  *    perfectly at no cost"; a more informative experiment is worth at least as much
- *    (Blackwell), so the bound is a proof, not an estimate.
+ *    (Blackwell), so the bound is a proof, not an estimate. A sub-dialog that outgrows half
+ *    of the memory budget or the timeout (much larger models than the office's) is cut off
+ *    there with the full-information value, which is larger still: the bound stays a proof,
+ *    only looser.
  * Expanded nodes take the Bellman backup of their children's bounds (upper: the minimum of
  * the backup and the relaxation; both stay valid).
  *
@@ -86,6 +89,7 @@ struct CertifiedReport {
   std::size_t nodes = 0;      ///< belief nodes stored
   std::size_t expanded = 0;   ///< nodes backed up from their children
   std::size_t subNodes = 0;   ///< nodes of the revealed-slot sub-dialogs (upper bound)
+  std::size_t subCapped = 0;  ///< sub-dialog values cut off by the memory budget or timeout
   std::size_t bytes = 0;      ///< memory held by the tables
   SolveStop stop = SolveStop::kRunning;
   double gap() const { return upper - lower; }
