@@ -176,10 +176,10 @@ class CertifiedDialogSolver::Impl {
 
   // --- statistics and beliefs ---
   /// Shift each slot's statistics to minimum 0 and sort values alike; `perm` (if given)
-  /// receives, per slot in order, the original value at each canonical position. skipSlot:
-  /// left as it is (the revealed slot of a sub-dialog key).
+  /// receives, per slot in order, the original value at each canonical position. skipMask:
+  /// slots (bit k) left as they are (the revealed slots of a sub-dialog key).
   void canonicalize(std::int16_t* key, std::vector<std::size_t>* perm = nullptr,
-                    int skipSlot = -1, bool sort = true) const;
+                    int skipMask = 0, bool sort = true) const;
   /// The lower bound's greedy choice at a canonical key: a question index, or kNone (serve).
   std::size_t lowerChoice(const std::int16_t* canonicalKey) const;
   /// The question of a canonical choice at the actual key whose canonical permutation is perm.
@@ -194,6 +194,14 @@ class CertifiedDialogSolver::Impl {
                                     std::unordered_map<std::string, std::size_t>& memo,
                                     std::vector<Eigen::VectorXd>& vectors,
                                     std::vector<std::pair<std::size_t, int>>& tags) const;
+  /// A commit plan's vectors (see upperRelaxation): r's sub-dialog plan from an actual sub
+  /// key (revealed section {r, 0, ...}, the other slots in actual order, shifted), each node's
+  /// vector added with its action and turn (the executor needs them all); plans end by
+  /// serving below the reach floor. @return the index of the key's vector in `vectors`.
+  std::size_t subPlanVector(const std::int16_t* subKey, double reach, double floor,
+                            std::unordered_map<std::string, std::size_t>& memo,
+                            std::vector<Eigen::VectorXd>& vectors,
+                            std::vector<std::pair<std::size_t, int>>& tags) const;
   /// Belief over requests of a key (any order of values, canonical or not); `fixedSlot` >= 0:
   /// restricted to requests whose value of that slot is `fixedValue`. @return false if empty.
   bool belief(const std::int16_t* key, Eigen::VectorXd& b, int fixedSlot = -1,
@@ -220,12 +228,31 @@ class CertifiedDialogSolver::Impl {
     std::vector<std::size_t> perm;
     Eigen::VectorXd b, cb, pb;
     std::array<Eigen::VectorXd, kSlots> m;
+    std::vector<std::size_t> kidIdx, bestKid;            // children of a question / the best
+    std::vector<std::vector<std::size_t>> kidPerm, bestPerm;  // their canonical permutations
   };
+  /// subDialogValue's node: its index in subTable_, or kNone when cut off (then *value is
+  /// the full-information bound).
+  std::size_t subNode(const std::int16_t* key, const Eigen::VectorXd* hint, double* value);
+  /// The sub-dialog's optimal plan at a new node as a vector over every request (the plan's
+  /// value when that request is the true one): subAlpha_ offset, or kNoAlpha when a child
+  /// has none or the vectors' share of the memory budget is spent.
+  std::uint32_t subPlanAlpha(const SubScratch& sc, int choice, std::size_t serveA);
+  static constexpr int kSubServe = -1;
+  static constexpr std::uint32_t kNoAlpha = std::numeric_limits<std::uint32_t>::max();
+  std::vector<std::int16_t> subChoice_;    // per sub node: question index, or kSubServe
+  std::vector<std::uint32_t> subAlphaAt_;  // per sub node: offset in subAlpha_, or kNoAlpha
+  std::vector<double> subAlpha_;
+  std::vector<double> alphaBuf_;
+  std::size_t alphaBudget_ = 0;            // bytes for subAlpha_
   std::vector<SubScratch> subScratch_;
   std::size_t subCapped_ = 0;  // sub-dialog values replaced by the full-information bound
   bool subCut_ = false;        // the sub-dialog hit the memory budget or the timeout
   Stopwatch created_;          // the timeout counts from construction (set-up included)
-  double upperRelaxation(const std::int16_t* key, const Eigen::VectorXd& b);
+  /// The room-revealed upper bound at a main key; commitLower (if given) receives the best
+  /// "commit to one value of the revealed slot" plan's value (-inf if none).
+  double upperRelaxation(const std::int16_t* key, const Eigen::VectorXd& b,
+                         double* commitLower = nullptr);
 
   /// The node of a canonical key, created if new (hint: its belief, if known).
   std::size_t nodeFor(const std::int16_t* key, int depth, const Eigen::VectorXd* hint = nullptr);
@@ -441,8 +468,12 @@ CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::Vector
   subScratch_.resize(static_cast<std::size_t>(horizon_) + 2);
   for (SubScratch& sc : subScratch_) sc.kid.assign(stride_, 0);
   const std::size_t budget = o_.memoryBudget ? o_.memoryBudget : memoryBudget();
-  const std::size_t perEntry = table_.bytesPerEntry() * 2 + sizeof(Node) + sizeof(double);
-  maxEntries_ = std::max<std::size_t>(1024, budget / perEntry);
+  // An eighth of the budget for the sub-dialog's plan vectors (the office's: 112 MB), the
+  // rest for the tables.
+  alphaBudget_ = o_.commitLower ? std::min<std::size_t>(budget / 8, std::size_t{1} << 34) : 0;
+  const std::size_t perEntry = table_.bytesPerEntry() * 2 + sizeof(Node) + sizeof(double) +
+                               sizeof(std::int16_t) + sizeof(std::uint32_t);
+  maxEntries_ = std::max<std::size_t>(1024, (budget - alphaBudget_) / perEntry);
   if (maxEntries_ > std::numeric_limits<std::uint32_t>::max() / 4)
     maxEntries_ = std::numeric_limits<std::uint32_t>::max() / 4;
 
@@ -463,11 +494,11 @@ void CertifiedDialogSolver::Impl::applyExclusion(std::int16_t* key, int k, std::
 }
 
 void CertifiedDialogSolver::Impl::canonicalize(std::int16_t* key, std::vector<std::size_t>* perm,
-                                               int skipSlot, bool sort) const {
+                                               int skipMask, bool sort) const {
   if (perm) perm->clear();
   for (int k = 0; k < kSlots; ++k) {
     const SlotCode& c = slot_[k];
-    if (k == skipSlot) {
+    if ((skipMask >> k) & 1) {
       if (perm)
         for (std::size_t v = 0; v < c.n; ++v) perm->push_back(v);
       continue;
@@ -629,13 +660,16 @@ void CertifiedDialogSolver::Impl::forEachChild(const std::int16_t* key,
   }
 }
 
-double CertifiedDialogSolver::Impl::subDialogValue(const std::int16_t* key,
-                                                   const Eigen::VectorXd* hint) {
+std::size_t CertifiedDialogSolver::Impl::subNode(const std::int16_t* key,
+                                                const Eigen::VectorXd* hint, double* value) {
   const std::size_t found = subTable_.find(key);
-  if (found != kNone) return subValue_[found];
+  if (found != kNone) {
+    *value = subValue_[found];
+    return found;
+  }
   const int depth = key[0];
   const SlotCode& rc = slot_[revealed_];
-  const std::size_t value = static_cast<std::size_t>(key[rc.offset]);
+  const std::size_t fixed = static_cast<std::size_t>(key[rc.offset]);
   SubScratch& sc = subScratch_[static_cast<std::size_t>(depth)];
   sc.own.assign(key, key + stride_);
   // The belief: the revealed slot's statistics do not matter once its value is known.
@@ -644,79 +678,168 @@ double CertifiedDialogSolver::Impl::subDialogValue(const std::int16_t* key,
   double v = -kInf;
   bool ok = true;
   if (hint) sc.b = *hint;
-  else ok = belief(sc.own.data(), sc.b, revealed_, value);
+  else ok = belief(sc.own.data(), sc.b, revealed_, fixed);
   if (!subCut_ && (subTable_.size() >= maxEntries_ / 2 ||
                    (subTable_.size() % 4096 == 4095 && created_.seconds() >= o_.timeout)))
     subCut_ = true;
   if (ok && subCut_) {
     // Past its half of the memory budget, or the solver's timeout, the sub-dialog is not
     // expanded further: the full-information value (every request known, no question asked)
-    // still bounds it from above, and the bounds built on it stay valid, only looser.
+    // still bounds it from above, and the bounds built on it stay valid, only looser. The
+    // node is not stored and has no plan (no commit lower bound through it).
     double full = 0.0;
     for (std::size_t s = 0; s < nReq_; ++s)
       full += sc.b(static_cast<Eigen::Index>(s)) * serveR_.row(static_cast<Eigen::Index>(s)).maxCoeff();
     ++subCapped_;
-    return full;
+    *value = full;
+    return kNone;
   }
+  int choice = kSubServe;
+  std::size_t serveA = 0;
+  sc.bestKid.clear();
+  sc.bestPerm.clear();
   if (ok) {
-    v = serveValue(sc.b);
+    v = serveValue(sc.b, &serveA);
     if (depth < horizon_) {
       marginals(sc.b, sc.m);
       double stallCost = kInf;  // questions on the known slot inform nothing: a stall
-      for (const Question& q : questions_) {
+      int stallQ = kSubServe;
+      for (std::size_t qi = 0; qi < questions_.size(); ++qi) {
+        const Question& q = questions_[qi];
         if (q.kind == QKind::kStall || q.slot == revealed_) {
-          stallCost = std::min(stallCost, q.cost);
+          if (q.cost < stallCost) stallCost = q.cost, stallQ = static_cast<int>(qi);
           continue;
         }
         double acc = 0.0;
-        for (std::size_t answer = 0; answer < numAnswers(q); ++answer) {
+        const std::size_t na = numAnswers(q);
+        sc.kidIdx.assign(na, kNone);
+        sc.kidPerm.resize(na);
+        for (std::size_t answer = 0; answer < na; ++answer) {
           const double p = answerProb(sc.m[q.slot], q, answer);
           if (!(p > 1e-300)) continue;
           childKey(sc.own.data(), q, answer, sc.kid.data());
-          canonicalize(sc.kid.data(), &sc.perm, revealed_);
-          sc.kid[rc.offset] = static_cast<std::int16_t>(value);
+          canonicalize(sc.kid.data(), &sc.perm, 1 << revealed_);
+          sc.kid[rc.offset] = static_cast<std::int16_t>(fixed);
           double cv;
-          const std::size_t known = subTable_.find(sc.kid.data());
-          if (known != kNone) {
-            cv = subValue_[known];
+          std::size_t ci = subTable_.find(sc.kid.data());
+          if (ci != kNone) {
+            cv = subValue_[ci];
           } else {
             childBelief(sc.b, q, answer, p, sc.cb);
             permuteBelief(sc.cb, sc.perm, sc.pb);
             const std::vector<std::int16_t> kid = sc.kid;  // the recursion reuses deeper buffers only
-            cv = subDialogValue(kid.data(), &sc.pb);
+            ci = subNode(kid.data(), &sc.pb, &cv);
           }
+          sc.kidIdx[answer] = ci;
+          sc.kidPerm[answer] = sc.perm;
           acc += p * cv;
         }
-        v = std::max(v, -q.cost + gamma_ * acc);
+        const double qv = -q.cost + gamma_ * acc;
+        if (qv > v) {
+          v = qv;
+          choice = static_cast<int>(qi);
+          sc.bestKid.swap(sc.kidIdx);
+          sc.bestPerm.swap(sc.kidPerm);
+        }
       }
       if (stallCost < kInf) {
         std::vector<std::int16_t> ck(key, key + stride_);
         ++ck[0];
         const Eigen::VectorXd same = sc.b;
-        v = std::max(v, -stallCost + gamma_ * subDialogValue(ck.data(), &same));
+        double cv;
+        const std::size_t ci = subNode(ck.data(), &same, &cv);
+        const double qv = -stallCost + gamma_ * cv;
+        if (qv > v) {
+          v = qv;
+          choice = stallQ;
+          sc.bestKid.assign(1, ci);
+          sc.bestPerm.clear();
+        }
       }
     }
   }
-  subTable_.insert(key);
+  const std::size_t idx = subTable_.insert(key).first;
   subValue_.push_back(v);
+  subChoice_.push_back(static_cast<std::int16_t>(choice));
+  subAlphaAt_.push_back(ok ? subPlanAlpha(sc, choice, serveA) : kNoAlpha);
+  *value = v;
+  return idx;
+}
+
+std::uint32_t CertifiedDialogSolver::Impl::subPlanAlpha(const SubScratch& at0, int choice,
+                                                       std::size_t serveA) {
+  // The plan's value per true request (every request, not only the known slot's: the commit
+  // lower bound runs this plan when the revealed slot is not known), from the children's.
+  const std::size_t n = nReq_;
+  if ((subAlpha_.size() + n) * sizeof(double) > alphaBudget_) return kNoAlpha;
+  std::vector<double>& alpha = alphaBuf_;
+  alpha.assign(n, 0.0);
+  if (choice == kSubServe) {
+    for (std::size_t s = 0; s < n; ++s)
+      alpha[s] = serveR_(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(serveA));
+  } else {
+    const Question& q = questions_[static_cast<std::size_t>(choice)];
+    const bool stall = q.kind == QKind::kStall || q.slot == revealed_;
+    const std::vector<std::size_t>& best = at0.bestKid;
+    const std::vector<std::vector<std::size_t>>& perms = at0.bestPerm;
+    std::fill(alpha.begin(), alpha.end(), -q.cost);
+    if (stall) {
+      const std::uint32_t at = best.empty() || best[0] == kNone ? kNoAlpha : subAlphaAt_[best[0]];
+      if (at == kNoAlpha) return kNoAlpha;
+      for (std::size_t s = 0; s < n; ++s) alpha[s] += gamma_ * subAlpha_[at + s];
+    } else {
+      for (std::size_t answer = 0; answer < best.size(); ++answer) {
+        const std::uint32_t at = best[answer] == kNone ? kNoAlpha : subAlphaAt_[best[answer]];
+        if (at == kNoAlpha) return kNoAlpha;  // a child cut off, or an answer not followed
+        const std::vector<std::size_t>& perm = perms[answer];
+        const std::size_t o1 = slot_[0].n, o2 = o1 + slot_[1].n;
+        for (std::size_t c = 0; c < n; ++c) {  // child's canonical request c -> this node's s
+          const auto& pt = parts_[c];
+          const std::size_t s = d_.requestIndex(perm[pt[0]], perm[o1 + pt[1]], perm[o2 + pt[2]]);
+          alpha[s] += gamma_ * answerLikelihood(q, answer, parts_[s][q.slot]) * subAlpha_[at + c];
+        }
+      }
+    }
+  }
+  const std::uint32_t at = static_cast<std::uint32_t>(subAlpha_.size());
+  subAlpha_.insert(subAlpha_.end(), alpha.begin(), alpha.end());
+  return at;
+}
+
+double CertifiedDialogSolver::Impl::subDialogValue(const std::int16_t* key,
+                                                   const Eigen::VectorXd* hint) {
+  double v;
+  subNode(key, hint, &v);
   return v;
 }
 
 double CertifiedDialogSolver::Impl::upperRelaxation(const std::int16_t* key,
-                                                    const Eigen::VectorXd& b) {
+                                                    const Eigen::VectorXd& b,
+                                                    double* commitLower) {
   const SlotCode& rc = slot_[revealed_];
   Eigen::VectorXd mr = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(rc.n));
   for (std::size_t s = 0; s < nReq_; ++s) mr(static_cast<Eigen::Index>(parts_[s][revealed_])) += b(static_cast<Eigen::Index>(s));
   std::vector<std::int16_t> sub(key, key + stride_);
   std::fill(sub.begin() + static_cast<long>(rc.offset),
             sub.begin() + static_cast<long>(rc.offset + rc.n * rc.width), 0);
-  double u = 0.0;
+  double u = 0.0, commit = -kInf;
   for (std::size_t r = 0; r < rc.n; ++r) {
     const double w = mr(static_cast<Eigen::Index>(r));
     if (!(w > 0.0)) continue;
     sub[rc.offset] = static_cast<std::int16_t>(r);
-    u += w * subDialogValue(sub.data());
+    double v;
+    const std::size_t i = subNode(sub.data(), nullptr, &v);
+    u += w * v;
+    // Commit to r: run r's sub-dialog plan, whatever the true value (a plan the robot can
+    // run; its vector is exact for every request, the sub-key's order is this key's).
+    if (commitLower && i != kNone && subAlphaAt_[i] != kNoAlpha) {
+      const double* a = &subAlpha_[subAlphaAt_[i]];
+      double c = 0.0;
+      for (std::size_t s = 0; s < nReq_; ++s) c += a[s] * b(static_cast<Eigen::Index>(s));
+      commit = std::max(commit, c);
+    }
   }
+  if (commitLower) *commitLower = commit;
   return u;
 }
 
@@ -803,7 +926,9 @@ std::size_t CertifiedDialogSolver::Impl::nodeFor(const std::int16_t* key, int de
   const double serve = serveValue(b);
   double upper = serve, lower = serve;
   if (depth < horizon_) {
-    upper = std::max(serve, upperRelaxation(key, b));
+    double commit = -kInf;
+    upper = std::max(serve, upperRelaxation(key, b, o_.commitLower ? &commit : nullptr));
+    lower = std::max(lower, commit);
     if (o_.lookaheadLower) lower = std::max(lower, lookaheadValue(b));  // a plan the robot can run
   }
   const auto ins = table_.insert(key);
@@ -906,9 +1031,11 @@ void CertifiedDialogSolver::Impl::trial() {
   ++trials_;
 }
 
+
 std::size_t CertifiedDialogSolver::Impl::bytes() const {
   return table_.bytes() + subTable_.bytes() + nodes_.capacity() * sizeof(Node) +
-         subValue_.capacity() * sizeof(double);
+         subValue_.capacity() * sizeof(double) + subChoice_.capacity() * sizeof(std::int16_t) +
+         subAlphaAt_.capacity() * sizeof(std::uint32_t) + subAlpha_.capacity() * sizeof(double);
 }
 
 bool CertifiedDialogSolver::Impl::memoryExceeded() const {
@@ -1035,7 +1162,7 @@ std::unordered_map<std::string, double> CertifiedDialogSolver::Impl::policyReach
         const double p = answerProb(m[q.slot], q, answer);
         if (!(p > 1e-300)) continue;
         childKey(key.data(), q, answer, kid.data());
-        canonicalize(kid.data(), nullptr, -1, false);
+        canonicalize(kid.data(), nullptr, 0, false);
         const std::string ck(reinterpret_cast<const char*>(kid.data()), k.size());
         const auto ins = reach.emplace(ck, 0.0);
         if (ins.second) layers[static_cast<std::size_t>(d) + 1].push_back(ck);
@@ -1067,8 +1194,8 @@ const Eigen::VectorXd& CertifiedDialogSolver::Impl::planVector(
   serveValue(b, &serveA);
   Eigen::VectorXd alpha(static_cast<Eigen::Index>(nReq_));
   std::size_t action;
-  if (choice == kNone && depth < horizon_ && o_.lookaheadLower) {
-    // The plan behind a lookahead lower bound: one question, then serve at each answer.
+  if (choice == kNone && depth < horizon_ && (o_.lookaheadLower || o_.commitLower)) {
+    // The frontier's plans: serve, one question then serve (lookahead), or commit to a room.
     std::array<Eigen::VectorXd, kSlots> m;
     marginals(b, m);
     alpha = serveR_.col(static_cast<Eigen::Index>(serveA));
@@ -1077,6 +1204,7 @@ const Eigen::VectorXd& CertifiedDialogSolver::Impl::planVector(
     std::vector<std::int16_t> kid(stride_);
     Eigen::VectorXd cb, cand(static_cast<Eigen::Index>(nReq_));
     for (const Question& q : questions_) {
+      if (!o_.lookaheadLower) break;
       cand.setConstant(-q.cost);
       for (std::size_t answer = 0; answer < numAnswers(q); ++answer) {
         std::size_t a = serveA;
@@ -1088,6 +1216,40 @@ const Eigen::VectorXd& CertifiedDialogSolver::Impl::planVector(
       }
       const double v = cand.dot(b);
       if (v > best) best = v, alpha = cand, action = q.action;
+    }
+    if (o_.commitLower && !truncated) {
+      // The plan behind a commit lower bound, when it is the best of the frontier's plans.
+      const SlotCode& rc = slot_[revealed_];
+      std::vector<std::int16_t> sub(key, key + stride_), canonSub(stride_);
+      std::fill(sub.begin() + static_cast<long>(rc.offset),
+                sub.begin() + static_cast<long>(rc.offset + rc.n * rc.width), 0);
+      std::vector<std::size_t> sperm;
+      const std::size_t o1 = slot_[0].n, o2 = o1 + slot_[1].n;
+      double bestCommit = alpha.dot(b) + 1e-9 * (1.0 + std::abs(alpha.dot(b)));
+      std::size_t bestR = kNone;
+      for (std::size_t r = 0; r < rc.n; ++r) {
+        sub[rc.offset] = static_cast<std::int16_t>(r);
+        canonSub = sub;
+        canonicalize(canonSub.data(), &sperm, 1 << revealed_);
+        const std::size_t i = subTable_.find(canonSub.data());
+        if (i == kNone || subAlphaAt_[i] == kNoAlpha) continue;
+        const double* a = &subAlpha_[subAlphaAt_[i]];
+        double v = 0.0;
+        for (std::size_t c = 0; c < nReq_; ++c) {
+          const auto& pt = parts_[c];
+          v += a[c] * b(static_cast<Eigen::Index>(
+                          d_.requestIndex(sperm[pt[0]], sperm[o1 + pt[1]], sperm[o2 + pt[2]])));
+        }
+        if (v > bestCommit) bestCommit = v, bestR = r;
+      }
+      if (bestR != kNone) {
+        sub[rc.offset] = static_cast<std::int16_t>(bestR);
+        // Followed to its end (floor 0): the sub-dialog is finite and its plans memoised, and
+        // a commit plan cut by serving early loses most of its value.
+        const std::size_t vi = subPlanVector(sub.data(), rit->second, 0.0, memo, vectors, tags);
+        alpha = vectors[vi];
+        action = tags[vi].first;
+      }
     }
   } else if (choice == kNone) {
     alpha = serveR_.col(static_cast<Eigen::Index>(serveA));
@@ -1101,7 +1263,7 @@ const Eigen::VectorXd& CertifiedDialogSolver::Impl::planVector(
     std::vector<std::int16_t> kid(stride_);
     for (std::size_t answer = 0; answer < numAnswers(q); ++answer) {
       childKey(key, q, answer, kid.data());
-      canonicalize(kid.data(), nullptr, -1, false);
+      canonicalize(kid.data(), nullptr, 0, false);
       Eigen::VectorXd sub;
       if (answerProb(m[q.slot], q, answer) > 1e-300) {
         sub = planVector(kid.data(), reach, floor, memo, vectors, tags);
@@ -1117,6 +1279,64 @@ const Eigen::VectorXd& CertifiedDialogSolver::Impl::planVector(
   tags.push_back({action, turnsUsed_ + depth});
   memo.emplace(mk, vectors.size() - 1);
   return vectors.back();
+}
+
+std::size_t CertifiedDialogSolver::Impl::subPlanVector(
+    const std::int16_t* subKey, double reach, double floor,
+    std::unordered_map<std::string, std::size_t>& memo, std::vector<Eigen::VectorXd>& vectors,
+    std::vector<std::pair<std::size_t, int>>& tags) const {
+  // "S" + key: sub keys share planVector's memo without meeting its (shorter) keys
+  const std::string mk = "S" + std::string(reinterpret_cast<const char*>(subKey),
+                                           stride_ * sizeof(std::int16_t));
+  const auto it = memo.find(mk);
+  if (it != memo.end()) return it->second;
+  const int depth = subKey[0];
+  const SlotCode& rc = slot_[revealed_];
+  const std::size_t fixed = static_cast<std::size_t>(subKey[rc.offset]);
+  std::vector<std::int16_t> canon(subKey, subKey + stride_), own(subKey, subKey + stride_);
+  std::vector<std::size_t> perm;
+  canonicalize(canon.data(), &perm, 1 << revealed_);
+  const std::size_t idx = subTable_.find(canon.data());
+  const int choice = idx == kNone || reach < floor || depth >= horizon_ ? kSubServe : subChoice_[idx];
+  std::fill(own.begin() + static_cast<long>(rc.offset),
+            own.begin() + static_cast<long>(rc.offset + rc.n * rc.width), 0);
+  Eigen::VectorXd b;
+  belief(own.data(), b, revealed_, fixed);
+  Eigen::VectorXd alpha(static_cast<Eigen::Index>(nReq_));
+  std::size_t action;
+  if (choice == kSubServe) {
+    std::size_t a = 0;
+    serveValue(b, &a);
+    alpha = serveR_.col(static_cast<Eigen::Index>(a));
+    action = d_.serveAction(a);
+  } else {
+    const Question q = actualQuestion(static_cast<std::size_t>(choice), perm);
+    action = q.action;
+    alpha.setConstant(-q.cost);
+    std::vector<std::int16_t> kid(subKey, subKey + stride_);
+    if (q.kind == QKind::kStall || q.slot == revealed_) {  // asked, its answer not used
+      ++kid[0];
+      const Eigen::VectorXd sub = vectors[subPlanVector(kid.data(), reach, floor, memo, vectors, tags)];
+      alpha += gamma_ * sub;
+    } else {
+      std::array<Eigen::VectorXd, kSlots> m;
+      marginals(b, m);
+      for (std::size_t answer = 0; answer < numAnswers(q); ++answer) {
+        const double p = answerProb(m[q.slot], q, answer);
+        childKey(subKey, q, answer, kid.data());
+        canonicalize(kid.data(), nullptr, 1 << revealed_, false);
+        const Eigen::VectorXd sub =
+            vectors[subPlanVector(kid.data(), reach * p, floor, memo, vectors, tags)];
+        for (std::size_t s = 0; s < nReq_; ++s)
+          alpha(static_cast<Eigen::Index>(s)) +=
+              gamma_ * answerLikelihood(q, answer, parts_[s][q.slot]) * sub(static_cast<Eigen::Index>(s));
+      }
+    }
+  }
+  vectors.push_back(alpha);
+  tags.push_back({action, turnsUsed_ + depth});
+  memo.emplace(mk, vectors.size() - 1);
+  return vectors.size() - 1;
 }
 
 // ---------------------------------------------------------------------------------------------

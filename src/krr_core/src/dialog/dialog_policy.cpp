@@ -99,9 +99,9 @@ pomdp::TurnLimitedPolicy solveDialogPolicy(const DialogPomdp& dialog,
   if (!cache_dir.empty()) {
     std::ostringstream key;
     key.precision(17);
-    key << "certified v1|" << solverFingerprint() << "|" << limit << "|" << so.precision << "|"
+    key << "certified v2|" << solverFingerprint() << "|" << limit << "|" << so.precision << "|"
         << so.maxTrials << "|" << so.seed << "|" << so.lowerGuidedEvery << "|"
-        << so.lookaheadLower << "|" << dialog.exportCassandra();
+        << so.lookaheadLower << "|" << so.commitLower << "|" << dialog.exportCassandra();
     char name[64];
     std::snprintf(name, sizeof(name), "policy_%016llx",
                   static_cast<unsigned long long>(stableHash(key.str())));

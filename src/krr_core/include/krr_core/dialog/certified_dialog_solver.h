@@ -24,7 +24,13 @@
  * exactly on the way back. At turnLimit the node's value is exact (serve the best request).
  *
  * Bounds at a node that has not been expanded:
- *  - lower: serve now, the best serve action's expected reward (a plan the robot can run);
+ *  - lower: the best of two plans the robot can run, valued exactly: serve now, or commit to
+ *    one room r, i.e. never ask about the room again and follow the room-revealed
+ *    sub-dialog's optimal plan for r (below) on the item and person. The sub-dialog stores
+ *    that plan's value per true request (all of them: the plan's serve goes to r, and its
+ *    answers depend only on the true item and person), so the commit value at a belief is one
+ *    dot product per room. Once the room is nearly settled this bound is nearly the upper one,
+ *    and the search stops there;
  *  - upper: the room revealed for free (generally: the slot with most values). The belief
  *    is the mixture sum_r b(room = r) b(. | room = r), the finite-horizon value V_t is
  *    convex (a maximum of linear functions of the belief), so V_t(b) <= sum_r b(r) V_t(b | r).
@@ -41,8 +47,9 @@
  *
  * The policy: the greedy policy of the lower bound, exported as alpha vectors
  * (pomdp::TurnLimitedPolicy) by walking the policy's DAG from the root: each node's vector is
- * the value, per true request, of the plan the node starts; the vector at the root is the
- * certified lower bound. The vectors serve every belief the language front end can produce
+ * the value, per true request, of the plan the node starts (a frontier node's: serve, or its
+ * commit plan with every node of that plan); the vector at the root is the certified lower
+ * bound. The vectors serve every belief the language front end can produce
  * (max over vectors usable at that turn, each a plan's guaranteed value).
  */
 #pragma once
@@ -69,11 +76,16 @@ struct CertifiedSolverOptions {
   std::size_t memoryBudget = 0;  ///< bytes for the search's tables; 0: krr::memoryBudget()
   std::uint64_t seed = 1;        ///< the trials' answer sampling
   /// Every k-th trial follows the lower bound's greedy action instead of the upper bound's
-  /// (0: never): trials along the policy improve the policy itself.
-  std::size_t lowerGuidedEvery = 2;
-  /// A new node's lower bound is the best of serving now and one question then serving
-  /// (a plan the robot can run) instead of serving now alone.
-  bool lookaheadLower = true;
+  /// (0: never): trials along the policy improve the policy itself. With the commit plans
+  /// few are needed, but some are: at k = 0 the lower bound at the root stays near 0.
+  std::size_t lowerGuidedEvery = 8;
+  /// A new node's lower bound is also one question then serving (off: the commit plans
+  /// below make it redundant on the office models, and it took a quarter of the time).
+  bool lookaheadLower = false;
+  /// A new node's lower bound is also the best "commit to one room" plan: follow the
+  /// room-revealed sub-dialog's optimal plan for that room (never asking about the room
+  /// again), valued exactly for every true request.
+  bool commitLower = true;
 };
 
 /// @brief Why a solve stopped.
