@@ -190,8 +190,15 @@ static int mainBody(int argc, char** argv) {
                 su.fibIterations, su.fibConverged ? ", converged" : "",
                 su.timedOut ? " -- set-up stopped at the time budget" : "");
     std::printf("%10s %14s %14s %12s %8s\n", "time_s", "lower", "upper", "gap", "alphas");
+    // Bounds that are not finite (or not ordered) are never printed as bounds: the run stops
+    // with an error. The model's reward limit (Model::kMaxAbsReward) rules this out; the check
+    // makes sure that no path ever labels such numbers "valid bounds".
     auto print = [&]() {
       auto r = solver.report();
+      if (!r.valid())
+        throw krr::IncoherentError(file + ": the solver's bounds at the start belief are not "
+                                   "finite, ordered numbers (lower " + std::to_string(r.lower) +
+                                   ", upper " + std::to_string(r.upper) + "): no valid bounds");
       std::printf("%10.4f %14.6f %14.6f %12.6f %8zu\n", r.time, r.lower, r.upper, r.gap(),
                   r.alphas);
       std::fflush(stdout);

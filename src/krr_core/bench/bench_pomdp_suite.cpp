@@ -85,6 +85,7 @@ RunResult runOne(const std::string& name, const std::string& dir, double budget,
     r.setupSeconds = solver.setupReport().seconds();
     solver.runUntil(solver.report().time + std::max(0.0, budget - reserve - wall.seconds()));
     const BoundsReport rep = solver.report();
+    if (!rep.valid()) throw IncoherentError("bounds at b0 are not finite, ordered numbers");
     r.ok = 1;
     r.states = model.getS();
     r.actions = model.getA();

@@ -75,6 +75,10 @@ void readBounds(const std::string& file, PolicyReport& r) {
     else throw IoError(file + ": unknown field '" + key + "' (delete it to solve again)");
     if (!in) throw IoError(file + ": bad value of '" + key + "' (delete it to solve again)");
   }
+  if (!r.bounds.valid())
+    throw IoError(file + ": bounds [" + std::to_string(r.bounds.lower) + ", " +
+                  std::to_string(r.bounds.upper) + "] are not finite, ordered bounds (delete "
+                  "it to solve again)");
 }
 
 }  // namespace
@@ -141,6 +145,10 @@ pomdp::TurnLimitedPolicy solveDialogPolicy(const DialogPomdp& dialog,
   rep.bounds.points = cr.nodes;
   rep.bounds.bytes = cr.bytes;
   rep.bounds.alphas = policy.size();
+  if (!rep.bounds.valid())
+    throw IncoherentError("dialog policy: the solver's bounds at the prior [" +
+                          std::to_string(rep.bounds.lower) + ", " +
+                          std::to_string(rep.bounds.upper) + "] are not finite, ordered bounds");
   rep.converged = rep.bounds.gap() <= so.precision;
   rep.reproducible = cr.reproducible();
   if (!rep.file.empty() && rep.reproducible) {

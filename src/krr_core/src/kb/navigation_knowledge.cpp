@@ -394,7 +394,10 @@ void NavigationKnowledge::saveLearned(const std::string& path) const {
 }
 
 void NavigationKnowledge::loadLearned(const std::string& path) {
-  std::string text = readFile(path);
+  loadLearnedText(readFile(path), path);
+}
+
+void NavigationKnowledge::loadLearnedText(std::string text, const std::string& path) {
   // Area blocks come after the pairs, each after its marker line.
   std::vector<std::pair<std::string, std::string>> areaBlocks;
   for (std::size_t at = text.find(kAreaMarker); at != std::string::npos;) {

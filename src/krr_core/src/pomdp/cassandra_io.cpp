@@ -155,6 +155,21 @@ class Parser {
                        "file has " + std::to_string(tokens) + " tokens, parsing it needs about " +
                            formatBytes(need) + ", above the memory budget of " +
                            formatBytes(budget_) + " (KRR_MEMORY_BUDGET_MIB)");
+    // A NUL byte would end a token's C string early ("0.95\0junk" read as 0.95): refused at
+    // its own position, whatever follows it.
+    if (const std::size_t nul = text.find('\0'); nul != std::string::npos) {
+      int line = 1, col = 1;
+      for (std::size_t i = 0; i < nul; ++i) {
+        if (text[i] == '\n') {
+          ++line;
+          col = 1;
+        } else {
+          ++col;
+        }
+      }
+      throw ParseError(SourceLocation{file_, line, col},
+                       "NUL byte (\\0) in the file: a .pomdp file is text");
+    }
     toks_ = tokenize(text);
     int l = 1, c = 1;
     for (char ch : text) {
@@ -244,6 +259,16 @@ class Parser {
     if (!isNumber(t.text, &v)) fail(t, std::string("expected ") + what + ", got '" + t.text + "'");
     return v;
   }
+  /// @brief A reward entry: |R| <= Model::kMaxAbsReward, so that every bound stays finite.
+  double reward() {
+    const Token& t = peek();
+    const double v = number("reward value");
+    if (std::abs(v) > Model::kMaxAbsReward)
+      fail(t, "reward " + t.text + " is outside [-" + formatNumber(Model::kMaxAbsReward, 6) +
+                  ", " + formatNumber(Model::kMaxAbsReward, 6) + "], the limit that keeps "
+                  "|R| / (1 - discount) and |R| * horizon finite");
+    return v;
+  }
   double probability(const char* what) {
     const Token& t = peek();
     double v = number(what);
@@ -256,6 +281,11 @@ class Parser {
     if (sym.defined) fail(kw, std::string(kind) + " defined twice");
     sym.defined = true;
     long n = 0;
+    // A number is a count, never a name ("states: -2" is not a state named -2): anything but
+    // a positive integer is refused at its own token.
+    if (!atEnd() && isNumber(peek().text, nullptr) && !isInteger(peek().text, nullptr))
+      fail(peek(), std::string("number of ") + kind + " must be a positive integer, got '" +
+                       peek().text + "'");
     if (!atEnd() && isInteger(peek().text, &n) && isKeywordStart(1)) {
       if (n <= 0) fail(peek(), std::string("number of ") + kind + " must be positive");
       sym.n = static_cast<std::size_t>(n);
@@ -269,6 +299,9 @@ class Parser {
              "observations, start, T, O, R; got '" + peek().text + "'");
       const Token& t = next("a name");
       if (t.text == "*") fail(t, "'*' is not a valid name");
+      if (isNumber(t.text, nullptr))
+        fail(t, std::string("'") + t.text + "' is a number, not a name: " + kind +
+                    " are a positive count or a list of names");
       if (!sym.index.emplace(t.text, sym.names.size()).second)
         fail(t, std::string("duplicate ") + kind + " name '" + t.text + "'");
       sym.names.push_back(t.text);
@@ -564,19 +597,19 @@ void Parser::parseR() {
   if (peek().text != ":") {  // matrix S' x O
     for (std::size_t s1 = 0; s1 < states_.n; ++s1)
       for (std::size_t o = 0; o < obs_.n; ++o)
-        r_.push_back({a, s, static_cast<Idx>(s1), static_cast<Idx>(o), number("reward value")});
+        r_.push_back({a, s, static_cast<Idx>(s1), static_cast<Idx>(o), reward()});
     return;
   }
   expectColon();
   Idx s1 = symbol(states_, "state", true);
   if (peek().text != ":") {  // row over O
     for (std::size_t o = 0; o < obs_.n; ++o)
-      r_.push_back({a, s, s1, static_cast<Idx>(o), number("reward value")});
+      r_.push_back({a, s, s1, static_cast<Idx>(o), reward()});
     return;
   }
   expectColon();
   Idx o = symbol(obs_, "observation", true);
-  r_.push_back({a, s, s1, o, number("reward value")});
+  r_.push_back({a, s, s1, o, reward()});
 }
 
 Model Parser::parse() {

@@ -159,6 +159,14 @@ void Model::checkSizesAndRewards(double discount) const {
                       std::to_string(r_.cols()) + ", expected " + std::to_string(s_) + "x" +
                       std::to_string(a_) + " (states x actions)");
   if (!r_.allFinite()) throw ConfigError("POMDP model: reward matrix has non-finite entries");
+  if (r_.size() > 0) {
+    Eigen::Index s = 0, a = 0;
+    const double worst = r_.cwiseAbs().maxCoeff(&s, &a);
+    if (worst > kMaxAbsReward)
+      throw ConfigError("POMDP model: reward R(s" + std::to_string(s) + ", a" +
+                        std::to_string(a) + ") = " + num(r_(s, a)) + " is above the limit |R| <= " +
+                        num(kMaxAbsReward) + " that keeps the bounds finite");
+  }
 }
 
 void Model::validateRows(double timeLimit, double startSeconds) const {

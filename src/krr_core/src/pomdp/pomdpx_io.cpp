@@ -554,6 +554,11 @@ void Reader::readEntry(Table& t, const XMLElement* entry) {
     for (std::size_t k = 0; k < count; ++k) {
       if (!parseDouble(numTok[k], &numbers[k]))
         failToken(tab, k, "expected a number, got '" + numTok[k] + "'");
+      if (!t.probability && std::abs(numbers[k]) > Model::kMaxAbsReward)
+        failToken(tab, k, "reward " + numTok[k] + " is outside [-" +
+                              formatNumber(Model::kMaxAbsReward, 6) + ", " +
+                              formatNumber(Model::kMaxAbsReward, 6) + "], the limit that keeps "
+                              "|R| / (1 - discount) and |R| * horizon finite");
       if (t.probability && (numbers[k] < 0.0 || numbers[k] > 1.0 + tolerance_))
         failToken(tab, k, "probability " + numTok[k] + " is not in [0, 1]");
     }
@@ -642,6 +647,9 @@ std::vector<std::string> Reader::flatNames(const std::vector<std::size_t>& order
 }
 
 Model Reader::read() {
+  // tinyxml2 reads C strings: a NUL byte would silently end the document there.
+  if (const std::size_t nul = text_.find('\0'); nul != std::string::npos)
+    throw ParseError(at(nul), "NUL byte (\\0) in the file: a .pomdpx file is text");
   tinyxml2::XMLDocument doc;
   if (doc.Parse(text_.data(), text_.size()) != tinyxml2::XML_SUCCESS) {
     const int line = std::max(1, doc.ErrorLineNum());
@@ -919,6 +927,17 @@ Model Reader::read() {
         r(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(a)) += value;
       }
     }
+  }
+
+  // Each Func is within the limit, their sum need not be: refused at <RewardFunction>.
+  if (r.size() > 0) {
+    Eigen::Index ws = 0, wa = 0;
+    if (r.cwiseAbs().maxCoeff(&ws, &wa) > Model::kMaxAbsReward)
+      fail(rewEl, "the reward functions add up to " + formatNumber(r(ws, wa), 6) + " in state " +
+                      std::to_string(ws) + " under action " + std::to_string(wa) +
+                      ", outside [-" + formatNumber(Model::kMaxAbsReward, 6) + ", " +
+                      formatNumber(Model::kMaxAbsReward, 6) + "], the limit that keeps "
+                      "|R| / (1 - discount) and |R| * horizon finite");
   }
 
   // ---- b0: the product of the InitialStateBelief factors ------------------------------------

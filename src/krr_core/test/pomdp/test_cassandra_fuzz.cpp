@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
+#include <stdexcept>
 #include <fstream>
 #include <random>
 #include <string>
@@ -13,6 +15,7 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/pomdp/cassandra_io.h"
+#include "krr_core/pomdp/point_based_solver.h"
 #include "krr_core/examples/tiger.h"
 
 namespace krr {
@@ -33,7 +36,10 @@ std::vector<std::string> mutants() {
   const std::vector<std::string> base = seeds();
   const std::vector<std::string> dict = {
       "states:", "actions:", "observations:", "T:", "O:", "R:", " * ", " : ", "identity",
-      "uniform", "start:", "include", "exclude", "\n", "reward", "cost", "discount:", "#"};
+      "uniform", "start:", "include", "exclude", "\n", "reward", "cost", "discount:", "#",
+      // issue 24: numbers that overflow the bounds, counts that are not counts, NUL bytes
+      " 1e308 ", " -1e308 ", " 1e12 ", " -2 ", "states: -2\n", std::string(1, '\0'),
+      "discount: 0.9999999\n"};
   std::mt19937_64 rng(kSeed);
   std::vector<std::string> out;
   for (std::size_t i = 0; i < kMutants; ++i)
@@ -41,7 +47,10 @@ std::vector<std::string> mutants() {
   return out;
 }
 
-/// @brief Parse one input under the budgets the fuzz test imposes; typed errors are fine.
+/// @brief Parse one input under the budgets the fuzz test imposes; typed errors are fine. A
+/// model that is read must keep its bounds finite (issue 24): no NUL byte in its text, every
+/// reward within Model::kMaxAbsReward, and a short deterministic solve gives finite, ordered
+/// bounds. A violation is a std::logic_error, which the harness reports as an escape.
 void parseQuietly(const std::string& text) {
   CassandraLimits limits;
   limits.memory_budget = 64u << 20;
@@ -49,6 +58,24 @@ void parseQuietly(const std::string& text) {
   try {
     Model m = readCassandra(text, "mutant.pomdp", limits);
     writeCassandra(m);
+    if (text.find('\0') != std::string::npos)
+      throw std::logic_error("a text with a NUL byte was read as a model");
+    for (std::size_t s = 0; s < m.getS(); ++s)
+      for (std::size_t a = 0; a < m.getA(); ++a)
+        if (!(std::abs(m.getExpectedReward(s, a)) <= Model::kMaxAbsReward))
+          throw std::logic_error("reward beyond the limit was read");
+    if (m.getDiscount() < 1.0 && m.getS() <= 64) {
+      SolverOptions opt;
+      opt.maxTrials = 3;
+      opt.timeout = 1.0;
+      opt.setupTimeLimit = 0.5;
+      PointBasedSolver solver(m, m.initialBelief(), opt);
+      solver.solve();
+      if (!solver.report().valid())
+        throw std::logic_error("the solver's bounds are not finite: " +
+                               std::to_string(solver.report().lower) + ", " +
+                               std::to_string(solver.report().upper));
+    }
   } catch (const Error&) {
   }
 }

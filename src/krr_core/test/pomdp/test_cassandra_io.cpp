@@ -128,6 +128,55 @@ TEST(CassandraIo, ParseErrorPositions) {
   EXPECT_EQ(errorAt("discount: 0.9\nvalues: money\n").substr(0, 11), "m.pomdp:2:9");
 }
 
+// Issue 24: rewards of +-1e308 were read, and pomdp_solve printed bounds -inf / -inf, gap nan
+// as "valid bounds". Every reward entry must be within Model::kMaxAbsReward, in every R form.
+TEST(CassandraIo, RewardsThatWouldMakeBoundsInfiniteAreRefusedAtTheirToken) {
+  const std::string head = "discount: 0.95\nstates: a b\nactions: x\nobservations: o p\n"
+                           "T: x identity\nO: x uniform\n";
+  EXPECT_EQ(errorAt(head + "R: x : a : * : * 1e308\n"),
+            "m.pomdp:7:18 reward 1e308 is outside [-1e+12, 1e+12], the limit that keeps "
+            "|R| / (1 - discount) and |R| * horizon finite");
+  EXPECT_EQ(errorAt(head + "R: x : a : b : o -1e308\n").substr(0, 13), "m.pomdp:7:18 ");
+  // row (over observations) and matrix (next states x observations) forms: at the entry
+  EXPECT_EQ(errorAt(head + "R: x : a : b 1 -2e12\n").substr(0, 13), "m.pomdp:7:16 ");
+  EXPECT_EQ(errorAt(head + "R: x : a\n1 2\n3 1.5e12\n").substr(0, 12), "m.pomdp:9:3 ");
+  // costs are negated rewards: the same limit
+  EXPECT_EQ(errorAt("values: cost\n" + head + "R: x : * : * : * 1e13\n").substr(0, 13),
+            "m.pomdp:8:18 ");
+  // non-finite numbers were refused already, as numbers
+  EXPECT_EQ(errorAt(head + "R: x : a : * : * inf\n").substr(0, 13), "m.pomdp:7:18 ");
+  // the limit itself is accepted, with a discount close to 1: the bounds stay finite
+  const Model m = readCassandra("discount: 0.9999999\nstates: a b\nactions: x\n"
+                                "observations: o p\nT: x identity\nO: x uniform\n"
+                                "R: x : a : * : * 1e12\nR: x : b : * : * -1e12\n");
+  EXPECT_EQ(m.getExpectedReward(0, 0), 1e12);
+  EXPECT_EQ(m.getExpectedReward(1, 0), -1e12);
+}
+
+// "states: -2" was read as one state named -2 and the error surfaced 19 lines later; a NUL
+// byte after the discount was accepted ("0.95\0" read as 0.95).
+TEST(CassandraIo, NegativeCountsNumericNamesAndNulBytesAreRefusedWhereTheyAre) {
+  const std::string rest = "actions: x\nobservations: o\nT: x identity\nO: x uniform\n";
+  EXPECT_EQ(errorAt("discount: 0.95\nstates: -2\n" + rest),
+            "m.pomdp:2:9 number of states must be a positive integer, got '-2'");
+  EXPECT_EQ(errorAt("discount: 0.95\nstates: 2.5\n" + rest),
+            "m.pomdp:2:9 number of states must be a positive integer, got '2.5'");
+  EXPECT_EQ(errorAt("discount: 0.95\nstates: 0\n" + rest),
+            "m.pomdp:2:9 number of states must be positive");
+  EXPECT_EQ(errorAt("discount: 0.95\nstates: 3\nactions: -1\n").substr(0, 13),
+            "m.pomdp:3:10 ");
+  EXPECT_EQ(errorAt("discount: 0.95\nstates: a 7 b\n" + rest),
+            "m.pomdp:2:11 '7' is a number, not a name: states are a positive count or a list "
+            "of names");
+  EXPECT_EQ(errorAt(std::string("discount: 0.95") + '\0' + "\nstates: 2\n" + rest),
+            "m.pomdp:1:15 NUL byte (\\0) in the file: a .pomdp file is text");
+  EXPECT_EQ(errorAt(std::string("discount: 0.95\nstates: 2\nactions: x") + '\0' + "y\n" + rest)
+                .substr(0, 13),
+            "m.pomdp:3:11 ");
+  // a NUL byte in a comment is refused too: the file is not text
+  EXPECT_EQ(errorAt(std::string("# a") + '\0' + "b\ndiscount: 0.95\n").substr(0, 12), "m.pomdp:1:4 ");
+}
+
 // The standard benchmark files are written with six decimals: TagAvoid.pomdp was refused with
 // "transition probabilities of action 'North' from state 's837' sum to 1.000001" (issue 15).
 TEST(CassandraIo, SixDecimalRowsAreRenormalisedAndTheLargestDeviationReported) {

@@ -1,6 +1,8 @@
 // Tests of pomdp::Model: validation, accessors, derived structure, sampling.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
 #include <string>
 
 #include "krr_core/common/errors.h"
@@ -61,6 +63,22 @@ TEST(Model, ValidationNamesActionStateAndSum) {
             std::string::npos);
   EXPECT_NE(configError({t}, {z, z}, r, 0.9).find("2 observation matrices for 1 actions"),
             std::string::npos);
+}
+
+// Issue 24: rewards must keep every bound finite; the limit is |R| <= Model::kMaxAbsReward.
+TEST(Model, RewardsBeyondTheLimitAreRefused) {
+  Eigen::MatrixXd t = Eigen::MatrixXd::Identity(2, 2), z = Eigen::MatrixXd::Identity(2, 2);
+  Eigen::MatrixXd r = Eigen::MatrixXd::Zero(2, 1);
+  r(1, 0) = -1e308;
+  EXPECT_EQ(configError({t}, {z}, r, 0.95),
+            "POMDP model: reward R(s1, a0) = -1e+308 is above the limit |R| <= 1e+12 "
+            "that keeps the bounds finite");
+  r(1, 0) = std::nextafter(Model::kMaxAbsReward, 1e300);
+  EXPECT_NE(configError({t}, {z}, r, 0.95).find("above the limit"), std::string::npos);
+  r(1, 0) = -Model::kMaxAbsReward;  // the limit itself is a valid model, finite bounds
+  EXPECT_EQ(configError({t}, {z}, r, 0.95), "no error");
+  r(1, 0) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(configError({t}, {z}, r, 0.95).find("non-finite"), std::string::npos);
 }
 
 TEST(Model, DetectsTerminalStatesAndInitialBeliefChecks) {

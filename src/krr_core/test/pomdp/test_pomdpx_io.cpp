@@ -339,6 +339,30 @@ TEST(PomdpxIo, MalformedInputIsRefusedAtItsPosition) {
             std::string::npos);
 }
 
+// Issue 24: rewards must keep the bounds finite (|R| <= Model::kMaxAbsReward), each <Func>
+// entry and their sum; a NUL byte would end tinyxml2's document early.
+TEST(PomdpxIo, RewardsBeyondTheLimitAndNulBytesAreRefusedAtTheirPosition) {
+  const std::string huge = doorWith("<ValueTable>0 10</ValueTable>", "<ValueTable>0 1e308</ValueTable>");
+  std::string e = errorOf(huge);
+  EXPECT_EQ(e.rfind("door.pomdpx:" + positionOf(huge, "1e308") + ": reward 1e308 is outside "
+                    "[-1e+12, 1e+12]", 0), 0u) << e;
+  const std::string negative = doorWith("<ValueTable>-1</ValueTable>", "<ValueTable>-1e13</ValueTable>");
+  e = errorOf(negative);
+  EXPECT_EQ(e.rfind("door.pomdpx:" + positionOf(negative, "-1e13") + ": reward -1e13", 0), 0u) << e;
+  // each Func at the limit, their sum beyond it: refused at <RewardFunction>
+  const std::string sum = doorWith("<ValueTable>2</ValueTable>", "<ValueTable>1e12</ValueTable>");
+  e = errorOf(sum);
+  EXPECT_EQ(e.rfind("door.pomdpx:" + positionOf(sum, "<RewardFunction>") +
+                    ": the reward functions add up to", 0), 0u) << e;
+  EXPECT_EQ(errorOf(doorWith("<ValueTable>2</ValueTable>", "<ValueTable>-1e12</ValueTable>")),
+            "no error");
+  std::string nul = kDoor;
+  const std::size_t at = nul.find("<ObsFunction>");
+  nul.insert(at, 1, '\0');
+  e = errorOf(nul);
+  EXPECT_EQ(e.rfind("door.pomdpx:" + positionOf(kDoor, "<ObsFunction>") + ": NUL byte", 0), 0u) << e;
+}
+
 TEST(PomdpxIo, RowsOffByRoundingAreRenormalisedLikeThePomdpReader) {
   CassandraStats stats;
   Model m = readPomdpx(doorWith("0.9 0.1 0.3 0.7", "0.90004 0.1 0.3 0.7"), "door.pomdpx",

@@ -19,6 +19,12 @@
 // run after it) while the node keeps serving with the current policy; the new model replaces
 // the current one only between dialogs (when the next dialog starts, or on an idle timer). A
 // failed rebuild is logged and the current model kept.
+//
+// Restarts (issue 24): the node records in ~state_file whether a dialog is in progress (its id
+// and phase; written atomically when a dialog starts, when the robot serves and when the
+// delivery ends). A node that starts (e.g. respawned after a crash) and finds a dialog in
+// progress there tells the person on robot_utterance (kind notice, that dialog's id) that it
+// restarted and lost the dialog, and asks for the request again; dialog ids continue after it.
 #include <actionlib/client/simple_action_client.h>
 #include <krr_msgs/BuildTaskModel.h>
 #include <krr_msgs/DeliveryStatus.h>
@@ -33,14 +39,17 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <memory>
 #include <mutex>
+#include <sstream>
 #include <string>
 #include <system_error>
 #include <thread>
 #include <vector>
 
 #include "krr_core/common/errors.h"
+#include "krr_core/common/files.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/dialog/delivery_manager.h"
 #include "krr_core/dialog/delivery_navigation.h"
@@ -76,6 +85,7 @@ struct DialogParams {
   double leg_timeout = 600;      ///< ~navigation_timeout: s per trip before giving up
   double check_timeout = 30;     ///< ~check_timeout: s to wait for the person's check
   std::string updates_topic;     ///< ~knowledge_updates: topic that triggers a rebuild
+  std::string state_file;        ///< ~state_file: dialog in progress, for a restarted node
   std::uint64_t seed = 1;        ///< ~seed (the manager is deterministic; logged)
 
   static DialogParams read(krr_ros::ParamReader& r) {
@@ -98,6 +108,7 @@ struct DialogParams {
     p.leg_timeout = r.number("navigation_timeout", 600, 0.1, 86400);
     p.check_timeout = r.number("check_timeout", 30, 0.1, 86400);
     p.updates_topic = r.str("knowledge_updates", "/reasoner/knowledge_updates");
+    p.state_file = r.path("state_file", "", false);
     if (p.action.empty()) throw krr::ConfigError("parameter navigation_action: empty name");
     r.rejectUnknown();
     return p;
@@ -143,6 +154,7 @@ class DialogNode {
     if (!p_.updates_topic.empty())
       updates_sub_ = nh.subscribe(p_.updates_topic, 10, &DialogNode::onKnowledgeUpdate, this);
     timer_nh_ = pnh;
+    announceRestart();
     install_timer_ = nh.createTimer(ros::Duration(kInstallPeriod), [this](const ros::TimerEvent&) {
       if (idle()) installPending();
     });
@@ -150,6 +162,13 @@ class DialogNode {
 
   ~DialogNode() {
     if (worker_.joinable()) worker_.join();
+  }
+
+  /// @brief A clean shutdown is not a crash: the next start is a new session, with nobody
+  /// to tell, so the state file is removed.
+  void forgetState() {
+    std::error_code ec;
+    if (!p_.state_file.empty()) std::filesystem::remove(p_.state_file, ec);
   }
 
   /// @brief True while a background rebuild is running (or about to run again).
@@ -301,6 +320,77 @@ class DialogNode {
                    model_->policy.size());
   }
 
+  // --- restarts -----------------------------------------------------------------------------
+  /// @brief Record whether a dialog is in progress ("idle" or its phase), atomically. A
+  /// failure is logged: it only costs the restart notice.
+  void saveState(const std::string& phase) {
+    if (p_.state_file.empty()) return;
+    try {
+      krr_ros::ensureParentDirectory(p_.state_file);
+      krr::writeFileAtomic(p_.state_file, "krr-dialog-state 1\ndialog " +
+                                              std::to_string(dialog_id_) + "\nphase " + phase +
+                                              "\n");
+    } catch (const std::exception& e) {
+      ROS_WARN_NAMED(kLog, "cannot record the dialog state in %s: %s", p_.state_file.c_str(),
+                     e.what());
+    }
+  }
+
+  /// @brief At start: a dialog in progress in ~state_file means the node restarted during it.
+  /// Dialog ids continue after it; the person is told once someone listens on robot_utterance
+  /// (at most 10 s after start), then the state is idle.
+  void announceRestart() {
+    if (p_.state_file.empty() || !std::filesystem::exists(p_.state_file)) return;
+    std::string phase;
+    unsigned id = 0;
+    try {
+      std::istringstream in(krr::readFile(p_.state_file));
+      std::string magic, key;
+      int version = 0;
+      if (!(in >> magic >> version) || magic != "krr-dialog-state" || version != 1)
+        throw krr::ParseError({p_.state_file, 1, 1}, "not a dialog state file");
+      while (in >> key) {
+        if (key == "dialog") in >> id;
+        else if (key == "phase") in >> phase;
+        else throw krr::ParseError({p_.state_file, 1, 1}, "unknown field '" + key + "'");
+      }
+    } catch (const std::exception& e) {
+      ROS_WARN_NAMED(kLog, "ignoring the dialog state file: %s", e.what());
+      return;
+    }
+    if (phase.empty() || phase == "idle") return;
+    dialog_id_ = id;  // ids continue after the lost dialog
+    ROS_WARN_NAMED(kLog, "restarted during dialog %u (%s): telling the person", id, phase.c_str());
+    restart_phase_ = phase;
+    const ros::Time started = ros::Time::now();
+    restart_timer_ = timer_nh_.createTimer(ros::Duration(0.1), [this, id, started](const ros::TimerEvent&) {
+      const bool listened = utterance_pub_.getNumSubscribers() > 0;
+      if (!listened && (ros::Time::now() - started).toSec() < 10.0) return;
+      restart_timer_.stop();
+      if (listened) ros::Duration(0.3).sleep();  // the subscriber's connection completes
+      RobotUtterance u;
+      u.header.stamp = ros::Time::now();
+      u.dialog_id = id;
+      u.turn = 0;
+      u.kind = RobotUtterance::NOTICE;
+      u.text = "Sorry, I had to restart and lost our conversation (dialog " + std::to_string(id) +
+               ", " + restart_phase_ + "). Please tell me again what I can deliver for you.";
+      utterance_pub_.publish(u);
+      ROS_WARN_NAMED(kLog, "told the person of dialog %u that the dialog node restarted", id);
+      saveState("idle");
+    });
+  }
+
+  /// @brief The phase written to ~state_file while a delivery is in progress.
+  static const char* phaseName(Phase p) {
+    switch (p) {
+      case Phase::kDialog: return "asking";
+      case Phase::kNavigating: return "delivering";
+      case Phase::kAwaitCheck: return "awaiting-check";
+      default: return "idle";
+    }
+  }
+
   // --- user utterances ----------------------------------------------------------------------
   void onUtterance(const krr_msgs::UserUtterance::ConstPtr& msg) {
     try {
@@ -338,6 +428,7 @@ class DialogNode {
     ++dialog_id_;
     published_ = 0;
     ROS_INFO_NAMED(kLog, "dialog %u started", dialog_id_);
+    saveState(phaseName(Phase::kDialog));
     publishBelief();
     decide();
   }
@@ -376,6 +467,7 @@ class DialogNode {
                    req[1].c_str(), req[2].c_str(), r.turns, r.qa_cost, r.served_probability,
                    r.max_probability, r.entropy, r.forced ? " (turn limit)" : "");
     status(DeliveryStatus::SERVING, "picking up a " + req[0] + " at the " + config_.shop);
+    saveState(phaseName(Phase::kNavigating));
     navigate();
   }
 
@@ -505,6 +597,7 @@ class DialogNode {
     wait_timer_.stop();
     const krr::dialog::DeliveryRecord& r = manager().record();
     const std::string outcome = krr::dialog::toString(r.outcome);
+    saveState("idle");
     status(outcome, r.message);
     if (r.outcome == krr::dialog::DeliveryOutcome::kFulfilled)
       ROS_INFO_NAMED(kLog, "dialog %u: delivery %s: %s", dialog_id_, outcome.c_str(), r.message.c_str());
@@ -652,7 +745,8 @@ class DialogNode {
   ros::Time wait_start_;
   NavigateClient nav_client_;
   ros::NodeHandle timer_nh_;
-  ros::Timer wait_timer_, leg_timer_, check_timer_;
+  ros::Timer wait_timer_, leg_timer_, check_timer_, restart_timer_;
+  std::string restart_phase_;  ///< phase of the dialog a restart lost
   ros::Publisher utterance_pub_, belief_pub_, status_pub_, decisions_pub_;
   ros::Subscriber utterance_sub_, updates_sub_;
 };
@@ -676,6 +770,7 @@ int main(int argc, char** argv) {
   }
   ROS_INFO_NAMED(kLog, "ready: talk to me on user_utterance");
   ros::spin();  // one thread: every callback; a background rebuild needs none of them
+  node->forgetState();
   if (node->rebuilding()) {
     // The solve cannot be interrupted; joining it could delay shutdown by up to the solver's
     // timeout. Nothing half-written stays behind: cache files are written atomically. (rosconsole

@@ -145,6 +145,9 @@ class NavigationKnowledge {
   void saveLearned(const std::string& path) const;
   /// @brief Add the statements of a learned-knowledge file (as tag "learned").
   void loadLearned(const std::string& path);
+  /// @brief loadLearned() of text already read (learnedText() of another instance, e.g. a
+  /// copy of the knowledge for a concurrent reader); `name` is used in error locations.
+  void loadLearnedText(std::string text, const std::string& name);
 
   const NavStateSpace& space() const { return space_; }
   plog::Reasoner& reasoner() { return reasoner_; }

@@ -185,6 +185,13 @@ class Model {
 
   /// @brief Tolerance used to validate probability sums.
   static constexpr double kTolerance = 1e-6;
+  /// @brief Largest |R(s, a)| a model may have (the readers refuse larger reward entries at
+  /// their file:line:col). It keeps every bound finite: for any double discount below 1,
+  /// 1 / (1 - discount) <= 2^53 (about 9.0e15), so |V| <= |R| / (1 - discount) <= 9.0e27, and
+  /// a finite horizon H (turn counters, at most 2^64) gives |R| * H <= 1.8e31; both are far
+  /// below DBL_MAX (1.8e308), with room for the solver's sums over states and observations.
+  /// Real models are nowhere near it (the dialog's largest reward is 120, RockSample's 10).
+  static constexpr double kMaxAbsReward = 1e12;
   /// @brief kAuto keeps T dense up to this many states: below it, Eigen's vectorised dense
   /// products beat the sparse loops whatever the density (dialog models: 31 states).
   static constexpr std::size_t kDenseStates = 64;

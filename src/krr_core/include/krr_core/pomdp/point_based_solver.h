@@ -27,6 +27,8 @@
  */
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <unordered_map>
@@ -120,6 +122,13 @@ struct BoundsReport {
   std::size_t trials = 0;    ///< trials run
   std::size_t bytes = 0;     ///< bytes held by the bounds (see SolverOptions::memoryLimit)
   double gap() const { return upper - lower; }
+  /// @brief Both bounds finite and lower <= upper (up to rounding): the only bounds a program
+  /// may report as valid. Always true for a Model (|R| <= Model::kMaxAbsReward); checked where
+  /// bounds are printed or stored so that no path reports inf or nan as a bound.
+  bool valid() const {
+    return std::isfinite(lower) && std::isfinite(upper) &&
+           lower <= upper + 1e-9 * std::max(1.0, std::abs(upper));
+  }
 };
 
 /// @brief HSVI2-style anytime solver; construct, then call runUntil() repeatedly or solve().
