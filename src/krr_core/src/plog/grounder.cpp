@@ -5,6 +5,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <unordered_map>
 #include <unordered_set>
 
 #include "krr_core/plog/arith.h"
@@ -75,7 +76,7 @@ void attrsOfBody(const std::vector<Literal>& b, std::set<std::string>& out) {
 /// components of the rule dependency graph that contain a `not` edge) and attributes chosen
 /// by a random selection with a dynamic range.
 std::set<std::string> worldChangingAttributes(const Program& p) {
-  std::map<std::string, int> id;
+  std::unordered_map<std::string, int> id;
   auto idOf = [&](const std::string& a) { return id.emplace(a, static_cast<int>(id.size())).first->second; };
   std::vector<std::vector<std::pair<int, bool>>> edges;  // child -> (parent, through not)
   auto addEdges = [&](const std::string& head, const std::vector<Literal>& body) {
@@ -165,9 +166,10 @@ Deps dependencies(const Program& p) {
     attrsOfBody(r.body, s);
     attrsOfBody(r.range_body, s);
   }
-  for (const auto& pr : p.pr_atoms) attrsOfBody(pr.body, d.parents[pr.atom.attr.name]);
-  for (const auto& r : p.rules)
-    if (r.head) attrsOfBody(r.body, d.parents[r.head->attr.name]);
+  for (const auto& pr : p.pr_atoms)
+    if (!pr.body.empty()) attrsOfBody(pr.body, d.parents[pr.atom.attr.name]);
+  for (const auto& r : p.rules)  // (facts have no parents: no entry, so n facts cost O(n))
+    if (r.head && !r.body.empty()) attrsOfBody(r.body, d.parents[r.head->attr.name]);
   return d;
 }
 
@@ -1501,12 +1503,16 @@ std::set<std::string> relevanceCone(const Program& program, const std::set<std::
   // world at all), so they are always part of the cone.
   std::set<std::string> random_attrs;
   for (const auto& r : program.random_rules) random_attrs.insert(r.attr.name);
-  std::map<std::string, std::set<std::string>> head_values;  // derived attr -> head values
-  for (const auto& r : program.rules)
-    if (r.head && !random_attrs.count(r.head->attr.name))
-      head_values[r.head->attr.name].insert(r.head->value.kind == Term::Kind::Variable
-                                                ? "_var"
-                                                : toString(r.head->value));
+  // derived attribute -> (first head value, may it get two values: two values or a variable)
+  std::unordered_map<std::string, std::pair<std::string, bool>> head_values;
+  for (const auto& r : program.rules) {
+    if (!r.head || random_attrs.count(r.head->attr.name)) continue;
+    const bool var = r.head->value.kind == Term::Kind::Variable;
+    const std::string v = var ? std::string() : toString(r.head->value);
+    auto it = head_values.find(r.head->attr.name);
+    if (it == head_values.end()) head_values.emplace(r.head->attr.name, std::make_pair(v, var));
+    else if (var || it->second.first != v) it->second.second = true;
+  }
   bool changed = true;
   while (changed) {
     changed = false;
@@ -1525,7 +1531,7 @@ std::set<std::string> relevanceCone(const Program& program, const std::set<std::
     }
     for (const auto& hv : head_values) {
       if (cone.count(hv.first)) continue;
-      if (hv.second.size() < 2 && !hv.second.count("_var")) continue;
+      if (!hv.second.second) continue;
       work.push_back(hv.first);
       close();
       changed = true;
