@@ -121,8 +121,18 @@ void ExactEngine::setTimeBudget(double seconds) {
   budget_start_ = std::chrono::steady_clock::now();
 }
 
+void ExactEngine::setMemoryBudget(std::size_t bytes, const SourceLocation& where) {
+  memory_ = std::make_shared<MemoryGuard>(bytes);
+  memory_where_ = where;
+}
+
+void ExactEngine::checkMemory(std::size_t bytes) const {
+  if (memory_) memory_->check("filling the inference tables", memory_where_, bytes);
+}
+
 void ExactEngine::checkTime(unsigned mask) {
   if ((++budget_ticks_ & mask) != 0) return;
+  if (memory_ && (budget_ticks_ & 65535u) == 0) checkMemory(0);
   if (cancel_ && cancel_->load(std::memory_order_relaxed))
     throw CancelledError("inference abandoned: another back end answered first");
   if (budget_seconds_ <= 0) return;
@@ -537,6 +547,7 @@ void ExactEngine::buildCpt(int inst, Factor& f) {
       throw OutsideFragmentError("factor for " + gi.name + " is too large (" + std::to_string(parents.size()) +
                   " parents); this is outside the native reasoner's fast path");
   }
+  checkMemory(total * sizeof(double));
   f.t.assign(total, 0.0);
   std::vector<int> cur(parents.size(), 0);
   std::vector<char> possible(S);
@@ -666,6 +677,7 @@ ExactEngine::Factor ExactEngine::indicatorFactor(std::vector<int> scope,
     total *= static_cast<size_t>(card(v));
     if (total > kMaxFactor) throw OutsideFragmentError(too_large);
   }
+  checkMemory(total * sizeof(double));
   f.t.assign(total, 0.0);
   std::vector<int> cur(scope.size(), 0);
   for (size_t row = 0; row < total; ++row) {

@@ -255,7 +255,9 @@ class Grounder {
     // symbol -> position in each sort (membership and value indices in O(1))
     sort_pos_.resize(sort_vals_.size());
     for (size_t i = 0; i < sort_vals_.size(); ++i) {
-      sort_pos_[i].assign(syms_->size(), -1);
+      int top = -1;  // only up to the sort's largest symbol id: n sorts x m symbols stays O(sizes)
+      for (int v : sort_vals_[i]) top = std::max(top, v);
+      sort_pos_[i].assign(static_cast<size_t>(top + 1), -1);
       for (size_t k = 0; k < sort_vals_[i].size(); ++k)
         if (sort_pos_[i][static_cast<size_t>(sort_vals_[i][k])] < 0)
           sort_pos_[i][static_cast<size_t>(sort_vals_[i][k])] = static_cast<int>(k);
@@ -571,6 +573,7 @@ class Grounder {
     if ((ticks_ & 4095u) == 4095u && limits_.cancel &&
         limits_.cancel->load(std::memory_order_relaxed))
       throw CancelledError("grounding abandoned: another back end answered first");
+    if ((ticks_ & 4095u) == 4095u && guard_) guard_->check("grounding", cur_loc_);
     if ((++ticks_ & 4095u) == 0 && limits_.max_ground_seconds > 0 &&
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count() >
             limits_.max_ground_seconds)
@@ -581,7 +584,10 @@ class Grounder {
   }
 
  public:
-  void setLimits(const GroundingLimits& l) { limits_ = l; }
+  void setLimits(const GroundingLimits& l) {
+    limits_ = l;
+    guard_ = std::make_unique<MemoryGuard>(l.memory_budget);
+  }
 
  private:
   bool bound(const CTerm& t, const std::vector<int>& b) const {
@@ -1461,6 +1467,7 @@ class Grounder {
   std::unordered_map<std::vector<int>, int, VecHash> fact_count_;
   // budgets
   GroundingLimits limits_;
+  std::unique_ptr<MemoryGuard> guard_;  // the grounding's memory budget (setLimits)
   SourceLocation cur_loc_;  // statement being ground, named by budget and overflow errors
   std::size_t atoms_spent_ = 0, statements_spent_ = 0;
   unsigned ticks_ = 0;

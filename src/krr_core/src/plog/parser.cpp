@@ -28,8 +28,9 @@ namespace {
 
 class Parser {
  public:
-  Parser(const std::string& text, const std::string& file, Program& prog, Dialect dialect)
-      : toks_(lex(text, file)), text_(text), prog_(prog), dialect_(dialect) {}
+  Parser(const std::string& text, const std::string& file, Program& prog, Dialect dialect,
+         MemoryGuard* guard = nullptr)
+      : toks_(lex(text, file, guard)), text_(text), prog_(prog), dialect_(dialect), guard_(guard) {}
 
   std::vector<RawStmt> parseAll() {
     if (dialect_ == Dialect::Auto) {
@@ -48,10 +49,6 @@ class Parser {
       }
     }
     std::vector<RawStmt> out;
-    // one statement per '.' at most: no reallocation (a RawStmt is large to move)
-    size_t dots = 0;
-    for (const auto& t : toks_) dots += t.kind == Tok::Dot;
-    out.reserve(dots + 1);
     parseStatements(out);
     for (const auto& d : pending_domains_)
       if (!prog_.findSort(d.sort))
@@ -77,6 +74,7 @@ class Parser {
           continue;
         }
       }
+      if (guard_) guard_->tick("parsing", peek().loc);
       parseStatement(out);
     }
   }
@@ -353,6 +351,9 @@ class Parser {
       throw ParseError(loc, "range " + std::to_string(lo) + ".." + std::to_string(hi) +
                                 " too large in sort " + s.name + " (more than " +
                                 std::to_string(kMaxSortValues) + " values)");
+    if (guard_)
+      guard_->check(("expanding the range of sort " + s.name).c_str(), loc,
+                    static_cast<std::size_t>(n) * (sizeof(Term) + 64));
     for (unsigned long long k = 0; k < n; ++k)
       addValue(s, Term::integer(static_cast<long long>(static_cast<unsigned long long>(lo) + k), loc),
                seen);
@@ -441,6 +442,9 @@ class Parser {
         throw ParseError(f.loc, "record sort " + f.text + "(...) has more than " +
                                     std::to_string(kMaxSortValues) + " values");
     }
+    if (guard_)
+      guard_->check(("expanding the record sort " + f.text + "(...) of sort " + s.name).c_str(),
+                    f.loc, static_cast<std::size_t>(total) * (sizeof(Term) * (args.size() + 1) + 64));
     std::vector<size_t> idx(args.size(), 0);
     for (unsigned long long k = 0; k < total; ++k) {
       Term c;
@@ -936,6 +940,7 @@ class Parser {
   Dialect dialect_;
   size_t pos_ = 0;
   int depth_ = 0;
+  MemoryGuard* guard_ = nullptr;
   /// @brief Operators of the term being read (see kMaxTermOperators).
   int term_operators_ = 0;
   /// @brief Sorts named in classic declarations before their own declaration.
@@ -956,9 +961,11 @@ void parseInto(Program& program, const std::string& text, const std::string& fil
 
 void parseInto(Program& program, const std::string& text, const std::string& file_name,
                Dialect dialect, const ParseOptions& options) {
+  MemoryGuard guard(options.memory_budget);
+  guard.check("reading the text", SourceLocation{file_name, 1, 1}, text.size() / 2 * sizeof(Token));
   Program work = program;
   ensureBoolean(work);
-  Parser parser(text, file_name, work, dialect);
+  Parser parser(text, file_name, work, dialect, &guard);
   std::vector<RawStmt> stmts = parser.parseAll();
   parser.releaseTokens();
   ResolveSettings settings;
@@ -966,6 +973,7 @@ void parseInto(Program& program, const std::string& text, const std::string& fil
   settings.plog2 = parser.dialect() == Dialect::Plog2;
   settings.range_only = parser.rangeOnly();
   settings.strict_sorts = options.strict_sorts;
+  settings.guard = &guard;
   resolveStatements(work, stmts, settings);
   if (program.sorts.empty() && program.attributes.empty() && program.rules.empty() &&
       program.random_rules.empty() && program.pr_atoms.empty())

@@ -990,6 +990,7 @@ double Reasoner::probability(const Query& q) {
 std::vector<GCondition> Reasoner::prepareEngine(const GroundProgram& g, const Query& q,
                                                 ExactEngine& e) {
   e.setTimeBudget(limits_.max_inference_seconds);
+  e.setMemoryBudget(limits_.memory_budget, q.loc);
   e.setCancelFlag(&asp_won_);
   e.setCostCap(native_cost_cap_, native_cost_cap_recursive_);
   if (plan_callback_) e.setPlanCallback(plan_callback_);

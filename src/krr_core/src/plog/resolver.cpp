@@ -601,6 +601,7 @@ class Resolver {
     declareDoAttribute(stmts);
     declareImplicit(stmts);
     for (const auto& s : stmts) {
+      if (guard_) guard_->tick("resolving the statements", s.loc);
       switch (s.kind) {
         case RawStmt::Kind::Rule: {
           Rule r;
@@ -732,6 +733,7 @@ class Resolver {
   bool plog2_ = false;
   /// @brief ParseOptions::strict_sorts.
   bool strict_sorts_ = false;
+  MemoryGuard* guard_ = nullptr;
   /// @brief Classic attributes declared with their range only (arity taken from use).
   std::set<std::string> range_only_;
 
@@ -766,6 +768,7 @@ void resolveStatements(Program& work, const std::vector<RawStmt>& stmts,
   res.plog2_ = settings.plog2;
   res.range_only_ = settings.range_only;
   res.strict_sorts_ = settings.strict_sorts;
+  res.guard_ = settings.guard;
   res.resolveAll(stmts);
 }
 

@@ -15,6 +15,7 @@
 #pragma once
 
 #include <chrono>
+#include <memory>
 #include <functional>
 #include <limits>
 #include <string>
@@ -42,6 +43,9 @@ class ExactEngine {
   /// @brief Wall-clock budget of the inference calls from now on (0: none); exhausting it
   /// throws BudgetExceededError from the next check point (factor rows, elimination steps).
   void setTimeBudget(double seconds);
+  /// @brief Bytes by which inference may grow the heap (0: krr::memoryBudget()); `where` (the
+  /// query) is named when it is exhausted (BudgetExceededError).
+  void setMemoryBudget(std::size_t bytes, const SourceLocation& where);
   /// @brief Stop with CancelledError as soon as *flag is true (checked with the time budget).
   void setCancelFlag(const std::atomic<bool>* flag) { cancel_ = flag; }
 
@@ -196,6 +200,10 @@ class ExactEngine {
   double budget_seconds_ = 0;
   const std::atomic<bool>* cancel_ = nullptr;
   unsigned budget_ticks_ = 0;
+  std::shared_ptr<MemoryGuard> memory_;  ///< setMemoryBudget
+  SourceLocation memory_where_;
+  /// @brief Throws BudgetExceededError when `bytes` more would exceed the memory budget.
+  void checkMemory(std::size_t bytes) const;
   std::chrono::steady_clock::time_point budget_start_;
 };
 

@@ -190,6 +190,7 @@ class Reasoner {
   void setLimits(const GroundingLimits& limits) {
     limits_ = limits;
     limits_.cancel = &asp_won_;
+    parse_options_.memory_budget = limits.memory_budget;  // reading shares the budget
   }
   const GroundingLimits& limits() const { return limits_; }
 
