@@ -181,9 +181,12 @@ static int mainBody(int argc, char** argv) {
         }
       }
     } else {
+      size_t warned = r.warnings().size();
       for (const auto& j : jobs) {
         try {
           const double p = r.probability(j.query);
+          // warnings met while answering (probability sums renormalised within rounding)
+          for (; warned < r.warnings().size(); ++warned) std::cerr << r.warnings()[warned] << "\n";
           print(j.text, p, r.stats().last_backend);
         } catch (const krr::Error& e) {
           std::cerr << located(j.query.loc, e.what()) << "\n";

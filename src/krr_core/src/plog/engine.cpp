@@ -13,6 +13,12 @@ namespace plog {
 
 namespace {
 constexpr size_t kMaxFactor = size_t(1) << 24;
+/// @brief Probability sums off by more than this (relative to 1) are errors; within it they
+/// are rounding and are renormalised (with a warning, see ExactEngine::warnings).
+constexpr double kSumTolerance = 1e-9;
+/// @brief Per assigned value, the floating-point noise of adding exact decimals (0.1 + 0.2 +
+/// 0.7 = 1 + 2.2e-16): sums within it of 1 are kept as written, without a warning.
+constexpr double kSumNoise = 8 * 2.220446049250313e-16;
 }
 
 ExactEngine::ExactEngine(const GroundProgram& g) : g_(g) {
@@ -634,7 +640,34 @@ void ExactEngine::buildCpt(int inst, Factor& f) {
         sum += pr.probability;
         ++nassigned;
       }
-      if (sum > 1.0 + 1e-9) {
+      // The one rule for probability sums (the .pomdp reader's, checkDistributionSum): off by
+      // more than rounding (kSumTolerance, relative) is an error naming the pr-atoms; within
+      // it, but more than the noise of adding exact decimals, the assigned probabilities are
+      // renormalised and the repair is reported.
+      const bool all_assigned = nassigned == npossible && nassigned > 0;
+      const double dev = std::fabs(sum - 1.0);
+      if ((sum > 1.0 || all_assigned) && dev > kSumNoise * std::max(1, nassigned) &&
+          dev <= kSumTolerance) {
+        std::ostringstream os;
+        os.precision(17);
+        bool first = true;
+        for (size_t k = 0; k < NV; ++k)
+          if (assigned[k] >= 0) {
+            if (first) os << gi.prs[static_cast<size_t>(assigned_by[k])].loc.str() << ": warning: ";
+            first = false;
+          }
+        os << "probabilities assigned to the values of " << gi.name << " sum to " << sum
+           << ", within rounding of 1: renormalised (pr-atoms at";
+        for (size_t k = 0; k < NV; ++k)
+          if (assigned[k] >= 0) os << " " << gi.prs[static_cast<size_t>(assigned_by[k])].loc.str();
+        os << ")";
+        if (std::find(warnings_.begin(), warnings_.end(), os.str()) == warnings_.end())
+          warnings_.push_back(os.str());
+        for (size_t k = 0; k < NV; ++k)
+          if (assigned[k] >= 0) assigned[k] /= sum;
+        sum = 1.0;
+      }
+      if (sum > 1.0 + kSumTolerance) {
         std::ostringstream os;
         os << "probabilities assigned to the values of " << gi.name << " sum to " << sum
            << " > 1 in a possible world (pr-atoms at";

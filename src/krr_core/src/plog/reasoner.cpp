@@ -975,6 +975,13 @@ T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_
   }
 }
 
+void Reasoner::noteWarnings(const std::vector<std::string>& warnings) {
+  std::lock_guard<std::mutex> lock(warnings_mutex_);
+  for (const auto& w : warnings)
+    if (std::find(program_.warnings.begin(), program_.warnings.end(), w) == program_.warnings.end())
+      program_.warnings.push_back(w);
+}
+
 double Reasoner::probability(const std::string& query) {
   return probability(parseQuery(declarations(), query));
 }
@@ -1016,6 +1023,7 @@ double Reasoner::nativeProbability(const Query& q) {
   std::vector<GCondition> evidence = prepareEngine(*g, q, e), formula(1);
   for (const auto& l : q.formula) addLiteral(*g, program_, l, formula[0]);
   auto m = e.measure(formula, evidence);
+  noteWarnings(e.warnings());
   if (!(m.second > 0))
     throw IncoherentError(q.loc.str() + ": the evidence of query " + q.text +
                           " has probability zero (no possible world satisfies it)");
@@ -1060,6 +1068,7 @@ std::vector<ValueProb> Reasoner::nativeDistribution(const AttributeTerm& at, con
   ExactEngine e(*g);
   std::vector<GCondition> evs = prepareEngine(*g, ev, e);
   std::vector<double> m = e.marginal(inst, evs);
+  noteWarnings(e.warnings());
   double z = 0;
   for (double x : m) z += x;
   if (!(z > 0))

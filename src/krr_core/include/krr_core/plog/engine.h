@@ -49,6 +49,11 @@ class ExactEngine {
   /// @brief Stop with CancelledError as soon as *flag is true (checked with the time budget).
   void setCancelFlag(const std::atomic<bool>* flag) { cancel_ = flag; }
 
+  /// @brief Probability sums repaired during inference: "file:line:col: warning: ..." for
+  /// each pr-atom set whose probabilities sum to 1 within rounding (|sum - 1| <= 1e-9 relative,
+  /// more than floating-point noise) and were renormalised (see kSumTolerance in engine.cpp).
+  const std::vector<std::string>& warnings() const { return warnings_; }
+
   /// @brief Before filling any table, the engine plans the tables of the inference (the
   /// relevant instances' CPTs with their parents, the constraints', derived conflicts' and
   /// conditions' indicators): when the largest has more than 2^log2_rows rows it throws
@@ -201,6 +206,7 @@ class ExactEngine {
   const std::atomic<bool>* cancel_ = nullptr;
   unsigned budget_ticks_ = 0;
   std::shared_ptr<MemoryGuard> memory_;  ///< setMemoryBudget
+  std::vector<std::string> warnings_;    ///< warnings()
   SourceLocation memory_where_;
   /// @brief Throws BudgetExceededError when `bytes` more would exceed the memory budget.
   void checkMemory(std::size_t bytes) const;

@@ -27,6 +27,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <set>
 #include <string>
 #include <unordered_map>
@@ -309,6 +310,9 @@ class Reasoner {
   bool known_symbols_valid_ = false;
   Backend backend_ = Backend::Auto;
   ParseOptions parse_options_;
+  /// @brief Adds the engine's warnings (renormalised probability sums) to warnings(), once.
+  void noteWarnings(const std::vector<std::string>& warnings);
+  std::mutex warnings_mutex_;
   double race_delay_ = 0.25;
   /// @brief negationLoopReason(program_), cached per (structure version, change sequence).
   std::string negation_loop_reason_;
