@@ -1022,32 +1022,47 @@ class Grounder {
     std::vector<int> stack;
     int counter = 0, ncomp = 0;
     std::vector<std::vector<int>> comps;
-    std::function<void(int)> dfs = [&](int v) {
-      index[v] = low[v] = counter++;
-      stack.push_back(v);
-      on[v] = 1;
-      for (auto& e : edges[v]) {
-        int w = e.first;
-        if (g_.attr_dynamic[w]) continue;
-        if (index[w] < 0) {
-          dfs(w);
-          low[v] = std::min(low[v], low[w]);
-        } else if (on[w]) {
-          low[v] = std::min(low[v], index[w]);
+    // Tarjan's algorithm, iterative: a chain of 100000 rules is 100000 nested calls otherwise
+    // (a stack overflow).
+    auto dfs = [&](int root) {
+      std::vector<std::pair<int, size_t>> call{{root, 0}};
+      index[root] = low[root] = counter++;
+      stack.push_back(root);
+      on[root] = 1;
+      while (!call.empty()) {
+        const int v = call.back().first;
+        size_t& next = call.back().second;
+        if (next < edges[v].size()) {
+          const int w = edges[v][next++].first;
+          if (g_.attr_dynamic[w]) continue;
+          if (index[w] < 0) {
+            index[w] = low[w] = counter++;
+            stack.push_back(w);
+            on[w] = 1;
+            call.push_back({w, 0});
+          } else if (on[w]) {
+            low[v] = std::min(low[v], index[w]);
+          }
+          continue;
         }
-      }
-      if (low[v] == index[v]) {
-        std::vector<int> c;
-        int w;
-        do {
-          w = stack.back();
-          stack.pop_back();
-          on[w] = 0;
-          comp[w] = ncomp;
-          c.push_back(w);
-        } while (w != v);
-        comps.push_back(c);
-        ++ncomp;
+        if (low[v] == index[v]) {
+          std::vector<int> c;
+          int w;
+          do {
+            w = stack.back();
+            stack.pop_back();
+            on[w] = 0;
+            comp[w] = ncomp;
+            c.push_back(w);
+          } while (w != v);
+          comps.push_back(c);
+          ++ncomp;
+        }
+        call.pop_back();
+        if (!call.empty()) {
+          const int u = call.back().first;
+          low[u] = std::min(low[u], low[v]);
+        }
       }
     };
     for (size_t a = 0; a < na; ++a)
