@@ -478,8 +478,20 @@ std::shared_ptr<Reasoner::GroundEntry> Reasoner::groundEntryFor(const std::set<s
     ct = cone_cache_.insert_or_assign(all_key, std::make_pair(structure_version_,
                                                                relevanceCone(program_, all))).first;
   const std::string key = setKey(ct->second.second);
-  std::shared_ptr<GroundEntry>& e = ground_cache_[key];
+  // The cache holds finished groundings only: an entry is stored when its grounding (or patch)
+  // has succeeded. A grounding that stops (budget, memory, cancellation, an error in the
+  // program) leaves no entry behind; an empty one made room for it was the crash of issue 24
+  // (the next trimLog() read the empty entry).
+  auto cached = ground_cache_.find(key);
+  std::shared_ptr<GroundEntry> e = cached != ground_cache_.end() ? cached->second : nullptr;
   if (e && e->structure == structure_version_ && e->seq == change_seq_) return e;
+  // Drops the cached grounding for `key` (half patched, stale or refused) and the log
+  // entries that only it kept alive.
+  auto discard = [&]() {
+    ground_cache_.erase(key);
+    e.reset();
+    trimLog();
+  };
   if (e && e->structure == structure_version_) {
     // Patch the grounding with the net changes since it was made.
     Stopwatch sw;
@@ -510,7 +522,7 @@ std::shared_ptr<Reasoner::GroundEntry> Reasoner::groundEntryFor(const std::set<s
     try {
       ok = e->grounder->apply(program_, delta, &changed);
     } catch (...) {
-      e.reset();
+      discard();  // patched in place up to the error: no longer a grounding of any program
       throw;
     }
     if (ok) {
@@ -528,22 +540,25 @@ std::shared_ptr<Reasoner::GroundEntry> Reasoner::groundEntryFor(const std::set<s
       stats_.ground_statements = e->g->ground_statements;
       stats_.ground_incremental = true;
       ++stats_.incremental_groundings;
-      // Too many removed statements kept as tombstones: ground afresh (compaction).
+      // Too many removed statements kept as tombstones: ground afresh (compaction; the
+      // patched grounding is freed first, so that both are never in memory at once).
       if (e->dead > 50000 && e->dead * 2 > e->total) {
-        e.reset();
+        discard();
       } else {
         trimLog();
         return e;
       }
     } else {
-      e.reset();
+      discard();  // the patch needs a full grounding and stopped half way
     }
+  } else if (e) {
+    discard();  // made under another structure: never patched
   }
   Stopwatch sw;
   auto fresh = std::make_shared<GroundEntry>();
   fresh->grounder =
       std::make_unique<IncrementalGrounder>(program_, ct->second.second, &pr_ids_, limits_);
-  fresh->g = fresh->grounder->ground();
+  fresh->g = fresh->grounder->ground();  // may throw: nothing is stored then
   fresh->structure = structure_version_;
   fresh->seq = fresh->changes_from = change_seq_;
   fresh->serial = ++entry_serial_;
@@ -553,9 +568,9 @@ std::shared_ptr<Reasoner::GroundEntry> Reasoner::groundEntryFor(const std::set<s
   stats_.ground_statements = fresh->g->ground_statements;
   stats_.ground_incremental = false;
   ++stats_.full_groundings;
-  e = fresh;
+  ground_cache_[key] = fresh;
   trimLog();
-  return e;
+  return fresh;
 }
 
 std::shared_ptr<const GroundProgram> Reasoner::groundFor(const std::set<std::string>& attrs) {
@@ -1187,7 +1202,10 @@ Table Reasoner::nativeTable(const AttributeTerm& tat, const std::vector<Attribut
   std::string cache_key = t.target + "|";
   for (const auto& c : t.conditioning) cache_key += c + ",";
   cache_key += "|" + evidence + (conditioning_as_do ? "|do" : "|obs");
-  std::shared_ptr<TableCache>& cache = table_cache_[cache_key];
+  // Stored back only once the table is complete (an inference that stops leaves the cache
+  // as it was; rows recomputed in place before the stop are those of the current program).
+  auto cached = table_cache_.find(cache_key);
+  std::shared_ptr<TableCache> cache = cached != table_cache_.end() ? cached->second : nullptr;
   std::vector<char> todo(total, 1);
   bool reuse = conditioning_as_do && cache && cache->entry_serial == entry->serial &&
                cache->seq >= entry->changes_from && cache->target == ti &&
@@ -1279,7 +1297,7 @@ Table Reasoner::nativeTable(const AttributeTerm& tat, const std::vector<Attribut
   }
   stats_.table_rows_computed = computed;
   if (conditioning_as_do) {
-    if (!cache) cache = std::make_shared<TableCache>();
+    if (!cache) cache = table_cache_[cache_key] = std::make_shared<TableCache>();
     cache->entry_serial = entry->serial;
     cache->seq = entry->seq;
     cache->target = ti;
