@@ -732,23 +732,34 @@ ExactEngine::Factor ExactEngine::indicatorFactor(std::vector<int> scope,
 void ExactEngine::buildIndicator(const std::vector<GCondition>& conds, bool constraint_style,
                                  const std::vector<GLit>* constraint_body,
                                  std::vector<Factor>& out) {
+  static const std::string kTooLarge =
+      "condition spans too many random attributes for the native reasoner";
   std::vector<int> scope;
   if (constraint_style) {
     for (const auto& l : *constraint_body) scopeOfLit(l, scope);
-  } else {
-    for (const auto& c : conds)
-      for (const auto& l : c.lits) scopeOfLit(l, scope);
+    out.push_back(indicatorFactor(std::move(scope), kTooLarge,
+                                  [&]() { return !bodyHolds(*constraint_body); }));
+    return;
   }
-  out.push_back(indicatorFactor(
-      std::move(scope), "condition spans too many random attributes for the native reasoner",
-      [&]() {
-        if (constraint_style) return !bodyHolds(*constraint_body);
-        for (const auto& c : conds) {
-          const bool v = c.constant && bodyHolds(c.lits);
-          if (v != c.truth) return false;
-        }
-        return true;
-      }));
+  // The conditions must all hold: one indicator per condition, and a condition that is a
+  // conjunction required true is one indicator per literal (a query over 30 independent
+  // attributes is 30 tables of 2 rows, not one of 2^30). Negated conjunctions stay whole.
+  for (const auto& c : conds) {
+    if (splitsIntoLiterals(c)) {
+      for (const auto& l : c.lits) {
+        scope.clear();
+        scopeOfLit(l, scope);
+        out.push_back(indicatorFactor(std::move(scope), kTooLarge, [&]() { return holds(l); }));
+      }
+      continue;
+    }
+    scope.clear();
+    for (const auto& l : c.lits) scopeOfLit(l, scope);
+    out.push_back(indicatorFactor(std::move(scope), kTooLarge, [&]() {
+      const bool v = c.constant && bodyHolds(c.lits);
+      return v == c.truth;
+    }));
+  }
 }
 
 ExactEngine::Factor ExactEngine::multiply(const Factor& a, const Factor& b) {
@@ -984,12 +995,20 @@ void ExactEngine::buildFactors(const std::vector<const std::vector<GCondition>*>
       scopeOfInstance(d, s);
       scopeLog2(s);
     }
-    for (const auto* cs : seeds) {
-      s.clear();
-      for (const auto& c : *cs)
+    for (const auto* cs : seeds)  // the indicators of buildIndicator
+      for (const auto& c : *cs) {
+        if (splitsIntoLiterals(c)) {
+          for (const auto& l : c.lits) {
+            s.clear();
+            scopeOfLit(l, s);
+            scopeLog2(s);
+          }
+          continue;
+        }
+        s.clear();
         for (const auto& l : c.lits) scopeOfLit(l, s);
-      scopeLog2(s);
-    }
+        scopeLog2(s);
+      }
     last_planned_log2_ = largest;
     if (on_plan_) on_plan_(largest);
     const bool recursive = !scc_atoms_.empty();

@@ -143,6 +143,11 @@ class ExactEngine {
   /// @throws OutsideFragmentError with message too_large when the table exceeds kMaxFactor.
   Factor indicatorFactor(std::vector<int> scope, const std::string& too_large,
                          const std::function<bool()>& holds);
+  /// @brief A condition required true whose constant part holds: its literals are separate
+  /// indicators (their product is the conjunction's indicator).
+  static bool splitsIntoLiterals(const GCondition& c) {
+    return c.truth && c.constant && !c.lits.empty();
+  }
   void buildIndicator(const std::vector<GCondition>& conds, bool constraint_style,
                       const std::vector<GLit>* constraint_body, std::vector<Factor>& out);
   std::vector<double> eliminate(std::vector<Factor> factors, int keep);
