@@ -12,7 +12,7 @@ namespace krr {
 namespace plog {
 
 namespace {
-constexpr size_t kMaxFactor = size_t(1) << 24;
+constexpr size_t kMaxFactor = size_t(1) << kMaxFactorLog2;
 /// @brief Probability sums off by more than this (relative to 1) are errors; within it they
 /// are rounding and are renormalised (with a warning, see ExactEngine::warnings).
 constexpr double kSumTolerance = 1e-9;
@@ -971,13 +971,14 @@ void ExactEngine::buildFactors(const std::vector<const std::vector<GCondition>*>
   // The plan: rows of every table about to be filled (log2). Over the cost cap, stop before
   // any row is evaluated.
   {
-    double largest = 0;
+    double largest = 0, rows = 0;
     auto scopeLog2 = [&](std::vector<int>& scope) {
       std::sort(scope.begin(), scope.end());
       scope.erase(std::unique(scope.begin(), scope.end()), scope.end());
       double l = 0;
       for (int v : scope) l += std::log2(std::max(1, card(v)));
       largest = std::max(largest, l);
+      rows += std::exp2(l);
     };
     for (int x : rel) {
       s.clear();
@@ -1010,8 +1011,14 @@ void ExactEngine::buildFactors(const std::vector<const std::vector<GCondition>*>
         scopeLog2(s);
       }
     last_planned_log2_ = largest;
-    if (on_plan_) on_plan_(largest);
     const bool recursive = !scc_atoms_.empty();
+    last_plan_ = EnginePlan();
+    last_plan_.largest_log2 = largest;
+    last_plan_.rows = rows;
+    last_plan_.recursive = recursive;
+    for (const auto& gi : g_.instances)
+      if (!gi.random) last_plan_.derived_rules += gi.rules.size();
+    if (on_plan_) on_plan_(last_plan_);
     const double cap = recursive ? cost_cap_recursive_log2_ : cost_cap_log2_;
     if (largest > cap) {
       throw CostlierError("the native engine's largest table has 2^" + std::to_string(largest) +

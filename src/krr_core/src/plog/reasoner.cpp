@@ -698,12 +698,16 @@ AspBackend& Reasoner::asp() {
   return *asp_;
 }
 
-double aspWorldsLog2(const Program& program) {
-  double total = 0;
+namespace {
+
+// Calls f(ground instances, |range|) for each random selection rule; false when a sort is
+// unknown (no bound).
+template <class F>
+bool forRandomRules(const Program& program, F f) {
   for (const auto& r : program.random_rules) {
     const AttributeDecl* d = program.findAttribute(r.attr.name);
     const SortDecl* range = d ? program.findSort(d->range_sort) : nullptr;
-    if (range == nullptr) return std::numeric_limits<double>::infinity();
+    if (range == nullptr) return false;
     std::vector<std::string> vars;
     for (const auto& t : r.attr.args) t.collectVariables(vars);
     std::sort(vars.begin(), vars.end());
@@ -713,12 +717,84 @@ double aspWorldsLog2(const Program& program) {
       auto it = r.variable_sorts.find(v);
       std::string sort = it != r.variable_sorts.end() ? it->second : program.domainSortOf(v);
       const SortDecl* sd = sort.empty() ? nullptr : program.findSort(sort);
-      if (sd == nullptr) return std::numeric_limits<double>::infinity();
+      if (sd == nullptr) return false;
       instances *= static_cast<double>(sd->values.size());
     }
-    total += instances * std::log2(std::max<double>(1.0, static_cast<double>(range->values.size())));
+    f(instances, static_cast<double>(range->values.size()));
   }
+  return true;
+}
+
+}  // namespace
+
+double aspWorldsLog2(const Program& program) {
+  double total = 0;
+  if (!forRandomRules(program, [&](double instances, double range) {
+        total += instances * std::log2(std::max(1.0, range));
+      }))
+    return std::numeric_limits<double>::infinity();
   return total;
+}
+
+double aspWorkAtoms(const Program& program) {
+  // per world: each selected instance with its possible values (val, sel, poss), every rule
+  // and pr-atom at least once
+  double per_world = 1 + static_cast<double>(program.rules.size() + program.pr_atoms.size());
+  if (!forRandomRules(program, [&](double instances, double range) {
+        per_world += instances * (range + 2);
+      }))
+    return std::numeric_limits<double>::infinity();
+  return std::exp2(aspWorldsLog2(program)) * per_world;
+}
+
+double aspCostSeconds(const Program& program) {
+  return AutoCostModel::kAspStartSeconds + aspWorkAtoms(program) * AutoCostModel::kAspSecondsPerAtom;
+}
+
+double nativeCostSeconds(const EnginePlan& plan) {
+  return plan.rows * (1.0 + static_cast<double>(plan.derived_rules)) *
+         AutoCostModel::kNativeSecondsPerRow;
+}
+
+AutoDecision decideAuto(const AutoEstimate& e, double race_delay) {
+  using M = AutoCostModel;
+  const double inf = std::numeric_limits<double>::infinity();
+  AutoDecision d;
+  if (e.native_refuses) {
+    d.choice = AutoChoice::Asp;
+    d.asp_join_seconds = 0;
+    return d;
+  }
+  race_delay = std::max(0.0, race_delay);
+  if (std::isnan(e.native_seconds)) {
+    // Grounding, no plan yet: clingo (which grounds the whole program) joins when the
+    // grounding has taken a while, later if its own estimate is larger.
+    d.choice = AutoChoice::Native;
+    d.asp_join_seconds = std::max(M::kGroundingRaceFactor * race_delay, e.asp_seconds / 2);
+    return d;
+  }
+  const double native = std::max(e.native_seconds, 0.0);
+  if (!(e.asp_seconds >= M::kSureRatio * native)) {  // NaN estimates race too
+    d.choice = AutoChoice::Race;
+    d.asp_join_seconds = 0;
+    return d;
+  }
+  d.choice = AutoChoice::Native;
+  if (e.asp_seconds >= M::kHopelessRatio * native) {
+    d.asp_join_seconds = inf;
+    return d;
+  }
+  d.asp_join_seconds = std::min(race_delay, std::max(M::kOverrun * native, e.asp_seconds / 2));
+  return d;
+}
+
+const char* autoChoiceName(AutoChoice choice) {
+  switch (choice) {
+    case AutoChoice::Native: return "native";
+    case AutoChoice::Race: return "race";
+    case AutoChoice::Asp: return "asp";
+  }
+  return "?";
 }
 
 std::string negationLoopReason(const Program& program) {
@@ -829,18 +905,16 @@ T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_
     }
   }
 
-  // Auto: the native engine first, under a cost cap (see the class comment); clingo joins
-  // after race_delay_ seconds (at once when the native engine refuses the program or its plan
-  // is over the cap) and the first answer wins. A program that may loop through negation
-  // (negationLoopReason) is the other way round: clingo first, the native engine joins.
-  struct CapGuard {
-    double& cap;
-    double& cap_recursive;
-    ~CapGuard() { cap = cap_recursive = std::numeric_limits<double>::infinity(); }
-  } cap_guard{native_cost_cap_, native_cost_cap_recursive_};
-  const double asp_log2 = aspWorldsLog2(program_);
-  // A program that may loop through negation is usually refused by the native engine, but
-  // only once it has grounded the query's cone: clingo starts at once instead of after it.
+  // Auto: the native engine grounds and plans; decideAuto then chooses from both estimates
+  // (see setBackend). A program that may loop through negation (negationLoopReason) is usually
+  // refused by the native engine, but only once it has grounded the query's cone: clingo
+  // starts at once instead, and the native engine joins after kGroundingRaceFactor race delays.
+  using Clock = std::chrono::steady_clock;
+  const auto started = Clock::now();
+  auto after = [&](Clock::time_point from, double seconds) {
+    if (!(seconds < 1e9)) return Clock::time_point::max();  // never (or absurdly late)
+    return from + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
+  };
   const std::pair<std::uint64_t, std::uint64_t> version{structure_version_, change_seq_};
   if (!negation_loop_valid_ || negation_loop_version_ != version) {
     negation_loop_reason_ = negationLoopReason(program_);
@@ -849,46 +923,32 @@ T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_
   }
   const bool asp_at_once = !negation_loop_reason_.empty();
   if (asp_at_once) ++stats_.asp_started_at_once;
-  native_cost_cap_ = nativeCostCapLog2(asp_log2);
-  native_cost_cap_recursive_ = asp_log2 - kAspAdvantageLog2;
+  AutoEstimate estimate;
+  estimate.asp_seconds = aspCostSeconds(program_);
+  stats_.last_estimate = estimate;
+  stats_.last_auto_choice = asp_at_once ? AutoChoice::Race : AutoChoice::Native;
+  stats_.last_asp_joined = false;
   AspBackend& backend = asp();  // made here: the helper thread must not create it
   std::atomic<bool> native_done{false};
   backend.setCancelFlag(&native_done);
   asp_won_ = false;
-  std::mutex m;
-  std::condition_variable cv;
-  bool start_now = asp_at_once, stop = false, asp_ran = false, asp_finished = false;
+  // The helper thread that runs clingo shares only this state with the query (it is detached:
+  // a query the native engine answers before clingo starts returns at once, without waiting
+  // for the helper to be scheduled, which took milliseconds on a loaded machine).
+  struct Shared {
+    std::mutex m;
+    std::condition_variable cv;
+    bool start_now = false, stop = false, started = false, finished = false;
+    Clock::time_point join_at = Clock::time_point::max();
+  };
+  auto sh = std::make_shared<Shared>();
+  sh->start_now = asp_at_once;
+  // When clingo joins if the native engine has not answered: while it grounds, from the
+  // estimate without a plan; from its plan on, from decideAuto.
+  sh->join_at = after(started, decideAuto(estimate, race_delay_).asp_join_seconds);
   std::optional<T> asp_result;
   std::exception_ptr asp_error;
-  // What the native engine has planned (log2 rows of its largest table; NaN: still
-  // grounding). clingo grounds the whole program, so it does not join while the native engine
-  // grounds the query's cone (unless that takes kGroundingRaceFactor race delays); it joins
-  // race_delay_ after the plan (a row can be costly: derived atoms are evaluated per row).
-  double planned = std::numeric_limits<double>::quiet_NaN();
-  plan_callback_ = [&](double log2_rows) {
-    {
-      std::lock_guard<std::mutex> lock(m);
-      if (std::isnan(planned)) planned = log2_rows;
-    }
-    cv.notify_all();
-  };
-  struct PlanGuard {
-    std::function<void(double)>& cb;
-    ~PlanGuard() { cb = nullptr; }
-  } plan_guard{plan_callback_};
-  std::thread helper([&]() {
-    {
-      std::unique_lock<std::mutex> lock(m);
-      const auto delay = std::chrono::duration<double>(race_delay_);
-      cv.wait_for(lock, delay * kGroundingRaceFactor,
-                  [&]() { return start_now || stop || !std::isnan(planned); });
-      if (stop) return;
-      if (!start_now && !std::isnan(planned)) {
-        cv.wait_for(lock, delay, [&]() { return start_now || stop; });
-        if (stop) return;
-      }
-      asp_ran = true;
-    }
+  std::function<void()> run_asp = [&]() {
     try {
       asp_result.emplace(asp_answer());
       asp_won_ = true;
@@ -898,20 +958,72 @@ T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_
     } catch (...) {
       asp_error = std::current_exception();
     }
+  };
+  // The helper is started when clingo may be needed: at once for a program that may loop
+  // through negation, otherwise at the plan when the decision races or sets a time for clingo
+  // to join (a thread started for every query cost a sizeable part of sub-millisecond
+  // queries). A grounding that took longer than clingo would have joined races at the plan.
+  bool spawned = false;
+  auto spawn = [&]() {
+    if (spawned) return;
+    spawned = true;
+    std::thread([sh, job = &run_asp]() {
+      {
+        std::unique_lock<std::mutex> lock(sh->m);
+        for (;;) {
+          if (sh->stop) return;  // the query is over: `job` must not be touched
+          if (sh->start_now || Clock::now() >= sh->join_at) break;
+          if (sh->join_at == Clock::time_point::max()) sh->cv.wait(lock);
+          else sh->cv.wait_until(lock, sh->join_at);
+        }
+        sh->started = true;  // from here on the query waits for `finished`
+      }
+      (*job)();
+      {
+        std::lock_guard<std::mutex> lock(sh->m);
+        sh->finished = true;
+      }
+      sh->cv.notify_all();
+    }).detach();
+  };
+  if (asp_at_once) spawn();
+  plan_callback_ = [&](const EnginePlan& plan) {
+    AutoEstimate e = estimate;
+    e.native_seconds = nativeCostSeconds(plan);
+    e.native_refuses = plan.largest_log2 > kMaxFactorLog2;
+    const AutoDecision d = decideAuto(e, race_delay_);
+    stats_.last_estimate = e;
+    if (!asp_at_once) stats_.last_auto_choice = d.choice;
     {
-      std::lock_guard<std::mutex> lock(m);
-      asp_finished = true;
+      std::lock_guard<std::mutex> lock(sh->m);
+      if (d.choice != AutoChoice::Native || Clock::now() >= sh->join_at) sh->start_now = true;
+      else sh->join_at = after(Clock::now(), d.asp_join_seconds);
     }
-    cv.notify_all();
-  });
+    if (sh->start_now || sh->join_at != Clock::time_point::max()) spawn();
+    sh->cv.notify_all();
+    if (d.choice == AutoChoice::Asp)
+      throw OutsideFragmentError("the native engine's largest table would have 2^" +
+                                 std::to_string(plan.largest_log2) + " rows (at most 2^" +
+                                 std::to_string(kMaxFactorLog2) + ")");
+  };
+  struct PlanGuard {
+    std::function<void(const EnginePlan&)>& cb;
+    ~PlanGuard() { cb = nullptr; }
+  } plan_guard{plan_callback_};
   auto finish = [&](bool cancel_asp) {
     if (cancel_asp) native_done = true;
-    {
-      std::lock_guard<std::mutex> lock(m);
-      if (cancel_asp) stop = true; else start_now = true;
+    if (!cancel_asp) spawn();  // clingo's answer is wanted
+    std::unique_lock<std::mutex> lock(sh->m);
+    if (cancel_asp && !sh->started) {
+      sh->stop = true;  // clingo never started: the helper exits on its own
+    } else {
+      sh->start_now = true;
+      sh->cv.notify_all();
+      sh->cv.wait(lock, [&]() { return sh->finished; });
     }
-    cv.notify_all();
-    helper.join();
+    lock.unlock();
+    sh->cv.notify_all();
+    stats_.last_asp_joined = asp_result || asp_error;
     backend.setCancelFlag(nullptr);
   };
   auto useAsp = [&](const std::string& why) -> T {
@@ -935,14 +1047,14 @@ T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_
   if (asp_at_once) {
     // clingo usually answers these programs: the native engine joins only if it has not
     // within kGroundingRaceFactor race delays (the two would otherwise share the machine).
-    std::unique_lock<std::mutex> lock(m);
-    cv.wait_for(lock, std::chrono::duration<double>(race_delay_) * kGroundingRaceFactor,
-                [&]() { return asp_finished; });
+    std::unique_lock<std::mutex> lock(sh->m);
+    sh->cv.wait_for(lock,
+                    std::chrono::duration<double>(race_delay_) * AutoCostModel::kGroundingRaceFactor,
+                    [&]() { return sh->finished; });
   }
   if (asp_won_) {
     finish(false);
     asp_won_ = false;
-    if (asp_result) outside_fragment_[key] = structure_version_;
     return useAsp("clingo answered first");
   }
   try {
@@ -956,36 +1068,14 @@ T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_
     asp_won_ = false;
     outside_fragment_[key] = structure_version_;
     return useAsp(e.what());
-  } catch (const CostlierError& e) {
-    finish(false);  // a choice for this query only (its evidence shapes the plan): not cached
-    asp_won_ = false;
-    bool asp_failed = false;  // clingo could not answer (not: the program is incoherent)
-    if (!asp_result) {
-      try {
-        std::rethrow_exception(asp_error);
-      } catch (const IncoherentError&) {
-      } catch (const UnknownSymbolError&) {
-      } catch (...) {
-        asp_failed = true;
-      }
-    }
-    if (!asp_failed) return useAsp(e.what());
-    // The estimate chose clingo and clingo failed (too many worlds, time): the native engine
-    // without its cap.
-    native_cost_cap_ = native_cost_cap_recursive_ = std::numeric_limits<double>::infinity();
-    T r = native();
-    stats_.last_backend = Backend::Native;
-    return r;
   } catch (const CancelledError&) {
     finish(false);  // clingo has answered (or failed): wait for its thread
     asp_won_ = false;
-    if (asp_result) outside_fragment_[key] = structure_version_;  // clingo is faster here
     if (asp_result || asp_error) return useAsp("the native engine was abandoned");
     throw;
   } catch (...) {
     finish(true);
     asp_won_ = false;
-    (void)asp_ran;
     throw;
   }
 }
@@ -1014,7 +1104,6 @@ std::vector<GCondition> Reasoner::prepareEngine(const GroundProgram& g, const Qu
   e.setTimeBudget(limits_.max_inference_seconds);
   e.setMemoryBudget(limits_.memory_budget, q.loc);
   e.setCancelFlag(&asp_won_);
-  e.setCostCap(native_cost_cap_, native_cost_cap_recursive_);
   if (plan_callback_) e.setPlanCallback(plan_callback_);
   for (const auto& d : program_.interventions) applyDo(g, program_, d, e);
   for (const auto& d : q.interventions) applyDo(g, program_, d, e);

@@ -35,6 +35,19 @@ struct GCondition {
   bool truth = true;     ///< required truth value of the conjunction (obs(l, false))
 };
 
+/// @brief log2 of the largest table (factor) the native engine fills: a plan or an elimination
+/// step beyond it is outside its fragment (OutsideFragmentError).
+constexpr int kMaxFactorLog2 = 24;
+
+/// @brief The tables an inference is about to fill (its plan, made after grounding and before
+/// any row is evaluated): what Backend::Auto's cost estimate reads.
+struct EnginePlan {
+  double largest_log2 = 0;   ///< log2 rows of the largest table
+  double rows = 0;           ///< rows of all tables
+  std::size_t derived_rules = 0;  ///< ground rules of derived instances (evaluated per row)
+  bool recursive = false;    ///< cyclic dependencies among derived atoms (fixpoint per row)
+};
+
 /// @brief Exact inference over one GroundProgram (which must outlive the engine).
 class ExactEngine {
  public:
@@ -68,9 +81,13 @@ class ExactEngine {
   }
   /// @brief Called with the log2 rows of the largest planned table once the plan is made
   /// (grounding done, no row filled yet): Backend::Auto races clingo on the inference only.
-  void setPlanCallback(std::function<void(double)> callback) { on_plan_ = std::move(callback); }
+  void setPlanCallback(std::function<void(const EnginePlan&)> callback) {
+    on_plan_ = std::move(callback);
+  }
   /// @brief log2 of the rows of the largest table planned by the last inference.
   double lastPlannedLog2() const { return last_planned_log2_; }
+  /// @brief The plan of the last inference.
+  const EnginePlan& lastPlan() const { return last_plan_; }
 
   /// @brief Intervention do(inst = value index); -1 removes it.
   void setFixed(int inst, int value);
@@ -204,7 +221,8 @@ class ExactEngine {
   double cost_cap_log2_ = std::numeric_limits<double>::infinity();
   double cost_cap_recursive_log2_ = std::numeric_limits<double>::infinity();
   double last_planned_log2_ = 0;
-  std::function<void(double)> on_plan_;
+  EnginePlan last_plan_;
+  std::function<void(const EnginePlan&)> on_plan_;
   std::vector<PendingError> pending_errors_;
   size_t pending_factor_ = 0;
   double budget_seconds_ = 0;
