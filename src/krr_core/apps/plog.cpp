@@ -40,8 +40,9 @@ void usage(std::ostream& os) {
         "  Answers the queries in the files and on the command line, one line per query.\n"
         "  --backend auto (default): the native exact engine where the program is inside its\n"
         "    fragment (stratified negation, no loops through `not`, no rule defining a random\n"
-        "    attribute, factors within limits) and its largest table is cheaper than the\n"
-        "    possible worlds clingo would enumerate, clingo otherwise.\n"
+        "    attribute, factors within limits), clingo otherwise; inside the fragment the\n"
+        "    native engine alone when its estimated cost is well below clingo's, else both\n"
+        "    race and the first answer wins (clingo never alone there).\n"
         "  --backend native: the native engine only; programs outside it are refused.\n"
         "  --backend asp: translate to ASP and enumerate the possible worlds with clingo.\n"
         "  A fact or rule whose head has a value outside its declared sort is left out (P-log's\n"
@@ -181,9 +182,12 @@ static int mainBody(int argc, char** argv) {
         }
       }
     } else {
+      size_t warned = r.warnings().size();
       for (const auto& j : jobs) {
         try {
           const double p = r.probability(j.query);
+          // warnings met while answering (probability sums renormalised within rounding)
+          for (; warned < r.warnings().size(); ++warned) std::cerr << r.warnings()[warned] << "\n";
           print(j.text, p, r.stats().last_backend);
         } catch (const krr::Error& e) {
           std::cerr << located(j.query.loc, e.what()) << "\n";

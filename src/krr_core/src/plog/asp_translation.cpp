@@ -12,6 +12,8 @@
  */
 #include "asp_translation.h"
 
+#include "krr_core/plog/budget.h"
+
 #include "krr_core/plog/arith.h"
 
 #include <algorithm>
@@ -245,6 +247,7 @@ std::string groundLiteralBody(const Program& program, const Literal& l, int& fre
 
 std::string translateBase(const Program& program) {
   std::ostringstream out;
+  MemoryGuard guard;  // the translation's memory budget (krr::memoryBudget())
   int fresh = 0;
   out << "% P-log program translated to ASP by krr::plog::AspBackend\n";
   out << "% sorts\n";
@@ -263,6 +266,7 @@ std::string translateBase(const Program& program) {
   out << "% rules; a consistency-restoring rule (:+) only fires where appl(r(i), instance) is\n";
   out << "% chosen, and the number of such atoms is minimised (see runScenarios)\n";
   for (std::size_t ri = 0; ri < program.rules.size(); ++ri) {
+    guard.tick("translating the program to ASP", program.rules[ri].loc);
     const Rule& r = program.rules[ri];
     out << kAspSourceMarker << where(r.loc) << "\n";
     BodyBuilder b(program, r.variable_sorts, fresh);

@@ -12,7 +12,13 @@ namespace krr {
 namespace plog {
 
 namespace {
-constexpr size_t kMaxFactor = size_t(1) << 24;
+constexpr size_t kMaxFactor = size_t(1) << kMaxFactorLog2;
+/// @brief Probability sums off by more than this (relative to 1) are errors; within it they
+/// are rounding and are renormalised (with a warning, see ExactEngine::warnings).
+constexpr double kSumTolerance = 1e-9;
+/// @brief Per assigned value, the floating-point noise of adding exact decimals (0.1 + 0.2 +
+/// 0.7 = 1 + 2.2e-16): sums within it of 1 are kept as written, without a warning.
+constexpr double kSumNoise = 8 * 2.220446049250313e-16;
 }
 
 ExactEngine::ExactEngine(const GroundProgram& g) : g_(g) {
@@ -121,8 +127,18 @@ void ExactEngine::setTimeBudget(double seconds) {
   budget_start_ = std::chrono::steady_clock::now();
 }
 
+void ExactEngine::setMemoryBudget(std::size_t bytes, const SourceLocation& where) {
+  memory_ = std::make_shared<MemoryGuard>(bytes);
+  memory_where_ = where;
+}
+
+void ExactEngine::checkMemory(std::size_t bytes) const {
+  if (memory_) memory_->check("filling the inference tables", memory_where_, bytes);
+}
+
 void ExactEngine::checkTime(unsigned mask) {
   if ((++budget_ticks_ & mask) != 0) return;
+  if (memory_ && (budget_ticks_ & 65535u) == 0) checkMemory(0);
   if (cancel_ && cancel_->load(std::memory_order_relaxed))
     throw CancelledError("inference abandoned: another back end answered first");
   if (budget_seconds_ <= 0) return;
@@ -537,6 +553,7 @@ void ExactEngine::buildCpt(int inst, Factor& f) {
       throw OutsideFragmentError("factor for " + gi.name + " is too large (" + std::to_string(parents.size()) +
                   " parents); this is outside the native reasoner's fast path");
   }
+  checkMemory(total * sizeof(double));
   f.t.assign(total, 0.0);
   std::vector<int> cur(parents.size(), 0);
   std::vector<char> possible(S);
@@ -623,7 +640,34 @@ void ExactEngine::buildCpt(int inst, Factor& f) {
         sum += pr.probability;
         ++nassigned;
       }
-      if (sum > 1.0 + 1e-9) {
+      // The one rule for probability sums (the .pomdp reader's, checkDistributionSum): off by
+      // more than rounding (kSumTolerance, relative) is an error naming the pr-atoms; within
+      // it, but more than the noise of adding exact decimals, the assigned probabilities are
+      // renormalised and the repair is reported.
+      const bool all_assigned = nassigned == npossible && nassigned > 0;
+      const double dev = std::fabs(sum - 1.0);
+      if ((sum > 1.0 || all_assigned) && dev > kSumNoise * std::max(1, nassigned) &&
+          dev <= kSumTolerance) {
+        std::ostringstream os;
+        os.precision(17);
+        bool first = true;
+        for (size_t k = 0; k < NV; ++k)
+          if (assigned[k] >= 0) {
+            if (first) os << gi.prs[static_cast<size_t>(assigned_by[k])].loc.str() << ": warning: ";
+            first = false;
+          }
+        os << "probabilities assigned to the values of " << gi.name << " sum to " << sum
+           << ", within rounding of 1: renormalised (pr-atoms at";
+        for (size_t k = 0; k < NV; ++k)
+          if (assigned[k] >= 0) os << " " << gi.prs[static_cast<size_t>(assigned_by[k])].loc.str();
+        os << ")";
+        if (std::find(warnings_.begin(), warnings_.end(), os.str()) == warnings_.end())
+          warnings_.push_back(os.str());
+        for (size_t k = 0; k < NV; ++k)
+          if (assigned[k] >= 0) assigned[k] /= sum;
+        sum = 1.0;
+      }
+      if (sum > 1.0 + kSumTolerance) {
         std::ostringstream os;
         os << "probabilities assigned to the values of " << gi.name << " sum to " << sum
            << " > 1 in a possible world (pr-atoms at";
@@ -666,6 +710,7 @@ ExactEngine::Factor ExactEngine::indicatorFactor(std::vector<int> scope,
     total *= static_cast<size_t>(card(v));
     if (total > kMaxFactor) throw OutsideFragmentError(too_large);
   }
+  checkMemory(total * sizeof(double));
   f.t.assign(total, 0.0);
   std::vector<int> cur(scope.size(), 0);
   for (size_t row = 0; row < total; ++row) {
@@ -687,23 +732,34 @@ ExactEngine::Factor ExactEngine::indicatorFactor(std::vector<int> scope,
 void ExactEngine::buildIndicator(const std::vector<GCondition>& conds, bool constraint_style,
                                  const std::vector<GLit>* constraint_body,
                                  std::vector<Factor>& out) {
+  static const std::string kTooLarge =
+      "condition spans too many random attributes for the native reasoner";
   std::vector<int> scope;
   if (constraint_style) {
     for (const auto& l : *constraint_body) scopeOfLit(l, scope);
-  } else {
-    for (const auto& c : conds)
-      for (const auto& l : c.lits) scopeOfLit(l, scope);
+    out.push_back(indicatorFactor(std::move(scope), kTooLarge,
+                                  [&]() { return !bodyHolds(*constraint_body); }));
+    return;
   }
-  out.push_back(indicatorFactor(
-      std::move(scope), "condition spans too many random attributes for the native reasoner",
-      [&]() {
-        if (constraint_style) return !bodyHolds(*constraint_body);
-        for (const auto& c : conds) {
-          const bool v = c.constant && bodyHolds(c.lits);
-          if (v != c.truth) return false;
-        }
-        return true;
-      }));
+  // The conditions must all hold: one indicator per condition, and a condition that is a
+  // conjunction required true is one indicator per literal (a query over 30 independent
+  // attributes is 30 tables of 2 rows, not one of 2^30). Negated conjunctions stay whole.
+  for (const auto& c : conds) {
+    if (splitsIntoLiterals(c)) {
+      for (const auto& l : c.lits) {
+        scope.clear();
+        scopeOfLit(l, scope);
+        out.push_back(indicatorFactor(std::move(scope), kTooLarge, [&]() { return holds(l); }));
+      }
+      continue;
+    }
+    scope.clear();
+    for (const auto& l : c.lits) scopeOfLit(l, scope);
+    out.push_back(indicatorFactor(std::move(scope), kTooLarge, [&]() {
+      const bool v = c.constant && bodyHolds(c.lits);
+      return v == c.truth;
+    }));
+  }
 }
 
 ExactEngine::Factor ExactEngine::multiply(const Factor& a, const Factor& b) {
@@ -915,13 +971,14 @@ void ExactEngine::buildFactors(const std::vector<const std::vector<GCondition>*>
   // The plan: rows of every table about to be filled (log2). Over the cost cap, stop before
   // any row is evaluated.
   {
-    double largest = 0;
+    double largest = 0, rows = 0;
     auto scopeLog2 = [&](std::vector<int>& scope) {
       std::sort(scope.begin(), scope.end());
       scope.erase(std::unique(scope.begin(), scope.end()), scope.end());
       double l = 0;
       for (int v : scope) l += std::log2(std::max(1, card(v)));
       largest = std::max(largest, l);
+      rows += std::exp2(l);
     };
     for (int x : rel) {
       s.clear();
@@ -939,15 +996,29 @@ void ExactEngine::buildFactors(const std::vector<const std::vector<GCondition>*>
       scopeOfInstance(d, s);
       scopeLog2(s);
     }
-    for (const auto* cs : seeds) {
-      s.clear();
-      for (const auto& c : *cs)
+    for (const auto* cs : seeds)  // the indicators of buildIndicator
+      for (const auto& c : *cs) {
+        if (splitsIntoLiterals(c)) {
+          for (const auto& l : c.lits) {
+            s.clear();
+            scopeOfLit(l, s);
+            scopeLog2(s);
+          }
+          continue;
+        }
+        s.clear();
         for (const auto& l : c.lits) scopeOfLit(l, s);
-      scopeLog2(s);
-    }
+        scopeLog2(s);
+      }
     last_planned_log2_ = largest;
-    if (on_plan_) on_plan_(largest);
     const bool recursive = !scc_atoms_.empty();
+    last_plan_ = EnginePlan();
+    last_plan_.largest_log2 = largest;
+    last_plan_.rows = rows;
+    last_plan_.recursive = recursive;
+    for (const auto& gi : g_.instances)
+      if (!gi.random) last_plan_.derived_rules += gi.rules.size();
+    if (on_plan_) on_plan_(last_plan_);
     const double cap = recursive ? cost_cap_recursive_log2_ : cost_cap_log2_;
     if (largest > cap) {
       throw CostlierError("the native engine's largest table has 2^" + std::to_string(largest) +

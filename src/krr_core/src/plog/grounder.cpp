@@ -5,6 +5,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <unordered_map>
 #include <unordered_set>
 
 #include "krr_core/plog/arith.h"
@@ -75,7 +76,7 @@ void attrsOfBody(const std::vector<Literal>& b, std::set<std::string>& out) {
 /// components of the rule dependency graph that contain a `not` edge) and attributes chosen
 /// by a random selection with a dynamic range.
 std::set<std::string> worldChangingAttributes(const Program& p) {
-  std::map<std::string, int> id;
+  std::unordered_map<std::string, int> id;
   auto idOf = [&](const std::string& a) { return id.emplace(a, static_cast<int>(id.size())).first->second; };
   std::vector<std::vector<std::pair<int, bool>>> edges;  // child -> (parent, through not)
   auto addEdges = [&](const std::string& head, const std::vector<Literal>& body) {
@@ -165,9 +166,10 @@ Deps dependencies(const Program& p) {
     attrsOfBody(r.body, s);
     attrsOfBody(r.range_body, s);
   }
-  for (const auto& pr : p.pr_atoms) attrsOfBody(pr.body, d.parents[pr.atom.attr.name]);
-  for (const auto& r : p.rules)
-    if (r.head) attrsOfBody(r.body, d.parents[r.head->attr.name]);
+  for (const auto& pr : p.pr_atoms)
+    if (!pr.body.empty()) attrsOfBody(pr.body, d.parents[pr.atom.attr.name]);
+  for (const auto& r : p.rules)  // (facts have no parents: no entry, so n facts cost O(n))
+    if (r.head && !r.body.empty()) attrsOfBody(r.body, d.parents[r.head->attr.name]);
   return d;
 }
 
@@ -253,7 +255,9 @@ class Grounder {
     // symbol -> position in each sort (membership and value indices in O(1))
     sort_pos_.resize(sort_vals_.size());
     for (size_t i = 0; i < sort_vals_.size(); ++i) {
-      sort_pos_[i].assign(syms_->size(), -1);
+      int top = -1;  // only up to the sort's largest symbol id: n sorts x m symbols stays O(sizes)
+      for (int v : sort_vals_[i]) top = std::max(top, v);
+      sort_pos_[i].assign(static_cast<size_t>(top + 1), -1);
       for (size_t k = 0; k < sort_vals_[i].size(); ++k)
         if (sort_pos_[i][static_cast<size_t>(sort_vals_[i][k])] < 0)
           sort_pos_[i][static_cast<size_t>(sort_vals_[i][k])] = static_cast<int>(k);
@@ -569,6 +573,7 @@ class Grounder {
     if ((ticks_ & 4095u) == 4095u && limits_.cancel &&
         limits_.cancel->load(std::memory_order_relaxed))
       throw CancelledError("grounding abandoned: another back end answered first");
+    if ((ticks_ & 4095u) == 4095u && guard_) guard_->check("grounding", cur_loc_);
     if ((++ticks_ & 4095u) == 0 && limits_.max_ground_seconds > 0 &&
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count() >
             limits_.max_ground_seconds)
@@ -579,7 +584,10 @@ class Grounder {
   }
 
  public:
-  void setLimits(const GroundingLimits& l) { limits_ = l; }
+  void setLimits(const GroundingLimits& l) {
+    limits_ = l;
+    guard_ = std::make_unique<MemoryGuard>(l.memory_budget);
+  }
 
  private:
   bool bound(const CTerm& t, const std::vector<int>& b) const {
@@ -1014,32 +1022,47 @@ class Grounder {
     std::vector<int> stack;
     int counter = 0, ncomp = 0;
     std::vector<std::vector<int>> comps;
-    std::function<void(int)> dfs = [&](int v) {
-      index[v] = low[v] = counter++;
-      stack.push_back(v);
-      on[v] = 1;
-      for (auto& e : edges[v]) {
-        int w = e.first;
-        if (g_.attr_dynamic[w]) continue;
-        if (index[w] < 0) {
-          dfs(w);
-          low[v] = std::min(low[v], low[w]);
-        } else if (on[w]) {
-          low[v] = std::min(low[v], index[w]);
+    // Tarjan's algorithm, iterative: a chain of 100000 rules is 100000 nested calls otherwise
+    // (a stack overflow).
+    auto dfs = [&](int root) {
+      std::vector<std::pair<int, size_t>> call{{root, 0}};
+      index[root] = low[root] = counter++;
+      stack.push_back(root);
+      on[root] = 1;
+      while (!call.empty()) {
+        const int v = call.back().first;
+        size_t& next = call.back().second;
+        if (next < edges[v].size()) {
+          const int w = edges[v][next++].first;
+          if (g_.attr_dynamic[w]) continue;
+          if (index[w] < 0) {
+            index[w] = low[w] = counter++;
+            stack.push_back(w);
+            on[w] = 1;
+            call.push_back({w, 0});
+          } else if (on[w]) {
+            low[v] = std::min(low[v], index[w]);
+          }
+          continue;
         }
-      }
-      if (low[v] == index[v]) {
-        std::vector<int> c;
-        int w;
-        do {
-          w = stack.back();
-          stack.pop_back();
-          on[w] = 0;
-          comp[w] = ncomp;
-          c.push_back(w);
-        } while (w != v);
-        comps.push_back(c);
-        ++ncomp;
+        if (low[v] == index[v]) {
+          std::vector<int> c;
+          int w;
+          do {
+            w = stack.back();
+            stack.pop_back();
+            on[w] = 0;
+            comp[w] = ncomp;
+            c.push_back(w);
+          } while (w != v);
+          comps.push_back(c);
+          ++ncomp;
+        }
+        call.pop_back();
+        if (!call.empty()) {
+          const int u = call.back().first;
+          low[u] = std::min(low[u], low[v]);
+        }
       }
     };
     for (size_t a = 0; a < na; ++a)
@@ -1459,6 +1482,7 @@ class Grounder {
   std::unordered_map<std::vector<int>, int, VecHash> fact_count_;
   // budgets
   GroundingLimits limits_;
+  std::unique_ptr<MemoryGuard> guard_;  // the grounding's memory budget (setLimits)
   SourceLocation cur_loc_;  // statement being ground, named by budget and overflow errors
   std::size_t atoms_spent_ = 0, statements_spent_ = 0;
   unsigned ticks_ = 0;
@@ -1501,12 +1525,16 @@ std::set<std::string> relevanceCone(const Program& program, const std::set<std::
   // world at all), so they are always part of the cone.
   std::set<std::string> random_attrs;
   for (const auto& r : program.random_rules) random_attrs.insert(r.attr.name);
-  std::map<std::string, std::set<std::string>> head_values;  // derived attr -> head values
-  for (const auto& r : program.rules)
-    if (r.head && !random_attrs.count(r.head->attr.name))
-      head_values[r.head->attr.name].insert(r.head->value.kind == Term::Kind::Variable
-                                                ? "_var"
-                                                : toString(r.head->value));
+  // derived attribute -> (first head value, may it get two values: two values or a variable)
+  std::unordered_map<std::string, std::pair<std::string, bool>> head_values;
+  for (const auto& r : program.rules) {
+    if (!r.head || random_attrs.count(r.head->attr.name)) continue;
+    const bool var = r.head->value.kind == Term::Kind::Variable;
+    const std::string v = var ? std::string() : toString(r.head->value);
+    auto it = head_values.find(r.head->attr.name);
+    if (it == head_values.end()) head_values.emplace(r.head->attr.name, std::make_pair(v, var));
+    else if (var || it->second.first != v) it->second.second = true;
+  }
   bool changed = true;
   while (changed) {
     changed = false;
@@ -1525,7 +1553,7 @@ std::set<std::string> relevanceCone(const Program& program, const std::set<std::
     }
     for (const auto& hv : head_values) {
       if (cone.count(hv.first)) continue;
-      if (hv.second.size() < 2 && !hv.second.count("_var")) continue;
+      if (!hv.second.second) continue;
       work.push_back(hv.first);
       close();
       changed = true;

@@ -13,7 +13,7 @@ namespace krr {
 namespace plog {
 namespace syntax {
 
-std::vector<Token> lex(const std::string& src, const std::string& file) {
+std::vector<Token> lex(const std::string& src, const std::string& file, MemoryGuard* guard) {
   std::vector<Token> out;
   size_t i = 0;
   int line = 1, col = 1;
@@ -101,7 +101,8 @@ std::vector<Token> lex(const std::string& src, const std::string& file) {
       t.text = src.substr(i, n);
       adv(n);
     }
-    out.push_back(t);
+    if (guard) guard->tick("reading the text (tokens)", t.loc);
+    out.push_back(std::move(t));
   }
   Token e;
   e.kind = Tok::End;

@@ -28,8 +28,9 @@ namespace {
 
 class Parser {
  public:
-  Parser(const std::string& text, const std::string& file, Program& prog, Dialect dialect)
-      : toks_(lex(text, file)), text_(text), prog_(prog), dialect_(dialect) {}
+  Parser(const std::string& text, const std::string& file, Program& prog, Dialect dialect,
+         MemoryGuard* guard = nullptr)
+      : toks_(lex(text, file, guard)), text_(text), prog_(prog), dialect_(dialect), guard_(guard) {}
 
   std::vector<RawStmt> parseAll() {
     if (dialect_ == Dialect::Auto) {
@@ -73,11 +74,14 @@ class Parser {
           continue;
         }
       }
+      if (guard_) guard_->tick("parsing", peek().loc);
       parseStatement(out);
     }
   }
 
   Dialect dialect() const { return dialect_; }
+  /// @brief Frees the tokens once the statements are read (they are no longer needed).
+  void releaseTokens() { std::vector<Token>().swap(toks_); }
   /// @brief Classic `a : s.` attributes: the classic solver takes their arity from use.
   const std::set<std::string>& rangeOnly() const { return range_only_; }
   bool allow_empty_formula_ = false;
@@ -347,6 +351,9 @@ class Parser {
       throw ParseError(loc, "range " + std::to_string(lo) + ".." + std::to_string(hi) +
                                 " too large in sort " + s.name + " (more than " +
                                 std::to_string(kMaxSortValues) + " values)");
+    if (guard_)
+      guard_->check(("expanding the range of sort " + s.name).c_str(), loc,
+                    static_cast<std::size_t>(n) * (sizeof(Term) + 64));
     for (unsigned long long k = 0; k < n; ++k)
       addValue(s, Term::integer(static_cast<long long>(static_cast<unsigned long long>(lo) + k), loc),
                seen);
@@ -435,6 +442,9 @@ class Parser {
         throw ParseError(f.loc, "record sort " + f.text + "(...) has more than " +
                                     std::to_string(kMaxSortValues) + " values");
     }
+    if (guard_)
+      guard_->check(("expanding the record sort " + f.text + "(...) of sort " + s.name).c_str(),
+                    f.loc, static_cast<std::size_t>(total) * (sizeof(Term) * (args.size() + 1) + 64));
     std::vector<size_t> idx(args.size(), 0);
     for (unsigned long long k = 0; k < total; ++k) {
       Term c;
@@ -807,17 +817,46 @@ class Parser {
     return l;
   }
 
+  /// @brief Largest number of arithmetic operators left in one term after constant folding.
+  /// A term is a tree as deep as its operator chain (`X+1+1+...`), and every later pass over it
+  /// (resolution, export, grounding, the ASP translation) recurses through it: the limit keeps
+  /// that recursion far from the stack's end. Ground integer arithmetic (`1+1+...+1`) is folded
+  /// as it is read, so it never counts.
+  static constexpr int kMaxTermOperators = 10000;
+
+  /// @brief `lhs op rhs`: folded to an integer when both sides are integers and the operation
+  /// is defined (overflow and division by zero stay terms, reported where they are evaluated).
+  Term makeBinary(Term lhs, const Token& op_token, std::string op, Term rhs) {
+    if (lhs.kind == Term::Kind::Integer && rhs.kind == Term::Kind::Integer) {
+      long long r = 0;
+      if (checkedBinary(op, lhs.value, rhs.value, &r) == ArithStatus::Ok) {
+        lhs.value = r;
+        return lhs;
+      }
+    }
+    if (++term_operators_ > kMaxTermOperators)
+      throw ParseError(op_token.loc, "term too large: more than " +
+                                         std::to_string(kMaxTermOperators) +
+                                         " arithmetic operators in one term (the limit of a "
+                                         "term's size; fold it or split it with variables)");
+    Term b;
+    b.kind = Term::Kind::Binary;
+    b.loc = op_token.loc;
+    b.name = std::move(op);
+    b.args.reserve(2);
+    b.args.push_back(std::move(lhs));
+    b.args.push_back(std::move(rhs));
+    return b;
+  }
+
   Term parseExpr() {
+    if (depth_ == 0) term_operators_ = 0;  // a new top-level term
     if (++depth_ > 200) throw ParseError(peek().loc, "expression nested too deeply");
     Term t = parseProduct();
     while (peek().kind == Tok::Plus || peek().kind == Tok::Minus) {
-      Term b;
-      b.kind = Term::Kind::Binary;
-      b.loc = peek().loc;
-      b.name = next().text;
-      b.args.push_back(t);
-      b.args.push_back(parseProduct());
-      t = b;
+      const Token& op = next();
+      Term rhs = parseProduct();
+      t = makeBinary(std::move(t), op, op.text, std::move(rhs));
     }
     --depth_;
     return t;
@@ -827,14 +866,9 @@ class Parser {
     Term t = parseUnary();
     while (peek().kind == Tok::Star || peek().kind == Tok::Slash || isIdent("mod") ||
            isIdent("div")) {
-      Term b;
-      b.kind = Term::Kind::Binary;
-      b.loc = peek().loc;
-      std::string op = next().text;
-      b.name = op == "div" ? "/" : op;
-      b.args.push_back(t);
-      b.args.push_back(parseUnary());
-      t = b;
+      const Token& op = next();
+      Term rhs = parseUnary();
+      t = makeBinary(std::move(t), op, op.text == "div" ? "/" : op.text, std::move(rhs));
     }
     return t;
   }
@@ -906,6 +940,9 @@ class Parser {
   Dialect dialect_;
   size_t pos_ = 0;
   int depth_ = 0;
+  MemoryGuard* guard_ = nullptr;
+  /// @brief Operators of the term being read (see kMaxTermOperators).
+  int term_operators_ = 0;
   /// @brief Sorts named in classic declarations before their own declaration.
   std::vector<Token> pending_sorts_;
   std::set<std::string> range_only_;
@@ -924,15 +961,19 @@ void parseInto(Program& program, const std::string& text, const std::string& fil
 
 void parseInto(Program& program, const std::string& text, const std::string& file_name,
                Dialect dialect, const ParseOptions& options) {
+  MemoryGuard guard(options.memory_budget);
+  guard.check("reading the text", SourceLocation{file_name, 1, 1}, text.size() / 2 * sizeof(Token));
   Program work = program;
   ensureBoolean(work);
-  Parser parser(text, file_name, work, dialect);
+  Parser parser(text, file_name, work, dialect, &guard);
   std::vector<RawStmt> stmts = parser.parseAll();
+  parser.releaseTokens();
   ResolveSettings settings;
   settings.fresh = freshBase(program);
   settings.plog2 = parser.dialect() == Dialect::Plog2;
   settings.range_only = parser.rangeOnly();
   settings.strict_sorts = options.strict_sorts;
+  settings.guard = &guard;
   resolveStatements(work, stmts, settings);
   if (program.sorts.empty() && program.attributes.empty() && program.rules.empty() &&
       program.random_rules.empty() && program.pr_atoms.empty())

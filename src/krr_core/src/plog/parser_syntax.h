@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "krr_core/plog/ast.h"
+#include "krr_core/plog/budget.h"
 
 namespace krr {
 namespace plog {
@@ -30,7 +31,9 @@ struct Token {
 
 /// @brief The tokens of a P-log text; comments and whitespace dropped, Tok::End last.
 /// @throws ParseError at an unexpected character.
-std::vector<Token> lex(const std::string& src, const std::string& file);
+/// @throws BudgetExceededError when the tokens outgrow `guard`'s budget (if given).
+std::vector<Token> lex(const std::string& src, const std::string& file,
+                       MemoryGuard* guard = nullptr);
 
 struct RawLit {
   bool naf = false;
@@ -82,6 +85,7 @@ struct ResolveSettings {
   bool plog2 = false;                  ///< plog2.0 dialect (no implicit predicates)
   std::set<std::string> range_only;    ///< classic attributes declared with their range only
   bool strict_sorts = false;           ///< ParseOptions::strict_sorts
+  MemoryGuard* guard = nullptr;        ///< the parse's memory budget (checked per statement)
 };
 
 /// @brief Resolve raw statements into work (declarations already in it).

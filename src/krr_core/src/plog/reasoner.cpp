@@ -478,8 +478,20 @@ std::shared_ptr<Reasoner::GroundEntry> Reasoner::groundEntryFor(const std::set<s
     ct = cone_cache_.insert_or_assign(all_key, std::make_pair(structure_version_,
                                                                relevanceCone(program_, all))).first;
   const std::string key = setKey(ct->second.second);
-  std::shared_ptr<GroundEntry>& e = ground_cache_[key];
+  // The cache holds finished groundings only: an entry is stored when its grounding (or patch)
+  // has succeeded. A grounding that stops (budget, memory, cancellation, an error in the
+  // program) leaves no entry behind; an empty one made room for it was the crash of issue 24
+  // (the next trimLog() read the empty entry).
+  auto cached = ground_cache_.find(key);
+  std::shared_ptr<GroundEntry> e = cached != ground_cache_.end() ? cached->second : nullptr;
   if (e && e->structure == structure_version_ && e->seq == change_seq_) return e;
+  // Drops the cached grounding for `key` (half patched, stale or refused) and the log
+  // entries that only it kept alive.
+  auto discard = [&]() {
+    ground_cache_.erase(key);
+    e.reset();
+    trimLog();
+  };
   if (e && e->structure == structure_version_) {
     // Patch the grounding with the net changes since it was made.
     Stopwatch sw;
@@ -510,7 +522,7 @@ std::shared_ptr<Reasoner::GroundEntry> Reasoner::groundEntryFor(const std::set<s
     try {
       ok = e->grounder->apply(program_, delta, &changed);
     } catch (...) {
-      e.reset();
+      discard();  // patched in place up to the error: no longer a grounding of any program
       throw;
     }
     if (ok) {
@@ -528,22 +540,25 @@ std::shared_ptr<Reasoner::GroundEntry> Reasoner::groundEntryFor(const std::set<s
       stats_.ground_statements = e->g->ground_statements;
       stats_.ground_incremental = true;
       ++stats_.incremental_groundings;
-      // Too many removed statements kept as tombstones: ground afresh (compaction).
+      // Too many removed statements kept as tombstones: ground afresh (compaction; the
+      // patched grounding is freed first, so that both are never in memory at once).
       if (e->dead > 50000 && e->dead * 2 > e->total) {
-        e.reset();
+        discard();
       } else {
         trimLog();
         return e;
       }
     } else {
-      e.reset();
+      discard();  // the patch needs a full grounding and stopped half way
     }
+  } else if (e) {
+    discard();  // made under another structure: never patched
   }
   Stopwatch sw;
   auto fresh = std::make_shared<GroundEntry>();
   fresh->grounder =
       std::make_unique<IncrementalGrounder>(program_, ct->second.second, &pr_ids_, limits_);
-  fresh->g = fresh->grounder->ground();
+  fresh->g = fresh->grounder->ground();  // may throw: nothing is stored then
   fresh->structure = structure_version_;
   fresh->seq = fresh->changes_from = change_seq_;
   fresh->serial = ++entry_serial_;
@@ -553,9 +568,9 @@ std::shared_ptr<Reasoner::GroundEntry> Reasoner::groundEntryFor(const std::set<s
   stats_.ground_statements = fresh->g->ground_statements;
   stats_.ground_incremental = false;
   ++stats_.full_groundings;
-  e = fresh;
+  ground_cache_[key] = fresh;
   trimLog();
-  return e;
+  return fresh;
 }
 
 std::shared_ptr<const GroundProgram> Reasoner::groundFor(const std::set<std::string>& attrs) {
@@ -683,12 +698,16 @@ AspBackend& Reasoner::asp() {
   return *asp_;
 }
 
-double aspWorldsLog2(const Program& program) {
-  double total = 0;
+namespace {
+
+// Calls f(ground instances, |range|) for each random selection rule; false when a sort is
+// unknown (no bound).
+template <class F>
+bool forRandomRules(const Program& program, F f) {
   for (const auto& r : program.random_rules) {
     const AttributeDecl* d = program.findAttribute(r.attr.name);
     const SortDecl* range = d ? program.findSort(d->range_sort) : nullptr;
-    if (range == nullptr) return std::numeric_limits<double>::infinity();
+    if (range == nullptr) return false;
     std::vector<std::string> vars;
     for (const auto& t : r.attr.args) t.collectVariables(vars);
     std::sort(vars.begin(), vars.end());
@@ -698,12 +717,84 @@ double aspWorldsLog2(const Program& program) {
       auto it = r.variable_sorts.find(v);
       std::string sort = it != r.variable_sorts.end() ? it->second : program.domainSortOf(v);
       const SortDecl* sd = sort.empty() ? nullptr : program.findSort(sort);
-      if (sd == nullptr) return std::numeric_limits<double>::infinity();
+      if (sd == nullptr) return false;
       instances *= static_cast<double>(sd->values.size());
     }
-    total += instances * std::log2(std::max<double>(1.0, static_cast<double>(range->values.size())));
+    f(instances, static_cast<double>(range->values.size()));
   }
+  return true;
+}
+
+}  // namespace
+
+double aspWorldsLog2(const Program& program) {
+  double total = 0;
+  if (!forRandomRules(program, [&](double instances, double range) {
+        total += instances * std::log2(std::max(1.0, range));
+      }))
+    return std::numeric_limits<double>::infinity();
   return total;
+}
+
+double aspWorkAtoms(const Program& program) {
+  // per world: each selected instance with its possible values (val, sel, poss), every rule
+  // and pr-atom at least once
+  double per_world = 1 + static_cast<double>(program.rules.size() + program.pr_atoms.size());
+  if (!forRandomRules(program, [&](double instances, double range) {
+        per_world += instances * (range + 2);
+      }))
+    return std::numeric_limits<double>::infinity();
+  return std::exp2(aspWorldsLog2(program)) * per_world;
+}
+
+double aspCostSeconds(const Program& program) {
+  return AutoCostModel::kAspStartSeconds + aspWorkAtoms(program) * AutoCostModel::kAspSecondsPerAtom;
+}
+
+double nativeCostSeconds(const EnginePlan& plan) {
+  return plan.rows * (1.0 + static_cast<double>(plan.derived_rules)) *
+         AutoCostModel::kNativeSecondsPerRow;
+}
+
+AutoDecision decideAuto(const AutoEstimate& e, double race_delay) {
+  using M = AutoCostModel;
+  const double inf = std::numeric_limits<double>::infinity();
+  AutoDecision d;
+  if (e.native_refuses) {
+    d.choice = AutoChoice::Asp;
+    d.asp_join_seconds = 0;
+    return d;
+  }
+  race_delay = std::max(0.0, race_delay);
+  if (std::isnan(e.native_seconds)) {
+    // Grounding, no plan yet: clingo (which grounds the whole program) joins when the
+    // grounding has taken a while, later if its own estimate is larger.
+    d.choice = AutoChoice::Native;
+    d.asp_join_seconds = std::max(M::kGroundingRaceFactor * race_delay, e.asp_seconds / 2);
+    return d;
+  }
+  const double native = std::max(e.native_seconds, 0.0);
+  if (!(e.asp_seconds >= M::kSureRatio * native)) {  // NaN estimates race too
+    d.choice = AutoChoice::Race;
+    d.asp_join_seconds = 0;
+    return d;
+  }
+  d.choice = AutoChoice::Native;
+  if (e.asp_seconds >= M::kHopelessRatio * native) {
+    d.asp_join_seconds = inf;
+    return d;
+  }
+  d.asp_join_seconds = std::min(race_delay, std::max(M::kOverrun * native, e.asp_seconds / 2));
+  return d;
+}
+
+const char* autoChoiceName(AutoChoice choice) {
+  switch (choice) {
+    case AutoChoice::Native: return "native";
+    case AutoChoice::Race: return "race";
+    case AutoChoice::Asp: return "asp";
+  }
+  return "?";
 }
 
 std::string negationLoopReason(const Program& program) {
@@ -814,18 +905,16 @@ T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_
     }
   }
 
-  // Auto: the native engine first, under a cost cap (see the class comment); clingo joins
-  // after race_delay_ seconds (at once when the native engine refuses the program or its plan
-  // is over the cap) and the first answer wins. A program that may loop through negation
-  // (negationLoopReason) is the other way round: clingo first, the native engine joins.
-  struct CapGuard {
-    double& cap;
-    double& cap_recursive;
-    ~CapGuard() { cap = cap_recursive = std::numeric_limits<double>::infinity(); }
-  } cap_guard{native_cost_cap_, native_cost_cap_recursive_};
-  const double asp_log2 = aspWorldsLog2(program_);
-  // A program that may loop through negation is usually refused by the native engine, but
-  // only once it has grounded the query's cone: clingo starts at once instead of after it.
+  // Auto: the native engine grounds and plans; decideAuto then chooses from both estimates
+  // (see setBackend). A program that may loop through negation (negationLoopReason) is usually
+  // refused by the native engine, but only once it has grounded the query's cone: clingo
+  // starts at once instead, and the native engine joins after kGroundingRaceFactor race delays.
+  using Clock = std::chrono::steady_clock;
+  const auto started = Clock::now();
+  auto after = [&](Clock::time_point from, double seconds) {
+    if (!(seconds < 1e9)) return Clock::time_point::max();  // never (or absurdly late)
+    return from + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
+  };
   const std::pair<std::uint64_t, std::uint64_t> version{structure_version_, change_seq_};
   if (!negation_loop_valid_ || negation_loop_version_ != version) {
     negation_loop_reason_ = negationLoopReason(program_);
@@ -834,46 +923,32 @@ T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_
   }
   const bool asp_at_once = !negation_loop_reason_.empty();
   if (asp_at_once) ++stats_.asp_started_at_once;
-  native_cost_cap_ = nativeCostCapLog2(asp_log2);
-  native_cost_cap_recursive_ = asp_log2 - kAspAdvantageLog2;
+  AutoEstimate estimate;
+  estimate.asp_seconds = aspCostSeconds(program_);
+  stats_.last_estimate = estimate;
+  stats_.last_auto_choice = asp_at_once ? AutoChoice::Race : AutoChoice::Native;
+  stats_.last_asp_joined = false;
   AspBackend& backend = asp();  // made here: the helper thread must not create it
   std::atomic<bool> native_done{false};
   backend.setCancelFlag(&native_done);
   asp_won_ = false;
-  std::mutex m;
-  std::condition_variable cv;
-  bool start_now = asp_at_once, stop = false, asp_ran = false, asp_finished = false;
+  // The helper thread that runs clingo shares only this state with the query (it is detached:
+  // a query the native engine answers before clingo starts returns at once, without waiting
+  // for the helper to be scheduled, which took milliseconds on a loaded machine).
+  struct Shared {
+    std::mutex m;
+    std::condition_variable cv;
+    bool start_now = false, stop = false, started = false, finished = false;
+    Clock::time_point join_at = Clock::time_point::max();
+  };
+  auto sh = std::make_shared<Shared>();
+  sh->start_now = asp_at_once;
+  // When clingo joins if the native engine has not answered: while it grounds, from the
+  // estimate without a plan; from its plan on, from decideAuto.
+  sh->join_at = after(started, decideAuto(estimate, race_delay_).asp_join_seconds);
   std::optional<T> asp_result;
   std::exception_ptr asp_error;
-  // What the native engine has planned (log2 rows of its largest table; NaN: still
-  // grounding). clingo grounds the whole program, so it does not join while the native engine
-  // grounds the query's cone (unless that takes kGroundingRaceFactor race delays); it joins
-  // race_delay_ after the plan (a row can be costly: derived atoms are evaluated per row).
-  double planned = std::numeric_limits<double>::quiet_NaN();
-  plan_callback_ = [&](double log2_rows) {
-    {
-      std::lock_guard<std::mutex> lock(m);
-      if (std::isnan(planned)) planned = log2_rows;
-    }
-    cv.notify_all();
-  };
-  struct PlanGuard {
-    std::function<void(double)>& cb;
-    ~PlanGuard() { cb = nullptr; }
-  } plan_guard{plan_callback_};
-  std::thread helper([&]() {
-    {
-      std::unique_lock<std::mutex> lock(m);
-      const auto delay = std::chrono::duration<double>(race_delay_);
-      cv.wait_for(lock, delay * kGroundingRaceFactor,
-                  [&]() { return start_now || stop || !std::isnan(planned); });
-      if (stop) return;
-      if (!start_now && !std::isnan(planned)) {
-        cv.wait_for(lock, delay, [&]() { return start_now || stop; });
-        if (stop) return;
-      }
-      asp_ran = true;
-    }
+  std::function<void()> run_asp = [&]() {
     try {
       asp_result.emplace(asp_answer());
       asp_won_ = true;
@@ -883,20 +958,72 @@ T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_
     } catch (...) {
       asp_error = std::current_exception();
     }
+  };
+  // The helper is started when clingo may be needed: at once for a program that may loop
+  // through negation, otherwise at the plan when the decision races or sets a time for clingo
+  // to join (a thread started for every query cost a sizeable part of sub-millisecond
+  // queries). A grounding that took longer than clingo would have joined races at the plan.
+  bool spawned = false;
+  auto spawn = [&]() {
+    if (spawned) return;
+    spawned = true;
+    std::thread([sh, job = &run_asp]() {
+      {
+        std::unique_lock<std::mutex> lock(sh->m);
+        for (;;) {
+          if (sh->stop) return;  // the query is over: `job` must not be touched
+          if (sh->start_now || Clock::now() >= sh->join_at) break;
+          if (sh->join_at == Clock::time_point::max()) sh->cv.wait(lock);
+          else sh->cv.wait_until(lock, sh->join_at);
+        }
+        sh->started = true;  // from here on the query waits for `finished`
+      }
+      (*job)();
+      {
+        std::lock_guard<std::mutex> lock(sh->m);
+        sh->finished = true;
+      }
+      sh->cv.notify_all();
+    }).detach();
+  };
+  if (asp_at_once) spawn();
+  plan_callback_ = [&](const EnginePlan& plan) {
+    AutoEstimate e = estimate;
+    e.native_seconds = nativeCostSeconds(plan);
+    e.native_refuses = plan.largest_log2 > kMaxFactorLog2;
+    const AutoDecision d = decideAuto(e, race_delay_);
+    stats_.last_estimate = e;
+    if (!asp_at_once) stats_.last_auto_choice = d.choice;
     {
-      std::lock_guard<std::mutex> lock(m);
-      asp_finished = true;
+      std::lock_guard<std::mutex> lock(sh->m);
+      if (d.choice != AutoChoice::Native || Clock::now() >= sh->join_at) sh->start_now = true;
+      else sh->join_at = after(Clock::now(), d.asp_join_seconds);
     }
-    cv.notify_all();
-  });
+    if (sh->start_now || sh->join_at != Clock::time_point::max()) spawn();
+    sh->cv.notify_all();
+    if (d.choice == AutoChoice::Asp)
+      throw OutsideFragmentError("the native engine's largest table would have 2^" +
+                                 std::to_string(plan.largest_log2) + " rows (at most 2^" +
+                                 std::to_string(kMaxFactorLog2) + ")");
+  };
+  struct PlanGuard {
+    std::function<void(const EnginePlan&)>& cb;
+    ~PlanGuard() { cb = nullptr; }
+  } plan_guard{plan_callback_};
   auto finish = [&](bool cancel_asp) {
     if (cancel_asp) native_done = true;
-    {
-      std::lock_guard<std::mutex> lock(m);
-      if (cancel_asp) stop = true; else start_now = true;
+    if (!cancel_asp) spawn();  // clingo's answer is wanted
+    std::unique_lock<std::mutex> lock(sh->m);
+    if (cancel_asp && !sh->started) {
+      sh->stop = true;  // clingo never started: the helper exits on its own
+    } else {
+      sh->start_now = true;
+      sh->cv.notify_all();
+      sh->cv.wait(lock, [&]() { return sh->finished; });
     }
-    cv.notify_all();
-    helper.join();
+    lock.unlock();
+    sh->cv.notify_all();
+    stats_.last_asp_joined = asp_result || asp_error;
     backend.setCancelFlag(nullptr);
   };
   auto useAsp = [&](const std::string& why) -> T {
@@ -920,14 +1047,14 @@ T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_
   if (asp_at_once) {
     // clingo usually answers these programs: the native engine joins only if it has not
     // within kGroundingRaceFactor race delays (the two would otherwise share the machine).
-    std::unique_lock<std::mutex> lock(m);
-    cv.wait_for(lock, std::chrono::duration<double>(race_delay_) * kGroundingRaceFactor,
-                [&]() { return asp_finished; });
+    std::unique_lock<std::mutex> lock(sh->m);
+    sh->cv.wait_for(lock,
+                    std::chrono::duration<double>(race_delay_) * AutoCostModel::kGroundingRaceFactor,
+                    [&]() { return sh->finished; });
   }
   if (asp_won_) {
     finish(false);
     asp_won_ = false;
-    if (asp_result) outside_fragment_[key] = structure_version_;
     return useAsp("clingo answered first");
   }
   try {
@@ -941,38 +1068,23 @@ T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_
     asp_won_ = false;
     outside_fragment_[key] = structure_version_;
     return useAsp(e.what());
-  } catch (const CostlierError& e) {
-    finish(false);  // a choice for this query only (its evidence shapes the plan): not cached
-    asp_won_ = false;
-    bool asp_failed = false;  // clingo could not answer (not: the program is incoherent)
-    if (!asp_result) {
-      try {
-        std::rethrow_exception(asp_error);
-      } catch (const IncoherentError&) {
-      } catch (const UnknownSymbolError&) {
-      } catch (...) {
-        asp_failed = true;
-      }
-    }
-    if (!asp_failed) return useAsp(e.what());
-    // The estimate chose clingo and clingo failed (too many worlds, time): the native engine
-    // without its cap.
-    native_cost_cap_ = native_cost_cap_recursive_ = std::numeric_limits<double>::infinity();
-    T r = native();
-    stats_.last_backend = Backend::Native;
-    return r;
   } catch (const CancelledError&) {
     finish(false);  // clingo has answered (or failed): wait for its thread
     asp_won_ = false;
-    if (asp_result) outside_fragment_[key] = structure_version_;  // clingo is faster here
     if (asp_result || asp_error) return useAsp("the native engine was abandoned");
     throw;
   } catch (...) {
     finish(true);
     asp_won_ = false;
-    (void)asp_ran;
     throw;
   }
+}
+
+void Reasoner::noteWarnings(const std::vector<std::string>& warnings) {
+  std::lock_guard<std::mutex> lock(warnings_mutex_);
+  for (const auto& w : warnings)
+    if (std::find(program_.warnings.begin(), program_.warnings.end(), w) == program_.warnings.end())
+      program_.warnings.push_back(w);
 }
 
 double Reasoner::probability(const std::string& query) {
@@ -990,8 +1102,8 @@ double Reasoner::probability(const Query& q) {
 std::vector<GCondition> Reasoner::prepareEngine(const GroundProgram& g, const Query& q,
                                                 ExactEngine& e) {
   e.setTimeBudget(limits_.max_inference_seconds);
+  e.setMemoryBudget(limits_.memory_budget, q.loc);
   e.setCancelFlag(&asp_won_);
-  e.setCostCap(native_cost_cap_, native_cost_cap_recursive_);
   if (plan_callback_) e.setPlanCallback(plan_callback_);
   for (const auto& d : program_.interventions) applyDo(g, program_, d, e);
   for (const auto& d : q.interventions) applyDo(g, program_, d, e);
@@ -1015,6 +1127,7 @@ double Reasoner::nativeProbability(const Query& q) {
   std::vector<GCondition> evidence = prepareEngine(*g, q, e), formula(1);
   for (const auto& l : q.formula) addLiteral(*g, program_, l, formula[0]);
   auto m = e.measure(formula, evidence);
+  noteWarnings(e.warnings());
   if (!(m.second > 0))
     throw IncoherentError(q.loc.str() + ": the evidence of query " + q.text +
                           " has probability zero (no possible world satisfies it)");
@@ -1059,6 +1172,7 @@ std::vector<ValueProb> Reasoner::nativeDistribution(const AttributeTerm& at, con
   ExactEngine e(*g);
   std::vector<GCondition> evs = prepareEngine(*g, ev, e);
   std::vector<double> m = e.marginal(inst, evs);
+  noteWarnings(e.warnings());
   double z = 0;
   for (double x : m) z += x;
   if (!(z > 0))
@@ -1177,7 +1291,10 @@ Table Reasoner::nativeTable(const AttributeTerm& tat, const std::vector<Attribut
   std::string cache_key = t.target + "|";
   for (const auto& c : t.conditioning) cache_key += c + ",";
   cache_key += "|" + evidence + (conditioning_as_do ? "|do" : "|obs");
-  std::shared_ptr<TableCache>& cache = table_cache_[cache_key];
+  // Stored back only once the table is complete (an inference that stops leaves the cache
+  // as it was; rows recomputed in place before the stop are those of the current program).
+  auto cached = table_cache_.find(cache_key);
+  std::shared_ptr<TableCache> cache = cached != table_cache_.end() ? cached->second : nullptr;
   std::vector<char> todo(total, 1);
   bool reuse = conditioning_as_do && cache && cache->entry_serial == entry->serial &&
                cache->seq >= entry->changes_from && cache->target == ti &&
@@ -1269,7 +1386,7 @@ Table Reasoner::nativeTable(const AttributeTerm& tat, const std::vector<Attribut
   }
   stats_.table_rows_computed = computed;
   if (conditioning_as_do) {
-    if (!cache) cache = std::make_shared<TableCache>();
+    if (!cache) cache = table_cache_[cache_key] = std::make_shared<TableCache>();
     cache->entry_serial = entry->serial;
     cache->seq = entry->seq;
     cache->target = ti;

@@ -13,6 +13,7 @@
 #include <functional>
 #include <map>
 #include <set>
+#include <unordered_map>
 #include <unordered_set>
 
 #include "krr_core/common/errors.h"
@@ -26,9 +27,26 @@ class Resolver {
  public:
   explicit Resolver(Program& p) : prog_(p) {}
 
-  bool isAttributeTerm(const Term& t) const {
+  /// @brief Program::findAttribute in O(1): the resolver only appends declarations, so the
+  /// index is extended with the new tail when the vector has grown (first declaration wins,
+  /// as in the linear search). A linear search per literal made n implicit predicates cost n^2.
+  const AttributeDecl* findAttr(const std::string& name) {
+    for (; attr_indexed_ < prog_.attributes.size(); ++attr_indexed_)
+      attr_index_.emplace(prog_.attributes[attr_indexed_].name, attr_indexed_);
+    auto it = attr_index_.find(name);
+    return it == attr_index_.end() ? nullptr : &prog_.attributes[it->second];
+  }
+  /// @brief Program::findSort in O(1) (see findAttr).
+  const SortDecl* findSortDecl(const std::string& name) {
+    for (; sort_indexed_ < prog_.sorts.size(); ++sort_indexed_)
+      sort_index_.emplace(prog_.sorts[sort_indexed_].name, sort_indexed_);
+    auto it = sort_index_.find(name);
+    return it == sort_index_.end() ? nullptr : &prog_.sorts[it->second];
+  }
+
+  bool isAttributeTerm(const Term& t) {
     if (t.kind != Term::Kind::Symbol && t.kind != Term::Kind::Compound) return false;
-    return prog_.findAttribute(t.name) != nullptr;
+    return findAttr(t.name) != nullptr;
   }
 
   AttributeTerm toAttr(const Term& t) {
@@ -36,7 +54,7 @@ class Resolver {
     a.name = t.name;
     a.args = t.args;
     a.loc = t.loc;
-    const AttributeDecl* d = prog_.findAttribute(t.name);
+    const AttributeDecl* d = findAttr(t.name);
     if (!d) throw UnknownSymbolError(t.loc.str() + ": unknown attribute '" + t.name + "'");
     if (d->arg_sorts.size() != a.args.size())
       throw UnknownSymbolError(t.loc.str() + ": attribute '" + t.name + "' expects " +
@@ -55,7 +73,7 @@ class Resolver {
         v.kind != Term::Kind::Compound)
       return;
     if (!v.isGround()) return;
-    const SortDecl* s = prog_.findSort(sort);
+    const SortDecl* s = findSortDecl(sort);
     if (!s) throw UnknownSymbolError(v.loc.str() + ": unknown sort '" + sort + "'");
     auto& cache = sort_cache_[sort];
     if (cache.size() != s->values.size()) {
@@ -82,7 +100,7 @@ class Resolver {
     a.attr = toAttr(attr_term);
     a.value = value;
     a.loc = attr_term.loc;
-    const AttributeDecl* d = prog_.findAttribute(attr_term.name);
+    const AttributeDecl* d = findAttr(attr_term.name);
     checkValue(value, d->range_sort, "the value of '" + attr_term.name + "'");
     return a;
   }
@@ -92,8 +110,8 @@ class Resolver {
   /// @brief plog2.0 lets rule bodies test observations: `not obs(s, true, true)` holds when the
   /// program does not observe s = true. They are read as the hidden boolean attribute
   /// `obs(a(t), y, flag)` (untyped arguments), made true by one fact per observation.
-  bool usesObsLiterals() const {
-    const AttributeDecl* d = prog_.findAttribute("obs");
+  bool usesObsLiterals() {
+    const AttributeDecl* d = findAttr("obs");
     return d && d->implicit && d->arg_sorts.size() == 3;
   }
 
@@ -104,7 +122,7 @@ class Resolver {
   }
 
   void declareObsAttribute(const std::vector<RawStmt>& stmts) {
-    if (prog_.findAttribute("obs")) return;
+    if (findAttr("obs")) return;
     for (const auto& s : stmts) {
       if (!rawUsesObs(s.body) && !rawUsesObs(s.range_body)) continue;
       AttributeDecl d;
@@ -125,7 +143,7 @@ class Resolver {
       throw ParseError(t.loc, "obs(a, y) or obs(a, y, true|false) expected in a rule body");
     const Term& a = t.args[0];
     if ((a.kind != Term::Kind::Symbol && a.kind != Term::Kind::Compound) ||
-        !prog_.findAttribute(a.name) || a.name == "obs")
+        !findAttr(a.name) || a.name == "obs")
       throw UnknownSymbolError(a.loc.str() + ": obs(...) needs an attribute term, got '" +
                                toString(a) + "'");
     makeAtom(a, t.args[1]);  // arity, argument sorts and value sort
@@ -146,7 +164,7 @@ class Resolver {
   /// arguments as the body uses, true for the argument tuples of the program's do statements
   /// (one fact each, doFact). The intervention itself is made as usual.
   void declareDoAttribute(const std::vector<RawStmt>& stmts) {
-    if (prog_.findAttribute("do")) return;
+    if (findAttr("do")) return;
     for (const auto& s : stmts) {
       for (const auto* body : {&s.body, &s.range_body}) {
         for (const auto& l : *body) {
@@ -167,7 +185,7 @@ class Resolver {
   /// @brief The fact do(t1, ..., tn) for a do statement whose arguments match the arity that
   /// rule bodies test (none otherwise: no body can refer to it).
   void addDoFact(const std::vector<Term>& args, const SourceLocation& loc) {
-    const AttributeDecl* d = prog_.findAttribute("do");
+    const AttributeDecl* d = findAttr("do");
     if (!d || !d->implicit || d->arg_sorts.size() != args.size()) return;
     Rule r;
     r.loc = loc;
@@ -221,7 +239,7 @@ class Resolver {
       }
       if (t->kind != Term::Kind::Symbol && t->kind != Term::Kind::Compound)
         throw ParseError(r.loc, "expected a literal, got '" + toString(r.lhs) + "'");
-      const AttributeDecl* d = prog_.findAttribute(t->name);
+      const AttributeDecl* d = findAttr(t->name);
       if (!d) throw UnknownSymbolError(t->loc.str() + ": unknown predicate '" + t->name + "'");
       if (d->range_sort != "boolean")
         throw ParseError(r.loc, "attribute '" + t->name + "' has range " + d->range_sort +
@@ -234,8 +252,8 @@ class Resolver {
     bool la = isAttributeTerm(r.lhs), ra = isAttributeTerm(r.rhs);
     if (la && ra && (r.op == CompareOp::Eq || r.op == CompareOp::Ne)) {
       // a(t) = y where y is also a declared 0-ary attribute name: prefer the value reading.
-      const AttributeDecl* d = prog_.findAttribute(r.lhs.name);
-      const SortDecl* s = prog_.findSort(d->range_sort);
+      const AttributeDecl* d = findAttr(r.lhs.name);
+      const SortDecl* s = findSortDecl(d->range_sort);
       bool is_value = false;
       if (s)
         for (const auto& x : s->values)
@@ -305,7 +323,7 @@ class Resolver {
 
   void checkArith(const Term& t) {
     if (t.kind == Term::Kind::Compound || t.kind == Term::Kind::Symbol) {
-      if (prog_.findAttribute(t.name) && t.kind == Term::Kind::Compound)
+      if (findAttr(t.name) && t.kind == Term::Kind::Compound)
         throw Error(t.loc.str() + ": attribute term '" + toString(t) +
                     "' inside an arithmetic expression is not supported");
     }
@@ -323,7 +341,7 @@ class Resolver {
     const Term* h = &r.lhs;
     if (h->kind == Term::Kind::Negate) h = &h->args[0];
     if ((h->kind == Term::Kind::Symbol || h->kind == Term::Kind::Compound) &&
-        !prog_.findAttribute(h->name))
+        !findAttr(h->name))
       throw UnknownSymbolError(h->loc.str() + ": undeclared attribute '" + h->name + "' in " +
                                what);
     std::vector<Literal> tmp;
@@ -346,10 +364,10 @@ class Resolver {
   /// sort is hidden (builtin: not exported; a re-parse derives it again).
   std::string projectionSort(const std::string& sort, const std::string& f, size_t arity,
                              size_t i) {
-    const SortDecl* s = prog_.findSort(sort);
+    const SortDecl* s = findSortDecl(sort);
     if (!s) return "";
     std::string name = "arg_" + sort + "_" + f + std::to_string(arity) + "_" + std::to_string(i);
-    if (const SortDecl* old = prog_.findSort(name)) return old->builtin ? name : "";
+    if (const SortDecl* old = findSortDecl(name)) return old->builtin ? name : "";
     SortDecl p;
     p.name = name;
     p.builtin = true;
@@ -365,7 +383,7 @@ class Resolver {
   }
 
   void typeAtom(const Atom& a, VariableSorts& vs) {
-    const AttributeDecl* d = prog_.findAttribute(a.attr.name);
+    const AttributeDecl* d = findAttr(a.attr.name);
     if (!d) return;
     for (size_t i = 0; i < a.attr.args.size() && i < d->arg_sorts.size(); ++i)
       typeTerm(a.attr.args[i], d->arg_sorts[i], vs);
@@ -436,7 +454,7 @@ class Resolver {
     const Term* t = &r.lhs;
     if (t->kind == Term::Kind::Negate) t = &t->args[0];
     if ((t->kind == Term::Kind::Symbol || t->kind == Term::Kind::Compound) &&
-        !prog_.findAttribute(t->name))
+        !findAttr(t->name))
       throw UnknownSymbolError(t->loc.str() + ": unknown attribute '" + t->name + "'");
   }
 
@@ -474,8 +492,8 @@ class Resolver {
       const Term* t = &h.lhs;
       if (t->kind == Term::Kind::Negate) t = &t->args[0];
       if (t->kind != Term::Kind::Symbol && t->kind != Term::Kind::Compound) continue;
-      if (prog_.findAttribute(t->name)) continue;
-      if (prog_.findSort(t->name) == nullptr || true) {
+      if (findAttr(t->name)) continue;
+      if (findSortDecl(t->name) == nullptr || true) {
         AttributeDecl d;
         d.name = t->name;
         d.arg_sorts.assign(t->args.size(), "");
@@ -526,8 +544,10 @@ class Resolver {
   /// @brief Classic programs overload undeclared predicate names by arity, as ASP does
   /// (Poker: pair(K, S) and pair(K)). One attribute has one arity here, so every arity but the
   /// first one used is renamed `name_<arity>` (a free name) throughout the statements.
-  std::vector<RawStmt> splitOverloadedPredicates(const std::vector<RawStmt>& stmts) {
-    if (plog2_) return stmts;
+  /// Returns false (and leaves `out` alone) when no predicate is overloaded: the statements are
+  /// then used as they are, without a copy.
+  bool splitOverloadedPredicates(const std::vector<RawStmt>& stmts, std::vector<RawStmt>& out) {
+    if (plog2_) return false;
     std::map<std::string, std::vector<size_t>> arities;  // first-use order
     auto top = [](const RawLit& l) -> const Term* {
       const Term* t = &l.lhs;
@@ -536,7 +556,7 @@ class Resolver {
     };
     auto note = [&](const RawLit& l) {
       const Term* t = top(l);
-      if (!t || prog_.findAttribute(t->name) || t->name == "obs" || t->name == "do") return;
+      if (!t || findAttr(t->name) || t->name == "obs" || t->name == "do") return;
       auto& v = arities[t->name];
       if (std::find(v.begin(), v.end(), t->args.size()) == v.end()) v.push_back(t->args.size());
     };
@@ -548,12 +568,12 @@ class Resolver {
     for (const auto& a : arities) {
       for (size_t k = 1; k < a.second.size(); ++k) {
         std::string n = a.first + "_" + std::to_string(a.second[k]);
-        while (prog_.findAttribute(n) || arities.count(n)) n += "_";
+        while (findAttr(n) || arities.count(n)) n += "_";
         rename[{a.first, a.second[k]}] = n;
       }
     }
-    if (rename.empty()) return stmts;
-    std::vector<RawStmt> out = stmts;
+    if (rename.empty()) return false;
+    out = stmts;
     auto fix = [&](RawLit& l) {
       Term* t = &l.lhs;
       if (t->kind == Term::Kind::Negate) t = &t->args[0];
@@ -570,16 +590,18 @@ class Resolver {
       for (auto& l : s.query.formula) fix(l);
       for (auto& o : s.query.obs) fix(o.lit);
     }
-    return out;
+    return true;
   }
 
   void resolveAll(const std::vector<RawStmt>& raw) {
-    const std::vector<RawStmt> stmts = splitOverloadedPredicates(raw);
+    std::vector<RawStmt> renamed;
+    const std::vector<RawStmt>& stmts = splitOverloadedPredicates(raw, renamed) ? renamed : raw;
     inferClassicArity(stmts);
     declareObsAttribute(stmts);
     declareDoAttribute(stmts);
     declareImplicit(stmts);
     for (const auto& s : stmts) {
+      if (guard_) guard_->tick("resolving the statements", s.loc);
       switch (s.kind) {
         case RawStmt::Kind::Rule: {
           Rule r;
@@ -619,7 +641,7 @@ class Resolver {
           if (t.kind != Term::Kind::Symbol && t.kind != Term::Kind::Compound)
             throw ParseError(s.head->loc, "random(...) needs an attribute term");
           r.attr = toAttr(t);
-          const AttributeDecl* d = prog_.findAttribute(t.name);
+          const AttributeDecl* d = findAttr(t.name);
           r.has_range = s.has_range;
           if (s.has_range) {
             if (!s.range_pred.empty()) {
@@ -681,8 +703,8 @@ class Resolver {
           auto isTerm = [](const Term& t) {
             return t.kind == Term::Kind::Symbol || t.kind == Term::Kind::Compound;
           };
-          if (a.size() == 3 && isTerm(a[0]) && !prog_.findAttribute(a[0].name) && isTerm(a[1]) &&
-              prog_.findAttribute(a[1].name) && a[1].name != "do") {
+          if (a.size() == 3 && isTerm(a[0]) && !findAttr(a[0].name) && isTerm(a[1]) &&
+              findAttr(a[1].name) && a[1].name != "do") {
             // Agent form do(agent, a(t), y) (plog2.0's do with an agent, flag omitted): the
             // agent fixes a(t) = y.
             RawLit l;
@@ -711,12 +733,15 @@ class Resolver {
   bool plog2_ = false;
   /// @brief ParseOptions::strict_sorts.
   bool strict_sorts_ = false;
+  MemoryGuard* guard_ = nullptr;
   /// @brief Classic attributes declared with their range only (arity taken from use).
   std::set<std::string> range_only_;
 
  private:
   Program& prog_;
   std::map<std::string, std::unordered_set<std::string>> sort_cache_;
+  std::unordered_map<std::string, std::size_t> attr_index_, sort_index_;
+  std::size_t attr_indexed_ = 0, sort_indexed_ = 0;
 };
 
 }  // namespace
@@ -743,6 +768,7 @@ void resolveStatements(Program& work, const std::vector<RawStmt>& stmts,
   res.plog2_ = settings.plog2;
   res.range_only_ = settings.range_only;
   res.strict_sorts_ = settings.strict_sorts;
+  res.guard_ = settings.guard;
   res.resolveAll(stmts);
 }
 

@@ -265,6 +265,7 @@ void runMutant(const std::string& text, Shared* sh) {
     lim.max_ground_statements = 200000;
     lim.max_ground_seconds = 1.0;
     lim.max_inference_seconds = 1.0;
+    lim.memory_budget = 256u << 20;  // well inside the child's RLIMIT_AS: a budget error, never bad_alloc
     r.setLimits(lim);
     r.loadString(text, "mutant");
     sh->loaded = sh->loaded + 1;
@@ -393,4 +394,23 @@ TEST(PlogFuzz, RegressionInputs) {
   int loaded = 0, answered = 0;
   const std::string failure = runForked(inputs, 1, 10.0, &loaded, &answered);
   EXPECT_TRUE(failure.empty()) << failure;
+}
+
+// Issue 24: inputs that grow without bound (a large random relation, many facts, wide record
+// sorts, huge ranges, long sums) under RLIMIT_AS: each ends in an answer or a krr::Error (the
+// memory budget), never std::bad_alloc (which fails the test as a non-krr exception).
+TEST(PlogFuzz, SizeHostileInputsUnderAddressSpaceLimit) {
+  std::vector<std::string> inputs;
+  inputs.push_back("n = {1..2300}.\np : n, n -> boolean.\n[r] random(p(X,Y)).\n?{p(1,1)=true}.\n");
+  std::string f;
+  for (int i = 0; i < 400000; ++i) f += "q" + std::to_string(i) + ".\n";
+  inputs.push_back(f + "?{q1}.\n");
+  inputs.push_back("a = {1..1000}.\nr = f(a, a).\nt = g(r, a).\nx : t.\n[r] random(x).\n?{x = g(f(1,1),1)}.\n");
+  inputs.push_back("n = {1..1000000}.\nm = {1..1000000}.\np : n, m -> boolean.\np(X, Y) :- X = Y.\n?{p(1,1)}.\n");
+  std::string sum = "s = {0..30000}.\na : s.\n[r] random(a).\n?{a = 1";
+  for (int i = 0; i < 200000; ++i) sum += "+1";
+  inputs.push_back(sum + "}.\n");
+  int loaded = 0, answered = 0;
+  const std::string failure = runForked(inputs, 1, 120.0, &loaded, &answered);
+  EXPECT_TRUE(failure.empty()) << failure.substr(0, 400);
 }

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <chrono>
+#include <cstddef>
 
 namespace krr {
 
@@ -27,5 +28,10 @@ double threadCpuSeconds();
 
 /// @brief Peak resident set size of this process so far, in MiB (from getrusage).
 double peakRssMiB();
+
+/// @brief Bytes of the C++ heap in use by this process now (glibc mallinfo2: allocated chunks
+/// of every arena plus mmapped blocks). Cheap enough to call every thousand statements; the
+/// memory budgets of the loaders measure their growth with it.
+std::size_t heapBytesInUse();
 
 }  // namespace krr

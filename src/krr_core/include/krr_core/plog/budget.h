@@ -25,6 +25,9 @@ struct GroundingLimits {
   double max_ground_seconds = 60.0;
   /// @brief Wall-clock seconds for one inference (one query, one table row set).
   double max_inference_seconds = 60.0;
+  /// @brief Bytes by which one grounding, and one inference, may grow the heap; 0:
+  /// krr::memoryBudget() (1 GiB unless $KRR_MEMORY_BUDGET_MIB says otherwise).
+  std::size_t memory_budget = 0;
   /// @brief When set and true, grounding and inference stop with CancelledError (another
   /// back end answered first, see Reasoner's Backend::Auto).
   const std::atomic<bool>* cancel = nullptr;
@@ -48,6 +51,36 @@ class CostlierError : public Error {
 class BudgetExceededError : public Error {
  public:
   using Error::Error;
+};
+
+/**
+ * @brief The memory budget of one phase of the P-log front end (reading, resolving, grounding,
+ * inference, the ASP translation): the phase may grow the process's heap by at most `budget`
+ * bytes from where it started. Phases check it before they allocate a structure whose size they
+ * know (check with `about_to_allocate`) and every thousand steps while they grow (tick), so
+ * that running out is a BudgetExceededError naming the phase and the statement, never
+ * std::bad_alloc.
+ */
+class MemoryGuard {
+ public:
+  /// @brief budget in bytes; 0: krr::memoryBudget().
+  explicit MemoryGuard(std::size_t budget = 0);
+  /// @brief Throws BudgetExceededError ("where: memory budget of ... exhausted while phase")
+  /// when the heap grew by more than the budget, counting `about_to_allocate` bytes more.
+  void check(const char* phase, const SourceLocation& where,
+             std::size_t about_to_allocate = 0) const;
+  /// @brief check() on every 1024th call.
+  void tick(const char* phase, const SourceLocation& where) {
+    if ((++ticks_ & 1023u) == 0) check(phase, where);
+  }
+  std::size_t budget() const { return budget_; }
+  /// @brief Heap growth since construction (0 when the heap shrank).
+  std::size_t used() const;
+
+ private:
+  std::size_t budget_;
+  std::size_t base_;
+  unsigned ticks_ = 0;
 };
 
 }  // namespace plog

@@ -15,6 +15,7 @@
 #pragma once
 
 #include <chrono>
+#include <memory>
 #include <functional>
 #include <limits>
 #include <string>
@@ -34,6 +35,19 @@ struct GCondition {
   bool truth = true;     ///< required truth value of the conjunction (obs(l, false))
 };
 
+/// @brief log2 of the largest table (factor) the native engine fills: a plan or an elimination
+/// step beyond it is outside its fragment (OutsideFragmentError).
+constexpr int kMaxFactorLog2 = 24;
+
+/// @brief The tables an inference is about to fill (its plan, made after grounding and before
+/// any row is evaluated): what Backend::Auto's cost estimate reads.
+struct EnginePlan {
+  double largest_log2 = 0;   ///< log2 rows of the largest table
+  double rows = 0;           ///< rows of all tables
+  std::size_t derived_rules = 0;  ///< ground rules of derived instances (evaluated per row)
+  bool recursive = false;    ///< cyclic dependencies among derived atoms (fixpoint per row)
+};
+
 /// @brief Exact inference over one GroundProgram (which must outlive the engine).
 class ExactEngine {
  public:
@@ -42,8 +56,16 @@ class ExactEngine {
   /// @brief Wall-clock budget of the inference calls from now on (0: none); exhausting it
   /// throws BudgetExceededError from the next check point (factor rows, elimination steps).
   void setTimeBudget(double seconds);
+  /// @brief Bytes by which inference may grow the heap (0: krr::memoryBudget()); `where` (the
+  /// query) is named when it is exhausted (BudgetExceededError).
+  void setMemoryBudget(std::size_t bytes, const SourceLocation& where);
   /// @brief Stop with CancelledError as soon as *flag is true (checked with the time budget).
   void setCancelFlag(const std::atomic<bool>* flag) { cancel_ = flag; }
+
+  /// @brief Probability sums repaired during inference: "file:line:col: warning: ..." for
+  /// each pr-atom set whose probabilities sum to 1 within rounding (|sum - 1| <= 1e-9 relative,
+  /// more than floating-point noise) and were renormalised (see kSumTolerance in engine.cpp).
+  const std::vector<std::string>& warnings() const { return warnings_; }
 
   /// @brief Before filling any table, the engine plans the tables of the inference (the
   /// relevant instances' CPTs with their parents, the constraints', derived conflicts' and
@@ -59,9 +81,13 @@ class ExactEngine {
   }
   /// @brief Called with the log2 rows of the largest planned table once the plan is made
   /// (grounding done, no row filled yet): Backend::Auto races clingo on the inference only.
-  void setPlanCallback(std::function<void(double)> callback) { on_plan_ = std::move(callback); }
+  void setPlanCallback(std::function<void(const EnginePlan&)> callback) {
+    on_plan_ = std::move(callback);
+  }
   /// @brief log2 of the rows of the largest table planned by the last inference.
   double lastPlannedLog2() const { return last_planned_log2_; }
+  /// @brief The plan of the last inference.
+  const EnginePlan& lastPlan() const { return last_plan_; }
 
   /// @brief Intervention do(inst = value index); -1 removes it.
   void setFixed(int inst, int value);
@@ -134,6 +160,11 @@ class ExactEngine {
   /// @throws OutsideFragmentError with message too_large when the table exceeds kMaxFactor.
   Factor indicatorFactor(std::vector<int> scope, const std::string& too_large,
                          const std::function<bool()>& holds);
+  /// @brief A condition required true whose constant part holds: its literals are separate
+  /// indicators (their product is the conjunction's indicator).
+  static bool splitsIntoLiterals(const GCondition& c) {
+    return c.truth && c.constant && !c.lits.empty();
+  }
   void buildIndicator(const std::vector<GCondition>& conds, bool constraint_style,
                       const std::vector<GLit>* constraint_body, std::vector<Factor>& out);
   std::vector<double> eliminate(std::vector<Factor> factors, int keep);
@@ -190,12 +221,18 @@ class ExactEngine {
   double cost_cap_log2_ = std::numeric_limits<double>::infinity();
   double cost_cap_recursive_log2_ = std::numeric_limits<double>::infinity();
   double last_planned_log2_ = 0;
-  std::function<void(double)> on_plan_;
+  EnginePlan last_plan_;
+  std::function<void(const EnginePlan&)> on_plan_;
   std::vector<PendingError> pending_errors_;
   size_t pending_factor_ = 0;
   double budget_seconds_ = 0;
   const std::atomic<bool>* cancel_ = nullptr;
   unsigned budget_ticks_ = 0;
+  std::shared_ptr<MemoryGuard> memory_;  ///< setMemoryBudget
+  std::vector<std::string> warnings_;    ///< warnings()
+  SourceLocation memory_where_;
+  /// @brief Throws BudgetExceededError when `bytes` more would exceed the memory budget.
+  void checkMemory(std::size_t bytes) const;
   std::chrono::steady_clock::time_point budget_start_;
 };
 

@@ -4,6 +4,7 @@
  */
 #pragma once
 
+#include <cstddef>
 #include <string>
 
 #include "krr_core/plog/ast.h"
@@ -19,6 +20,10 @@ struct ParseOptions {
   /// with a warning in Program::warnings naming file:line:col and the value; when true it is
   /// an UnknownSymbolError instead.
   bool strict_sorts = false;
+  /// @brief Bytes by which reading and resolving one text may grow the heap; 0:
+  /// krr::memoryBudget() (1 GiB, $KRR_MEMORY_BUDGET_MIB). Exhausting it is a
+  /// BudgetExceededError naming the phase and the statement (file:line:col).
+  std::size_t memory_budget = 0;
 };
 
 /// @brief Parse and resolve a whole program; the dialect is detected from the presence of the

@@ -27,6 +27,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <set>
 #include <string>
 #include <unordered_map>
@@ -56,6 +57,73 @@ enum class Backend {
 /// the program: the sum over its random selection rules of (ground instances of the attribute
 /// term x log2 |range sort|); infinity when a sort is unknown.
 double aspWorldsLog2(const Program& program);
+
+/// @brief Upper bound on the work of the clingo back end for the program, in ground atoms
+/// processed: at most 2^aspWorldsLog2 worlds, each of about the program's ground size (the
+/// selected attribute instances with their possible values, the rules and pr-atoms; clingo
+/// propagates over all of it per answer set). Infinity when a sort is unknown.
+double aspWorkAtoms(const Program& program);
+
+struct EnginePlan;
+
+/// @brief Cost estimates of Backend::Auto for one query, in seconds.
+struct AutoEstimate {
+  /// @brief clingo: process start-up + aspWorkAtoms x seconds per atom (an upper bound:
+  /// observations prune worlds).
+  double asp_seconds = std::numeric_limits<double>::infinity();
+  /// @brief The native engine's inference: the rows of its plan x (1 + the ground rules of
+  /// derived instances, evaluated per row) x seconds per row (an upper bound too: rows stop at
+  /// the first failing literal). NaN while it grounds (no plan yet).
+  double native_seconds = std::numeric_limits<double>::quiet_NaN();
+  /// @brief The plan has a table beyond the native engine's limit (2^kMaxFactorLog2): it will
+  /// refuse the query.
+  bool native_refuses = false;
+};
+
+/// @brief What Backend::Auto does with a query.
+enum class AutoChoice {
+  Native,  ///< the native engine; clingo joins only after AutoDecision::asp_join_seconds
+  Race,    ///< both at once, the first answer wins (the other is abandoned)
+  Asp      ///< clingo: the native engine cannot answer
+};
+
+struct AutoDecision {
+  AutoChoice choice = AutoChoice::Native;
+  /// @brief With AutoChoice::Native: seconds (after the plan, or after the start of the query
+  /// while there is no plan) after which clingo joins if the native engine has not answered;
+  /// infinity: never (clingo would need over kHopelessRatio times longer).
+  double asp_join_seconds = std::numeric_limits<double>::infinity();
+};
+
+/// @brief Constants of the cost model (calibrated with bench_plog_auto, see the README).
+struct AutoCostModel {
+  static constexpr double kAspStartSeconds = 0.005;   ///< one clingo process
+  static constexpr double kAspSecondsPerAtom = 1e-7;  ///< per ground atom per world
+  static constexpr double kNativeSecondsPerRow = 1e-7;  ///< per row and evaluated rule
+  /// @brief The native engine answers alone when its estimate is at most 1/kSureRatio of
+  /// clingo's (both are upper bounds of unknown tightness: closer than that, they race).
+  static constexpr double kSureRatio = 4;
+  /// @brief clingo never joins when its estimate is kHopelessRatio times the native one.
+  static constexpr double kHopelessRatio = 1000;
+  /// @brief While the native engine grounds (no plan yet), clingo joins after
+  /// max(kGroundingRaceFactor x race delay, half its own estimate).
+  static constexpr double kGroundingRaceFactor = 2;
+  /// @brief After the plan, clingo joins once the native engine has overrun its estimate
+  /// this many times (or spent half clingo's estimate), at most after the race delay.
+  static constexpr double kOverrun = 4;
+};
+
+/// @brief The native engine's estimated inference seconds for a plan.
+double nativeCostSeconds(const EnginePlan& plan);
+/// @brief clingo's estimated seconds for a program.
+double aspCostSeconds(const Program& program);
+/// @brief Backend::Auto's choice for the estimates (pure: unit-tested). Never clingo alone
+/// while the native engine can answer: only AutoEstimate::native_refuses gives Asp; estimates
+/// closer than kSureRatio race; otherwise the native engine, with clingo joining when the
+/// native engine overruns its estimate (race_delay: the longest it then runs alone; 0: race
+/// at once), never when clingo is hopeless.
+AutoDecision decideAuto(const AutoEstimate& estimate, double race_delay);
+const char* autoChoiceName(AutoChoice choice);
 
 /// @brief Why the native engine will probably refuse the program, decided from the program
 /// text before any grounding ("" when nothing points that way): a consistency-restoring rule,
@@ -111,6 +179,11 @@ struct ReasonerStats {
   /// @brief Raced queries on which clingo started with the native engine, not after its
   /// grounding, because the program may loop through negation (negationLoopReason).
   size_t asp_started_at_once = 0;
+  /// @brief Backend::Auto: the estimates and the choice of the last query (the choice made at
+  /// the native plan; Native without a plan when the native engine stopped before it).
+  AutoEstimate last_estimate;
+  AutoChoice last_auto_choice = AutoChoice::Native;
+  bool last_asp_joined = false;  ///< clingo ran on the last Auto query
 };
 
 class Reasoner {
@@ -190,33 +263,20 @@ class Reasoner {
   void setLimits(const GroundingLimits& limits) {
     limits_ = limits;
     limits_.cancel = &asp_won_;
+    parse_options_.memory_budget = limits.memory_budget;  // reading shares the budget
   }
   const GroundingLimits& limits() const { return limits_; }
 
-  /// @brief Engine for later queries (default Backend::Auto). Under Auto, each query goes to
-  /// the engine its cost estimate favours (see nativeCostCapLog2); a query the native engine
-  /// has not answered autoRaceDelay() seconds after planning its tables is also given to
-  /// clingo, and the first answer wins (the other computation is abandoned). Tables are not
-  /// raced.
+  /// @brief Engine for later queries (default Backend::Auto). Under Auto, each query (and
+  /// distribution; tables stay native) is planned by the native engine (grounding the query's
+  /// cone, then listing the tables to fill, none filled) and decided by decideAuto on the
+  /// estimates of both engines: the native engine alone (clingo joining only if it overruns its
+  /// estimate), or a race (both run, the first answer wins, the other is abandoned: clingo is a
+  /// child process, killed), or clingo when the native engine cannot answer. A program that
+  /// may loop through negation (negationLoopReason) races from the start.
   void setBackend(Backend backend) { backend_ = backend; }
-  /// @brief Cost-based choice under Backend::Auto (queries and distributions; tables stay
-  /// native): clingo enumerates possible worlds, at most 2^W of them, W = the sum over the
-  /// random selection rules of (ground instances x log2 |range|) (aspWorldsLog2); the native
-  /// engine fills tables, the largest of 2^N rows (ExactEngine::setCostCap). Rows and worlds
-  /// cost alike per ground rule evaluated, and clingo's worlds are usually far fewer than
-  /// 2^W (observations are constraints that it propagates, the native engine filters rows
-  /// only after filling them). So the native engine answers when N <= max(kNativeFloorLog2,
-  /// W - kAspAdvantageLog2), clingo otherwise, without filling any native table. With
-  /// recursive derived atoms in the ground program (a closure re-evaluated per row, where
-  /// clingo propagates once) there is no floor: native only when N <= W - kAspAdvantageLog2.
-  static constexpr double kNativeFloorLog2 = 12;     ///< 4096 rows: ms natively, always native
-  static constexpr double kAspAdvantageLog2 = 4;     ///< native only with 16x fewer rows
-  static constexpr double kGroundingRaceFactor = 2;  ///< grounding raced after 2 race delays
-  /// @brief The native cost cap for a program whose clingo world bound is 2^asp_log2.
-  static double nativeCostCapLog2(double asp_log2) {
-    return std::max(kNativeFloorLog2, asp_log2 - kAspAdvantageLog2);
-  }
-  /// @brief Seconds before clingo joins a query under Backend::Auto (default 0.25).
+  /// @brief Longest time the native engine answers a query alone under Backend::Auto once
+  /// it has overrun its estimate (default 0.25 s; 0: every query is raced from its plan).
   void setAutoRaceDelay(double seconds) { race_delay_ = seconds; }
   double autoRaceDelay() const { return race_delay_; }
   Backend backend() const { return backend_; }
@@ -308,21 +368,21 @@ class Reasoner {
   bool known_symbols_valid_ = false;
   Backend backend_ = Backend::Auto;
   ParseOptions parse_options_;
+  /// @brief Adds the engine's warnings (renormalised probability sums) to warnings(), once.
+  void noteWarnings(const std::vector<std::string>& warnings);
+  std::mutex warnings_mutex_;
   double race_delay_ = 0.25;
   /// @brief negationLoopReason(program_), cached per (structure version, change sequence).
   std::string negation_loop_reason_;
   std::pair<std::uint64_t, std::uint64_t> negation_loop_version_{0, 0};
   bool negation_loop_valid_ = false;
   /// @brief Set while Backend::Auto races a query: the native engine reports its plan.
-  std::function<void(double)> plan_callback_;
-  /// @brief Cost cap of the native engine while Backend::Auto answers a query (log2 rows).
-  double native_cost_cap_ = std::numeric_limits<double>::infinity();
-  double native_cost_cap_recursive_ = std::numeric_limits<double>::infinity();
+  std::function<void(const EnginePlan&)> plan_callback_;
   /// @brief Set while racing once clingo has answered: the native computation stops.
   std::atomic<bool> asp_won_{false};
   std::unique_ptr<AspOptions> asp_options_;
   std::unique_ptr<AspBackend> asp_;
-  /// @brief Query-attribute keys the native engine refused or clingo won a race on, with the
+  /// @brief Query-attribute keys the native engine refused (outside its fragment), with the
   /// structure version: later queries on them go to clingo directly.
   std::map<std::string, std::uint64_t> outside_fragment_;
 };

@@ -1,0 +1,125 @@
+/**
+ * @file bench_plog_scale.cpp
+ * @brief Issue 24: growth of the P-log front end (parse + ground + answer, in process) on three
+ * generated classes at several sizes: flat sums `?{a = 1+1+...+1}`, distinct 0-ary facts
+ * `qN.`, rule chains `b_i :- b_{i+1}.` Prints seconds per size (thread CPU time, the median
+ * of --repeat runs), the fitted log-log slope per class and whether the issue's targets hold:
+ * exponent <= 1.2, a 20000-term sum <= 0.1 s, 1 MB of facts <= 1 s, a 100000-rule chain <= 2 s.
+ *
+ * Usage: bench_plog_scale [--repeat N] [--quick]
+ */
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "krr_core/common/resources.h"
+#include "krr_core/plog/reasoner.h"
+
+namespace {
+
+std::string sumProgram(int n) {
+  std::string s = "s = {0..20000}.\na : s.\n[r] random(a).\n?{a = 1";
+  for (int i = 1; i < n; ++i) s += "+1";
+  return s + "}.\n";
+}
+std::string factsProgram(int n) {
+  std::string s;
+  for (int i = 0; i < n; ++i) s += "q" + std::to_string(i) + ".\n";
+  return s + "?{q1}.\n";
+}
+std::string chainProgram(int n) {
+  std::string s;
+  for (int i = 0; i < n; ++i) s += "b" + std::to_string(i) + " :- b" + std::to_string(i + 1) + ".\n";
+  return s + "b" + std::to_string(n) + ".\n?{b0}.\n";
+}
+
+double runOnce(const std::string& text) {
+  const double t0 = krr::threadCpuSeconds();
+  krr::plog::Reasoner r;
+  r.setBackend(krr::plog::Backend::Native);
+  r.loadString(text, "bench.plog");
+  double p = 0;
+  for (const auto& q : r.program().queries) p += r.probability(q);
+  const double t = krr::threadCpuSeconds() - t0;
+  if (!(p > 0)) std::fprintf(stderr, "unexpected answer %g\n", p);
+  return t;
+}
+
+double slope(const std::vector<double>& x, const std::vector<double>& y) {
+  double mx = 0, my = 0;
+  for (size_t i = 0; i < x.size(); ++i) mx += std::log(x[i]), my += std::log(y[i]);
+  mx /= x.size();
+  my /= y.size();
+  double num = 0, den = 0;
+  for (size_t i = 0; i < x.size(); ++i) {
+    num += (std::log(x[i]) - mx) * (std::log(y[i]) - my);
+    den += (std::log(x[i]) - mx) * (std::log(x[i]) - mx);
+  }
+  return num / den;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int repeat = 3;
+  bool quick = false;
+  for (int i = 1; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--repeat") && i + 1 < argc) repeat = std::max(1, std::atoi(argv[++i]));
+    else if (!std::strcmp(argv[i], "--quick")) quick = true;
+    else {
+      std::fprintf(stderr, "usage: bench_plog_scale [--repeat N] [--quick]\n");
+      return 2;
+    }
+  }
+  struct Class {
+    const char* name;
+    std::function<std::string(int)> gen;
+    std::vector<int> sizes;
+    int target_size;
+    double target_seconds;
+    const char* target;
+  };
+  // 1 MB of `qN.` facts is 123457 facts (q0 .. q123456, 8.1 bytes each on average)
+  std::vector<Class> classes = {
+      {"flat sum (terms)", sumProgram, {1250, 2500, 5000, 10000, 20000}, 20000, 0.1, "20000 terms <= 0.1 s"},
+      {"facts (qN.)", factsProgram, {7716, 15432, 30864, 61728, 123457}, 123457, 1.0, "1 MB (123457 facts) <= 1 s"},
+      {"rule chain (rules)", chainProgram, {6250, 12500, 25000, 50000, 100000}, 100000, 2.0, "100000 rules <= 2 s"},
+  };
+  bool all_ok = true;
+  std::printf("| class | size | bytes | seconds (CPU, median of %d) |\n| --- | ---: | ---: | ---: |\n", repeat);
+  std::vector<std::string> summary;
+  for (auto& c : classes) {
+    std::vector<int> sizes = c.sizes;
+    if (quick) sizes.resize(3);
+    std::vector<double> xs, ys;
+    double at_target = -1;
+    for (int n : sizes) {
+      const std::string text = c.gen(n);
+      std::vector<double> t;
+      for (int k = 0; k < repeat; ++k) t.push_back(runOnce(text));
+      std::sort(t.begin(), t.end());
+      const double med = t[t.size() / 2];
+      std::printf("| %s | %d | %zu | %.3f |\n", c.name, n, text.size(), med);
+      std::fflush(stdout);
+      xs.push_back(n);
+      ys.push_back(std::max(med, 1e-4));
+      if (n == c.target_size) at_target = med;
+    }
+    const double e = slope(xs, ys);
+    const bool exp_ok = e <= 1.2;
+    const bool t_ok = at_target >= 0 && at_target <= c.target_seconds;
+    all_ok = all_ok && exp_ok && (quick || t_ok);
+    char buf[256];
+    std::snprintf(buf, sizeof buf, "| %s | %.2f | %s | %s: %s |", c.name, e, exp_ok ? "yes" : "NO",
+                  c.target, at_target < 0 ? "not run" : (t_ok ? "met" : "NOT met"));
+    summary.push_back(buf);
+  }
+  std::printf("\n| class | fitted exponent | <= 1.2 | target |\n| --- | ---: | --- | --- |\n");
+  for (const auto& s : summary) std::printf("%s\n", s.c_str());
+  std::printf("\nall targets met: %s\n", all_ok ? "yes" : "no");
+  return 0;
+}
