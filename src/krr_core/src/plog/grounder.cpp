@@ -10,6 +10,8 @@
 
 #include "krr_core/plog/arith.h"
 
+#include "scc.h"
+
 namespace krr {
 namespace plog {
 
@@ -1015,60 +1017,30 @@ class Grounder {
         if (l.kind == Literal::Kind::Atom)
           edges[h].push_back({attrId(l.atom.attr.name, l.loc), l.naf || l.negated});
     }
-    // Needed static attributes: cone attributes and everything they depend on.
-    // Tarjan SCC over static attributes.
-    std::vector<int> index(na, -1), low(na, 0), comp(na, -1);
-    std::vector<char> on(na, 0);
-    std::vector<int> stack;
-    int counter = 0, ncomp = 0;
-    std::vector<std::vector<int>> comps;
-    // Tarjan's algorithm, iterative: a chain of 100000 rules is 100000 nested calls otherwise
-    // (a stack overflow).
-    auto dfs = [&](int root) {
-      std::vector<std::pair<int, size_t>> call{{root, 0}};
-      index[root] = low[root] = counter++;
-      stack.push_back(root);
-      on[root] = 1;
-      while (!call.empty()) {
-        const int v = call.back().first;
-        size_t& next = call.back().second;
-        if (next < edges[v].size()) {
-          const int w = edges[v][next++].first;
-          if (g_.attr_dynamic[w]) continue;
-          if (index[w] < 0) {
-            index[w] = low[w] = counter++;
-            stack.push_back(w);
-            on[w] = 1;
-            call.push_back({w, 0});
-          } else if (on[w]) {
-            low[v] = std::min(low[v], index[w]);
-          }
-          continue;
-        }
-        if (low[v] == index[v]) {
-          std::vector<int> c;
-          int w;
-          do {
-            w = stack.back();
-            stack.pop_back();
-            on[w] = 0;
-            comp[w] = ncomp;
-            c.push_back(w);
-          } while (w != v);
-          comps.push_back(c);
-          ++ncomp;
-        }
-        call.pop_back();
-        if (!call.empty()) {
-          const int u = call.back().first;
-          low[u] = std::min(low[u], low[v]);
-        }
-      }
-    };
+    // Needed static attributes: cone attributes and everything they depend on (edges into
+    // dynamic attributes are not followed), grouped in strongly connected components,
+    // dependencies first (scc.h: iterative, a 100000-rule chain is that deep).
+    DependencyEdges statEdges(na);
     for (size_t a = 0; a < na; ++a)
-      if (!g_.attr_dynamic[a] && g_.attr_in_cone[a] && index[a] < 0) dfs(static_cast<int>(a));
-    // Tarjan emits components in reverse topological order of dependencies => dependencies first.
+      for (const auto& e : edges[a])
+        if (!g_.attr_dynamic[e.first]) statEdges[a].push_back(e);
+    std::vector<char> needed(na, 0);
+    std::vector<int> todo;
+    for (size_t a = 0; a < na; ++a)
+      if (!g_.attr_dynamic[a] && g_.attr_in_cone[a]) needed[a] = 1, todo.push_back(static_cast<int>(a));
+    while (!todo.empty()) {
+      const int v = todo.back();
+      todo.pop_back();
+      for (const auto& e : statEdges[static_cast<size_t>(v)])
+        if (!needed[static_cast<size_t>(e.first)]) needed[static_cast<size_t>(e.first)] = 1, todo.push_back(e.first);
+    }
+    int ncomp = 0;
+    const std::vector<int> comp = stronglyConnectedComponents(statEdges, ncomp);
+    std::vector<std::vector<int>> comps(static_cast<size_t>(ncomp));
+    for (size_t a = 0; a < na; ++a)
+      if (needed[a]) comps[static_cast<size_t>(comp[a])].push_back(static_cast<int>(a));
     for (const auto& c : comps) {
+      if (c.empty()) continue;
       for (int a : c)
         for (auto& e : edges[a])
           if (e.second && !g_.attr_dynamic[e.first] && comp[e.first] == comp[a])
@@ -1272,6 +1244,7 @@ class Grounder {
                                    "' is not in the range of " + gi.name);
         gi.rules.push_back({vi, acc});
         ++g_.ground_statements;
+        if (!gi.random) ++g_.derived_rules;
         spend(0, 1);
       });
     }

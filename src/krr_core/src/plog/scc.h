@@ -1,8 +1,9 @@
 /**
  * @file scc.h
  * @brief Private to the P-log reasoner: strongly connected components of a dependency graph,
- * shared by the ground check of the native engine (engine.cpp) and the check of the program
- * text before grounding (negationLoopReason in reasoner.cpp).
+ * shared by the ground check of the native engine (engine.cpp), the check of the program
+ * text before grounding (negationLoopReason in reasoner.cpp) and the grounder's order of the
+ * static attributes (grounder.cpp).
  */
 #pragma once
 

@@ -80,6 +80,7 @@ class MemoryGuard {
  private:
   std::size_t budget_;
   std::size_t base_;
+  mutable std::size_t calls_ = 0;  ///< check() calls: small requests are measured by sample
   unsigned ticks_ = 0;
 };
 

@@ -105,6 +105,8 @@ struct GroundProgram {
   std::vector<bool> attr_random;
   std::vector<bool> attr_in_cone;
   size_t ground_statements = 0;     ///< number of ground dynamic statements produced
+  size_t derived_rules = 0;         ///< of which rules of instances that are not random
+                                    ///< (the auto back end's cost estimate, EnginePlan)
 
   /// @brief Index of the instance a(t) or -1 (not dynamic / not in the cone).
   int findInstance(const std::string& printable) const;
