@@ -202,6 +202,15 @@ class CertifiedDialogSolver::Impl {
                             std::unordered_map<std::string, std::size_t>& memo,
                             std::vector<Eigen::VectorXd>& vectors,
                             std::vector<std::pair<std::size_t, int>>& tags) const;
+  /// alpha += discount x P(answer | request) x child, per request: one answer's share of a
+  /// question's vector.
+  void addAnswer(Eigen::VectorXd& alpha, const Question& q, std::size_t answer,
+                 const Eigen::VectorXd& child) const;
+  /// Store a plan's vector with its action and turn under memo key mk; @return its index.
+  std::size_t addVector(const Eigen::VectorXd& alpha, std::size_t action, int depth,
+                        const std::string& mk, std::unordered_map<std::string, std::size_t>& memo,
+                        std::vector<Eigen::VectorXd>& vectors,
+                        std::vector<std::pair<std::size_t, int>>& tags) const;
   /// Belief over requests of a key (any order of values, canonical or not); `fixedSlot` >= 0:
   /// restricted to requests whose value of that slot is `fixedValue`. @return false if empty.
   bool belief(const std::int16_t* key, Eigen::VectorXd& b, int fixedSlot = -1,
@@ -262,8 +271,6 @@ class CertifiedDialogSolver::Impl {
   /// in, with each slot's values moved to their canonical positions (canonicalize's perm).
   void permuteBelief(const Eigen::VectorXd& in, const std::vector<std::size_t>& perm,
                      Eigen::VectorXd& out) const;
-  /// Best "one question, then serve the best request at each answer" value at belief b.
-  double lookaheadValue(const Eigen::VectorXd& b) const;
   struct Backup {
     std::size_t bestUpper = kNone;  // question index of the best upper Q (kNone: serve)
     std::size_t bestLower = kNone;
@@ -865,54 +872,6 @@ void CertifiedDialogSolver::Impl::permuteBelief(const Eigen::VectorXd& in,
   }
 }
 
-double CertifiedDialogSolver::Impl::lookaheadValue(const Eigen::VectorXd& b) const {
-  // The serve vector after an answer is a combination of R^T b and the per-value partial
-  // sums R^T (b restricted to one value of the asked slot), divided by P(answer).
-  const Eigen::Index nA = static_cast<Eigen::Index>(nReq_);
-  std::size_t rows = 0;
-  for (int k = 0; k < kSlots; ++k) rows += slot_[k].n;
-  Eigen::MatrixXd part = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(rows), nA);
-  const std::size_t off[kSlots] = {0, slot_[0].n, slot_[0].n + slot_[1].n};
-  for (std::size_t s = 0; s < nReq_; ++s) {
-    const double x = b(static_cast<Eigen::Index>(s));
-    if (x == 0.0) continue;
-    for (int k = 0; k < kSlots; ++k)
-      part.row(static_cast<Eigen::Index>(off[k] + parts_[s][k])) += x * serveR_.row(static_cast<Eigen::Index>(s));
-  }
-  const Eigen::RowVectorXd total = part.topRows(static_cast<Eigen::Index>(slot_[0].n)).colwise().sum();
-  std::array<Eigen::VectorXd, kSlots> m;
-  marginals(b, m);
-  double best = -kInf;
-  Eigen::RowVectorXd comb(nA);
-  for (const Question& q : questions_) {
-    double acc = 0.0;
-    if (q.kind == QKind::kStall) {
-      acc = total.maxCoeff();
-    } else {
-      const SlotCode& c = slot_[q.slot];
-      for (std::size_t answer = 0; answer < numAnswers(q); ++answer) {
-        if (!(answerProb(m[q.slot], q, answer) > 1e-300)) continue;
-        // likelihood: `base` for every value, `hit` for the marked value
-        std::size_t marked;
-        double hit, base;
-        if (q.kind == QKind::kAsk) {
-          marked = answer;
-          hit = answerLikelihood(q, answer, answer);
-          base = c.n > 1 ? answerLikelihood(q, answer, answer == 0 ? 1 : 0) : hit;
-        } else {
-          marked = q.value;
-          hit = answerLikelihood(q, answer, q.value);
-          base = c.n > 1 ? answerLikelihood(q, answer, q.value == 0 ? 1 : 0) : hit;
-        }
-        comb = base * total + (hit - base) * part.row(static_cast<Eigen::Index>(off[q.slot] + marked));
-        acc += comb.maxCoeff();  // = P(answer) * best serve value after it
-      }
-    }
-    best = std::max(best, -q.cost + gamma_ * acc);
-  }
-  return best;
-}
-
 std::size_t CertifiedDialogSolver::Impl::nodeFor(const std::int16_t* key, int depth,
                                                  const Eigen::VectorXd* hint) {
   const std::size_t found = table_.find(key);
@@ -928,8 +887,7 @@ std::size_t CertifiedDialogSolver::Impl::nodeFor(const std::int16_t* key, int de
   if (depth < horizon_) {
     double commit = -kInf;
     upper = std::max(serve, upperRelaxation(key, b, o_.commitLower ? &commit : nullptr));
-    lower = std::max(lower, commit);
-    if (o_.lookaheadLower) lower = std::max(lower, lookaheadValue(b));  // a plan the robot can run
+    lower = std::max(lower, commit);  // a plan the robot can run
   }
   const auto ins = table_.insert(key);
   const std::size_t n = ins.first;
@@ -1194,31 +1152,11 @@ const Eigen::VectorXd& CertifiedDialogSolver::Impl::planVector(
   serveValue(b, &serveA);
   Eigen::VectorXd alpha(static_cast<Eigen::Index>(nReq_));
   std::size_t action;
-  if (choice == kNone && depth < horizon_ && (o_.lookaheadLower || o_.commitLower)) {
-    // The frontier's plans: serve, one question then serve (lookahead), or commit to a room.
-    std::array<Eigen::VectorXd, kSlots> m;
-    marginals(b, m);
-    alpha = serveR_.col(static_cast<Eigen::Index>(serveA));
-    action = d_.serveAction(serveA);
-    double best = alpha.dot(b) + 1e-9 * (1.0 + std::abs(alpha.dot(b)));
-    std::vector<std::int16_t> kid(stride_);
-    Eigen::VectorXd cb, cand(static_cast<Eigen::Index>(nReq_));
-    for (const Question& q : questions_) {
-      if (!o_.lookaheadLower) break;
-      cand.setConstant(-q.cost);
-      for (std::size_t answer = 0; answer < numAnswers(q); ++answer) {
-        std::size_t a = serveA;
-        childKey(key, q, answer, kid.data());
-        if (answerProb(m[q.slot], q, answer) > 1e-300 && belief(kid.data(), cb)) serveValue(cb, &a);
-        for (std::size_t s = 0; s < nReq_; ++s)
-          cand(static_cast<Eigen::Index>(s)) += gamma_ * answerLikelihood(q, answer, parts_[s][q.slot]) *
-                                                serveR_(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(a));
-      }
-      const double v = cand.dot(b);
-      if (v > best) best = v, alpha = cand, action = q.action;
-    }
-    if (o_.commitLower && !truncated) {
-      // The plan behind a commit lower bound, when it is the best of the frontier's plans.
+  alpha = serveR_.col(static_cast<Eigen::Index>(serveA));  // serve now
+  action = d_.serveAction(serveA);
+  if (choice == kNone) {
+    if (o_.commitLower && !truncated && depth < horizon_) {
+      // The plan behind a commit lower bound, when it beats serving now.
       const SlotCode& rc = slot_[revealed_];
       std::vector<std::int16_t> sub(key, key + stride_), canonSub(stride_);
       std::fill(sub.begin() + static_cast<long>(rc.offset),
@@ -1251,9 +1189,6 @@ const Eigen::VectorXd& CertifiedDialogSolver::Impl::planVector(
         action = tags[vi].first;
       }
     }
-  } else if (choice == kNone) {
-    alpha = serveR_.col(static_cast<Eigen::Index>(serveA));
-    action = d_.serveAction(serveA);
   } else {
     const Question q = actualQuestion(choice, perm);
     action = q.action;
@@ -1270,15 +1205,10 @@ const Eigen::VectorXd& CertifiedDialogSolver::Impl::planVector(
       } else {
         sub = serveR_.col(static_cast<Eigen::Index>(serveA));  // unreachable here: serve
       }
-      for (std::size_t s = 0; s < nReq_; ++s)
-        alpha(static_cast<Eigen::Index>(s)) +=
-            gamma_ * answerLikelihood(q, answer, parts_[s][q.slot]) * sub(static_cast<Eigen::Index>(s));
+      addAnswer(alpha, q, answer, sub);
     }
   }
-  vectors.push_back(alpha);
-  tags.push_back({action, turnsUsed_ + depth});
-  memo.emplace(mk, vectors.size() - 1);
-  return vectors.back();
+  return vectors[addVector(alpha, action, depth, mk, memo, vectors, tags)];
 }
 
 std::size_t CertifiedDialogSolver::Impl::subPlanVector(
@@ -1327,12 +1257,24 @@ std::size_t CertifiedDialogSolver::Impl::subPlanVector(
         canonicalize(kid.data(), nullptr, 1 << revealed_, false);
         const Eigen::VectorXd sub =
             vectors[subPlanVector(kid.data(), reach * p, floor, memo, vectors, tags)];
-        for (std::size_t s = 0; s < nReq_; ++s)
-          alpha(static_cast<Eigen::Index>(s)) +=
-              gamma_ * answerLikelihood(q, answer, parts_[s][q.slot]) * sub(static_cast<Eigen::Index>(s));
+        addAnswer(alpha, q, answer, sub);
       }
     }
   }
+  return addVector(alpha, action, depth, mk, memo, vectors, tags);
+}
+
+void CertifiedDialogSolver::Impl::addAnswer(Eigen::VectorXd& alpha, const Question& q,
+                                            std::size_t answer, const Eigen::VectorXd& child) const {
+  for (std::size_t s = 0; s < nReq_; ++s)
+    alpha(static_cast<Eigen::Index>(s)) +=
+        gamma_ * answerLikelihood(q, answer, parts_[s][q.slot]) * child(static_cast<Eigen::Index>(s));
+}
+
+std::size_t CertifiedDialogSolver::Impl::addVector(
+    const Eigen::VectorXd& alpha, std::size_t action, int depth, const std::string& mk,
+    std::unordered_map<std::string, std::size_t>& memo, std::vector<Eigen::VectorXd>& vectors,
+    std::vector<std::pair<std::size_t, int>>& tags) const {
   vectors.push_back(alpha);
   tags.push_back({action, turnsUsed_ + depth});
   memo.emplace(mk, vectors.size() - 1);

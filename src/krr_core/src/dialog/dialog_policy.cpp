@@ -105,7 +105,7 @@ pomdp::TurnLimitedPolicy solveDialogPolicy(const DialogPomdp& dialog,
     key.precision(17);
     key << "certified v2|" << solverFingerprint() << "|" << limit << "|" << so.precision << "|"
         << so.maxTrials << "|" << so.seed << "|" << so.lowerGuidedEvery << "|"
-        << so.lookaheadLower << "|" << so.commitLower << "|" << dialog.exportCassandra();
+        << so.commitLower << "|" << dialog.exportCassandra();
     char name[64];
     std::snprintf(name, sizeof(name), "policy_%016llx",
                   static_cast<unsigned long long>(stableHash(key.str())));

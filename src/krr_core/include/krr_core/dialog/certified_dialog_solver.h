@@ -79,9 +79,6 @@ struct CertifiedSolverOptions {
   /// (0: never): trials along the policy improve the policy itself. With the commit plans
   /// few are needed, but some are: at k = 0 the lower bound at the root stays near 0.
   std::size_t lowerGuidedEvery = 8;
-  /// A new node's lower bound is also one question then serving (off: the commit plans
-  /// below make it redundant on the office models, and it took a quarter of the time).
-  bool lookaheadLower = false;
   /// A new node's lower bound is also the best "commit to one room" plan: follow the
   /// room-revealed sub-dialog's optimal plan for that room (never asking about the room
   /// again), valued exactly for every true request.
