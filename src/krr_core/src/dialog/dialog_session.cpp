@@ -40,6 +40,33 @@ void DialogSession::reset() {
   served_ = 0;
 }
 
+namespace {
+
+/// @brief On a slot of two values, "is it v?" and "is it w?" are one experiment (yes to one is
+/// no to the other, at the same accuracy), so solvers keep one of them; a person expects the
+/// robot to name the value it believes more likely ("is it for Bob?" at 98 % Bob, not "is it
+/// for Alice?"). Any other action is returned as it is.
+std::size_t phrasedConfirm(const DialogPomdp& d, std::size_t a, const pomdp::Belief& b) {
+  const DialogActionKind kind = d.actionKind(a);
+  int slot;
+  std::size_t first;
+  switch (kind) {
+    case DialogActionKind::kConfirmItem: slot = 0, first = d.confirmItem(0); break;
+    case DialogActionKind::kConfirmRoom: slot = 1, first = d.confirmRoom(0); break;
+    case DialogActionKind::kConfirmPerson: slot = 2, first = d.confirmPerson(0); break;
+    default: return a;
+  }
+  const std::array<Eigen::VectorXd, 3> m = d.marginals(b);
+  if (m[static_cast<std::size_t>(slot)].size() != 2) return a;
+  const std::size_t v = a - first, other = 1 - v;
+  return m[static_cast<std::size_t>(slot)](static_cast<Eigen::Index>(other)) >
+                 m[static_cast<std::size_t>(slot)](static_cast<Eigen::Index>(v))
+             ? first + other
+             : a;
+}
+
+}  // namespace
+
 std::size_t decideAction(const DialogPomdp& d, const pomdp::TurnLimitedPolicy& policy,
                          const pomdp::Belief& b, int turns) {
   const std::size_t a = policy.bestAction(b, turns);
@@ -55,7 +82,7 @@ std::size_t decideAction(const DialogPomdp& d, const pomdp::TurnLimitedPolicy& p
                         "serve (was it solved without the limit?)");
     return mostLikely();
   }
-  if (!d.isServe(a)) return a;
+  if (!d.isServe(a)) return phrasedConfirm(d, a, b);
   const double serve = policy.lookahead(d.model(), b, a, turns, true);
   std::vector<std::size_t> questions;
   for (std::size_t q = 0; q < d.model().getA() && d.isQuestion(q); ++q) questions.push_back(q);
@@ -67,7 +94,7 @@ std::size_t decideAction(const DialogPomdp& d, const pomdp::TurnLimitedPolicy& p
       bestValue = values[k];
       best = questions[k];
     }
-  return best;
+  return phrasedConfirm(d, best, b);
 }
 
 std::size_t DecisionMemo::decide(const DialogPomdp& d,

@@ -266,6 +266,33 @@ TEST(DecideAction, LookaheadAsksWhenAQuestionIsWorthMoreThanTheServe) {
   EXPECT_EQ(s.nextAction(), a);
 }
 
+TEST(DecideAction, ATwoValueConfirmationNamesTheLikelierValue) {
+  // Solvers keep one of "is it for john?" / "is it for bob?" (one experiment on two values);
+  // the robot must ask about the person it believes more likely, whichever the policy stored.
+  DialogPomdp d(officeSpec());
+  const pomdp::Model& m = d.model();
+  pomdp::TurnLimitedPolicy p = askThenServe(d, d.confirmPerson(0), 0);  // "john?"
+  pomdp::Belief b = pomdp::Belief::Zero(static_cast<Eigen::Index>(m.getS()));
+  b(static_cast<Eigen::Index>(d.requestIndex(0, 1, 1))) = 0.98;  // bob
+  b(static_cast<Eigen::Index>(d.requestIndex(0, 4, 0))) = 0.02;  // john
+  EXPECT_EQ(decideAction(d, p, b, 0), d.confirmPerson(1));
+  b(static_cast<Eigen::Index>(d.requestIndex(0, 1, 1))) = 0.02;
+  b(static_cast<Eigen::Index>(d.requestIndex(0, 4, 0))) = 0.98;
+  EXPECT_EQ(decideAction(d, p, b, 0), d.confirmPerson(0));
+  // Equal: the policy's own wording. More than two values: confirmations are distinct
+  // experiments, left as they are.
+  b(static_cast<Eigen::Index>(d.requestIndex(0, 1, 1))) = 0.5;
+  b(static_cast<Eigen::Index>(d.requestIndex(0, 4, 0))) = 0.5;
+  EXPECT_EQ(decideAction(d, p, b, 0), d.confirmPerson(0));
+  pomdp::TurnLimitedPolicy room = askThenServe(d, d.confirmRoom(0), 0);
+  EXPECT_EQ(decideAction(d, room, b, 0), d.confirmRoom(0));
+  // The same experiment: the answers swap, the posteriors agree.
+  pomdp::Belief yes0, no1;
+  ASSERT_TRUE(pomdp::tryUpdateBelief(m, m.initialBelief(), d.confirmPerson(0), d.obsYes(), yes0));
+  ASSERT_TRUE(pomdp::tryUpdateBelief(m, m.initialBelief(), d.confirmPerson(1), d.obsNo(), no1));
+  EXPECT_LT((yes0 - no1).cwiseAbs().maxCoeff(), 1e-12);
+}
+
 TEST(DecideAction, TheMemoDecidesExactlyLikeTheRule) {
   DialogSpec spec = officeSpec();
   DialogPomdp d(spec);

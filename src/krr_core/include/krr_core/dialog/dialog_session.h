@@ -135,7 +135,8 @@ class DialogSession {
  * policy's values whether some question is worth more than that serve (the vectors of a
  * point-based policy are tight only near the beliefs the solver visited; the lookahead keeps
  * the robot from serving at beliefs it never planned for). Never worse than the policy's
- * guarantee. @throws ConfigError when the policy asks at the turn limit.
+ * guarantee. A confirmation on a slot of two values names the value the belief favours (the
+ * same experiment either way). @throws ConfigError when the policy asks at the turn limit.
  */
 std::size_t decideAction(const DialogPomdp& dialog, const pomdp::TurnLimitedPolicy& policy,
                          const pomdp::Belief& b, int turns);
