@@ -25,6 +25,11 @@
 // delivery ends). A node that starts (e.g. respawned after a crash) and finds a dialog in
 // progress there tells the person on robot_utterance (kind notice, that dialog's id) that it
 // restarted and lost the dialog, and asks for the request again; dialog ids continue after it.
+//
+// Speech, the common way (both off by default): ~speech_input names a std_msgs/String topic of
+// recognised text (the speech recognisers' convention is recognizer/output), handled exactly
+// like user_utterance text; ~speech_output names a std_msgs/String topic on which everything
+// the robot says (robot_utterance's text) is republished for a text-to-speech node.
 #include <actionlib/client/simple_action_client.h>
 #include <krr_msgs/BuildTaskModel.h>
 #include <krr_msgs/DeliveryStatus.h>
@@ -86,6 +91,8 @@ struct DialogParams {
   double check_timeout = 30;     ///< ~check_timeout: s to wait for the person's check
   std::string updates_topic;     ///< ~knowledge_updates: topic that triggers a rebuild
   std::string state_file;        ///< ~state_file: dialog in progress, for a restarted node
+  std::string speech_input;      ///< ~speech_input: std_msgs/String recogniser text ("": off)
+  std::string speech_output;     ///< ~speech_output: std_msgs/String of what the robot says
   std::uint64_t seed = 1;        ///< ~seed (the manager is deterministic; logged)
 
   static DialogParams read(krr_ros::ParamReader& r) {
@@ -109,6 +116,8 @@ struct DialogParams {
     p.check_timeout = r.number("check_timeout", 30, 0.1, 86400);
     p.updates_topic = r.str("knowledge_updates", "/reasoner/knowledge_updates");
     p.state_file = r.path("state_file", "", false);
+    p.speech_input = r.str("speech_input", "");
+    p.speech_output = r.str("speech_output", "");
     if (p.action.empty()) throw krr::ConfigError("parameter navigation_action: empty name");
     r.rejectUnknown();
     return p;
@@ -151,6 +160,14 @@ class DialogNode {
     status_pub_ = nh.advertise<DeliveryStatus>("delivery_status", 20, true);
     decisions_pub_ = pnh.advertise<std_msgs::String>("decisions", 50);
     utterance_sub_ = nh.subscribe("user_utterance", 20, &DialogNode::onUtterance, this);
+    if (!p_.speech_input.empty()) {
+      speech_sub_ = nh.subscribe(p_.speech_input, 20, &DialogNode::onSpeech, this);
+      ROS_INFO_NAMED(kLog, "listening to recognised speech on %s", speech_sub_.getTopic().c_str());
+    }
+    if (!p_.speech_output.empty()) {
+      speech_pub_ = nh.advertise<std_msgs::String>(p_.speech_output, 20);
+      ROS_INFO_NAMED(kLog, "speaking on %s", speech_pub_.getTopic().c_str());
+    }
     if (!p_.updates_topic.empty())
       updates_sub_ = nh.subscribe(p_.updates_topic, 10, &DialogNode::onKnowledgeUpdate, this);
     timer_nh_ = pnh;
@@ -375,7 +392,7 @@ class DialogNode {
       u.kind = RobotUtterance::NOTICE;
       u.text = "Sorry, I had to restart and lost our conversation (dialog " + std::to_string(id) +
                ", " + restart_phase_ + "). Please tell me again what I can deliver for you.";
-      utterance_pub_.publish(u);
+      speak(u);
       ROS_WARN_NAMED(kLog, "told the person of dialog %u that the dialog node restarted", id);
       saveState("idle");
     });
@@ -412,6 +429,24 @@ class DialogNode {
       notice(std::string("Sorry, something went wrong: ") + e.what());
       if (model_ && manager().phase() != Phase::kIdle && manager().phase() != Phase::kDone)
         end(std::string("error: ") + e.what());
+    }
+  }
+
+  /// @brief Recognised speech: the same path as typed text (no dialog id: the current dialog).
+  void onSpeech(const std_msgs::String::ConstPtr& msg) {
+    auto u = boost::make_shared<krr_msgs::UserUtterance>();
+    u->header.stamp = ros::Time::now();
+    u->text = msg->data;
+    onUtterance(u);
+  }
+
+  /// @brief Everything the robot says goes out here: robot_utterance, and ~speech_output.
+  void speak(const RobotUtterance& u) {
+    utterance_pub_.publish(u);
+    if (speech_pub_) {
+      std_msgs::String t;
+      t.data = u.text;
+      speech_pub_.publish(t);
     }
   }
 
@@ -655,7 +690,7 @@ class DialogNode {
       }
     }
     ROS_INFO_NAMED(kLog, "robot (turn %u): %s", u.turn, u.text.c_str());
-    utterance_pub_.publish(u);
+    speak(u);
   }
 
   void notice(const std::string& text) {
@@ -665,7 +700,7 @@ class DialogNode {
     u.turn = model_ ? static_cast<std::uint32_t>(manager().session().turns()) : 0;
     u.kind = RobotUtterance::NOTICE;
     u.text = text;
-    utterance_pub_.publish(u);
+    speak(u);
   }
 
   void publishBelief() {
@@ -747,8 +782,8 @@ class DialogNode {
   ros::NodeHandle timer_nh_;
   ros::Timer wait_timer_, leg_timer_, check_timer_, restart_timer_;
   std::string restart_phase_;  ///< phase of the dialog a restart lost
-  ros::Publisher utterance_pub_, belief_pub_, status_pub_, decisions_pub_;
-  ros::Subscriber utterance_sub_, updates_sub_;
+  ros::Publisher utterance_pub_, belief_pub_, status_pub_, decisions_pub_, speech_pub_;
+  ros::Subscriber utterance_sub_, updates_sub_, speech_sub_;
 };
 
 }  // namespace
