@@ -7,7 +7,7 @@ PKGS=(build-essential cmake ros-base-dev catkin python3-rospy python3-rostest li
       libompl-dev libeigen3-dev libgtest-dev libyaml-cpp-dev libtinyxml2-dev gringo
       python3-numpy python3-scipy python3-matplotlib python3-yaml python3-distributed
       python3-tf2-ros libroslib-dev rosbash libpng-dev python3-rosbag python3-rospkg
-      rviz xvfb python3-pil)
+      rviz xvfb python3-pil libmove-base-msgs-dev python3-move-base-msgs tf-tools)
 missing=()
 for p in "${PKGS[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

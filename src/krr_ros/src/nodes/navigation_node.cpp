@@ -5,19 +5,36 @@
 // built from the knowledge base (Procedure 2; from reasoner_node's build_task_model service, or
 // in-process from the same files with ~model_source local), solves it by value iteration, and
 // executes the policy move by move in the stochastic-blockage simulator, driving an OMPL path
-// for every executed move. The robot pose goes out as tf2 map -> base_link and on robot_pose.
+// for every executed move.
+//
+// The ROS navigation face (move_base's interface, one code path with `navigate`): a
+// move_base_msgs/MoveBaseAction server at ~move_base_action (default move_base) and
+// move_base_simple/goal (geometry_msgs/PoseStamped, what RViz's "2D Nav Goal" publishes, sent
+// through that server as move_base does). A goal pose is taken in ~map_frame (other frames are
+// transformed through tf) and mapped to the grid cell that contains it; feedback (base_position)
+// after every move; a newer goal on either interface preempts the running one. Frames follow
+// REP 105: map -> odom (identity: the simulated robot does not drift) and odom -> base_link
+// (the pose), nav_msgs/Odometry on odom; the pose also goes out on robot_pose (map frame).
 #include <actionlib/server/simple_action_server.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <krr_msgs/BuildTaskModel.h>
 #include <krr_msgs/NavigateAction.h>
+#include <move_base_msgs/MoveBaseAction.h>
 #include <nav_msgs/OccupancyGrid.h>
+#include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
 #include <ros/ros.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
 #include <visualization_msgs/MarkerArray.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <cstdio>
+#include <functional>
 #include <filesystem>
 #include <memory>
 #include <mutex>
@@ -38,6 +55,7 @@ namespace {
 
 const char* const kLog = "navigation";
 using NavigateServer = actionlib::SimpleActionServer<krr_msgs::NavigateAction>;
+using MoveBaseServer = actionlib::SimpleActionServer<move_base_msgs::MoveBaseAction>;
 
 /// @brief Validated parameters of navigation_node.
 struct NavigationParams {
@@ -56,7 +74,9 @@ struct NavigationParams {
   double discount = 0.99, step_cost = 1, rmax = 40;
   bool ompl_paths = true;              ///< ~ompl_paths: plan an OMPL path per executed move
   double pose_rate = 10;               ///< ~pose_rate: tf / pose republish rate (Hz)
-  std::string map_frame, base_frame;   ///< ~map_frame, ~base_frame
+  std::string map_frame, odom_frame, base_frame;  ///< ~map_frame, ~odom_frame, ~base_frame
+  std::string move_base_action;        ///< ~move_base_action: MoveBase server name ("": off)
+  double tf_timeout = 0.5;             ///< ~tf_timeout: s to wait for a goal frame's transform
   std::uint64_t seed = 1;              ///< ~seed: simulator and OMPL
 
   static NavigationParams read(krr_ros::ParamReader& r) {
@@ -81,10 +101,15 @@ struct NavigationParams {
     p.ompl_paths = r.boolean("ompl_paths", true);
     p.pose_rate = r.number("pose_rate", 10, 0.1, 1000);
     p.map_frame = r.str("map_frame", "map");
+    p.odom_frame = r.str("odom_frame", "odom");
     p.base_frame = r.str("base_frame", "base_link");
-    if (p.map_frame.empty() || p.base_frame.empty() || p.map_frame == p.base_frame)
+    if (p.map_frame.empty() || p.odom_frame.empty() || p.base_frame.empty() ||
+        p.map_frame == p.base_frame || p.map_frame == p.odom_frame || p.odom_frame == p.base_frame)
       r.refuse("base_frame", "'" + p.base_frame + "'",
-               "map_frame and base_frame must be two different, non-empty names");
+               "map_frame, odom_frame and base_frame must be three different, non-empty names "
+               "(REP 105: map -> odom -> base_link)");
+    p.move_base_action = r.str("move_base_action", "move_base");
+    p.tf_timeout = r.number("tf_timeout", 0.5, 0.0, 60.0);
     if (p.step_cost >= p.rmax)
       r.refuse("step_cost", std::to_string(p.step_cost),
                "must be below rmax = " + std::to_string(p.rmax));
@@ -107,7 +132,8 @@ class NavigationNode {
         map_(krr::nav::loadMap(dom_.config.map)),
         rng_(krr::makeRng(p_.seed, "navigation_node")),
         server_(nh, "navigate", [this](const krr_msgs::NavigateGoalConstPtr& g) { execute(g); },
-                false) {
+                false),
+        tf_listener_(tf_buffer_) {
     krr::nav::seedOmpl(p_.seed);
     if (p_.ompl_paths)
       planner_ = std::make_unique<krr::nav::OmplPlanner>(map_, dom_.config.planner, p_.seed);
@@ -131,6 +157,13 @@ class NavigationNode {
     pose_pub_ = nh.advertise<geometry_msgs::PoseStamped>("robot_pose", 10, true);
     plan_pub_ = nh.advertise<nav_msgs::Path>("planned_path", 1, true);
     executed_pub_ = nh.advertise<nav_msgs::Path>("executed_path", 1, true);
+    odom_pub_ = nh.advertise<nav_msgs::Odometry>("odom", 10);
+    geometry_msgs::TransformStamped identity;  // REP 105: the simulated robot does not drift
+    identity.header.stamp = ros::Time::now();
+    identity.header.frame_id = p_.map_frame;
+    identity.child_frame_id = p_.odom_frame;
+    identity.transform.rotation.w = 1.0;
+    static_tf_.sendTransform(identity);
     const ros::Time now = ros::Time::now();
     map_pub_.publish(krr_ros::toMsg(map_, p_.map_frame, now));
     markers_pub_.publish(krr_ros::areaMarkers(*dom_.simulator, context_, p_.map_frame, now));
@@ -138,6 +171,16 @@ class NavigationNode {
     pose_timer_ = pnh.createTimer(ros::Duration(1.0 / p_.pose_rate),
                                   [this](const ros::TimerEvent&) { publishPose(); });
     server_.start();
+    if (!p_.move_base_action.empty()) {
+      move_base_ = std::make_unique<MoveBaseServer>(
+          nh, p_.move_base_action,
+          [this](const move_base_msgs::MoveBaseGoalConstPtr& g) { executeMoveBase(g); }, false);
+      move_base_->start();
+      // As move_base does: a simple goal becomes a goal of the action server.
+      simple_goal_pub_ = nh.advertise<move_base_msgs::MoveBaseActionGoal>(
+          ros::names::append(p_.move_base_action, "goal"), 1);
+      simple_goal_sub_ = nh.subscribe("move_base_simple/goal", 1, &NavigationNode::onSimpleGoal, this);
+    }
     ROS_INFO_NAMED(kLog, "domain %s (%d x %d cells, %d free), robot at %s (cell %d), time %s, "
                    "model from %s, step limit %ld, sim_rate %g", p_.kb.domain.c_str(),
                    dom_.grid->cols(), dom_.grid->rows(), dom_.grid->numFreeCells(),
@@ -232,27 +275,164 @@ class NavigationNode {
     return pts;
   }
 
+  /// @brief How a trip ended, for either action interface.
+  struct Trip {
+    std::string outcome = "error";  ///< reached | preempted | step_limit | trapped | ...
+    std::string reason;
+    int final_cell = -1;
+    std::uint32_t steps = 0;
+  };
+  /// @brief One executed move (feedback for either interface).
+  struct Step {
+    int cell, goal_cell;
+    std::uint32_t step;
+    std::string move;
+    bool blocked;
+  };
+
   void execute(const krr_msgs::NavigateGoalConstPtr& goal) {
+    const unsigned gen = ++goal_gen_;  // a newer goal on either interface preempts this one
+    std::lock_guard<std::mutex> driving(drive_mutex_);
     krr_msgs::NavigateResult result;
-    result.final_cell = currentCell();
+    Trip trip;
+    trip.final_cell = currentCell();
     try {
-      const int goal_cell = resolveGoal(*goal, result.final_cell);
-      const std::string time = goal->time.empty() ? p_.time : goal->time;
-      krr::nav::Context ctx = context_;
-      ctx.time_of_day = timeIndex(time, "goal time");
-      ROS_INFO_NAMED(kLog, "goal: %s (cell %d) from cell %d, time %s",
-                     goal->place.empty() ? "cell" : goal->place.c_str(), goal_cell,
-                     result.final_cell, time.c_str());
-      drive(goal_cell, model(time), ctx, &result);
+      const int goal_cell = resolveGoal(*goal, trip.final_cell);
+      krr_msgs::NavigateFeedback fb;
+      trip = runTrip(goal_cell, goal->time, goal->place.empty() ? "cell" : goal->place,
+                     [&](const Step& st) {
+                       fb.goal_cell = st.goal_cell;
+                       fb.current_cell = st.cell;
+                       fb.step = st.step;
+                       fb.last_move = st.move;
+                       fb.blocked = st.blocked;
+                       fb.pose = krr_ros::poseMsg(pose(), yawNow(), p_.map_frame, ros::Time::now());
+                       server_.publishFeedback(fb);
+                     },
+                     [&] { return server_.isPreemptRequested() || goal_gen_ != gen; });
     } catch (const GoalError& e) {
-      finish(&result, "rejected", e.what());
+      trip.outcome = "rejected", trip.reason = e.what();
     } catch (const std::exception& e) {
-      finish(&result, "error", e.what());
+      trip.outcome = "error", trip.reason = e.what();
     }
+    result.outcome = trip.outcome;
+    result.success = trip.outcome == "reached";
+    result.failure_reason = trip.reason;
+    result.final_cell = trip.final_cell;
+    result.steps = trip.steps;
+    log(trip);
+    if (result.success) server_.setSucceeded(result, "reached");
+    else if (trip.outcome == "preempted") server_.setPreempted(result, trip.reason);
+    else server_.setAborted(result, trip.reason);
   }
 
-  void drive(int goal_cell, const krr::mdp::SparseModel& dynamics, const krr::nav::Context& ctx,
-             krr_msgs::NavigateResult* result) {
+  void executeMoveBase(const move_base_msgs::MoveBaseGoalConstPtr& goal) {
+    const unsigned gen = ++goal_gen_;
+    std::lock_guard<std::mutex> driving(drive_mutex_);
+    Trip trip;
+    trip.final_cell = currentCell();
+    try {
+      const int goal_cell = poseCell(goal->target_pose, trip.final_cell);
+      move_base_msgs::MoveBaseFeedback fb;
+      trip = runTrip(goal_cell, "", "pose", [&](const Step&) {
+                       fb.base_position = krr_ros::poseMsg(pose(), yawNow(), p_.map_frame, ros::Time::now());
+                       move_base_->publishFeedback(fb);
+                     },
+                     [&] { return move_base_->isPreemptRequested() || goal_gen_ != gen; });
+    } catch (const GoalError& e) {
+      trip.outcome = "rejected", trip.reason = e.what();
+    } catch (const std::exception& e) {
+      trip.outcome = "error", trip.reason = e.what();
+    }
+    log(trip);
+    move_base_msgs::MoveBaseResult result;
+    if (trip.outcome == "reached")
+      move_base_->setSucceeded(result, "reached cell " + std::to_string(trip.final_cell) + " in " +
+                                           std::to_string(trip.steps) + " moves");
+    else if (trip.outcome == "preempted") move_base_->setPreempted(result, trip.reason);
+    else move_base_->setAborted(result, trip.outcome + ": " + trip.reason);
+  }
+
+  /// @brief RViz's 2D Nav Goal: a goal of the move_base server (a newer one preempts).
+  void onSimpleGoal(const geometry_msgs::PoseStamped::ConstPtr& pose) {
+    move_base_msgs::MoveBaseActionGoal g;
+    g.header.stamp = ros::Time::now();
+    g.goal_id.stamp = g.header.stamp;
+    g.goal.target_pose = *pose;
+    ROS_INFO_NAMED(kLog, "simple goal (%.2f, %.2f) in '%s'", pose->pose.position.x,
+                   pose->pose.position.y, pose->header.frame_id.c_str());
+    simple_goal_pub_.publish(g);
+  }
+
+  /// @brief The free, reachable cell containing a goal pose (transformed into the map frame
+  /// through tf when given in another), or GoalError naming what is wrong.
+  int poseCell(const geometry_msgs::PoseStamped& goal, int from) {
+    const std::string& frame = goal.header.frame_id;
+    const geometry_msgs::Point& q = goal.pose.position;
+    if (!std::isfinite(q.x) || !std::isfinite(q.y) || !std::isfinite(q.z))
+      throw GoalError("goal pose has a non-finite position");
+    krr::nav::Point2 p{q.x, q.y};
+    if (frame.empty())
+      throw GoalError("goal pose has no frame_id (give '" + p_.map_frame + "')");
+    if (frame != p_.map_frame && frame != "/" + p_.map_frame) {
+      geometry_msgs::TransformStamped t;
+      try {
+        t = tf_buffer_.lookupTransform(p_.map_frame, frame, ros::Time(0),
+                                       ros::Duration(p_.tf_timeout));
+      } catch (const std::exception& e) {
+        throw GoalError("goal pose in frame '" + frame + "': no transform to '" + p_.map_frame +
+                        "' (" + e.what() + ")");
+      }
+      p = transformPoint(t.transform, q);
+    }
+    char where[96];
+    std::snprintf(where, sizeof where, "goal pose (%.3f, %.3f) in %s", p.x, p.y, p_.map_frame.c_str());
+    const int cell = dom_.grid->cellAt(p);
+    if (cell < 0) throw GoalError(std::string(where) + " is off the map");
+    if (!dom_.grid->isFree(cell))
+      throw GoalError(std::string(where) + " is in an obstacle (cell " + std::to_string(cell) + ")");
+    krr_msgs::NavigateGoal g;
+    g.cell = cell;
+    return resolveGoal(g, from);  // reachability, with its message
+  }
+
+  /// @brief The x, y of point q under a tf transform (rotation by the quaternion, then
+  /// translation).
+  static krr::nav::Point2 transformPoint(const geometry_msgs::Transform& t,
+                                         const geometry_msgs::Point& q) {
+    const auto& r = t.rotation;
+    const double n = std::sqrt(r.x * r.x + r.y * r.y + r.z * r.z + r.w * r.w);
+    const double w = r.w / n, x = r.x / n, y = r.y / n, z = r.z / n;
+    const double px = (1 - 2 * (y * y + z * z)) * q.x + 2 * (x * y - w * z) * q.y + 2 * (x * z + w * y) * q.z;
+    const double py = 2 * (x * y + w * z) * q.x + (1 - 2 * (x * x + z * z)) * q.y + 2 * (y * z - w * x) * q.z;
+    return {px + t.translation.x, py + t.translation.y};
+  }
+
+  void log(const Trip& t) const {
+    if (t.outcome == "reached")
+      ROS_INFO_NAMED(kLog, "goal reached at cell %d in %u moves", t.final_cell, t.steps);
+    else if (t.outcome == "preempted")
+      ROS_INFO_NAMED(kLog, "goal %s", t.reason.c_str());
+    else
+      ROS_WARN_NAMED(kLog, "goal failed (%s): %s", t.outcome.c_str(), t.reason.c_str());
+  }
+
+  /// @brief Build the model for `time` ("" = the default time), solve the task to goal_cell
+  /// and drive it; onStep after every move, preempted before every move.
+  Trip runTrip(int goal_cell, const std::string& time, const std::string& what,
+               const std::function<void(const Step&)>& onStep,
+               const std::function<bool()>& preempted) {
+    const std::string t = time.empty() ? p_.time : time;
+    krr::nav::Context ctx = context_;
+    ctx.time_of_day = timeIndex(t, "goal time");
+    ROS_INFO_NAMED(kLog, "goal: %s (cell %d) from cell %d, time %s", what.c_str(), goal_cell,
+                   currentCell(), t.c_str());
+    return drive(goal_cell, model(t), ctx, onStep, preempted);
+  }
+
+  Trip drive(int goal_cell, const krr::mdp::SparseModel& dynamics, const krr::nav::Context& ctx,
+             const std::function<void(const Step&)>& onStep,
+             const std::function<bool()>& preempted) {
     const krr::kb::NavStateSpace& sp = *dom_.space;
     const krr::mdp::StateId goal = sp.stateOf(goal_cell);
     const krr::mdp::SparseModel task = krr::mdp::makeNavigationTask(
@@ -261,43 +441,42 @@ class NavigationNode {
     opt.epsilon = 1e-3;
     const std::vector<krr::mdp::ActionId> policy = krr::mdp::valueIteration(task, opt).policy;
     int cell = currentCell();
+    Trip trip;
+    trip.final_cell = cell;
+    const auto end = [&](const char* outcome, const std::string& reason) {
+      trip.outcome = outcome;
+      trip.reason = reason;
+      return trip;
+    };
     std::vector<krr::nav::Point2> executed{dom_.grid->cellCentre(cell)};
     plan_pub_.publish(krr_ros::pathMsg(intendedRoute(dynamics, policy, cell, goal_cell),
                                        p_.map_frame, ros::Time::now()));
     ros::Rate rate(p_.sim_rate > 0 ? p_.sim_rate : 1.0);
-    krr_msgs::NavigateFeedback fb;
-    fb.goal_cell = goal_cell;
     for (long step = 1; cell != goal_cell; ++step) {
-      if (server_.isPreemptRequested() || !ros::ok())
-        return finish(result, "preempted", "preempted after " + std::to_string(step - 1) + " moves");
+      if (preempted() || !ros::ok())
+        return end("preempted", "preempted after " + std::to_string(step - 1) + " moves");
       if (step > p_.step_limit)
-        return finish(result, "step_limit", "step limit of " + std::to_string(p_.step_limit) +
-                                                " moves reached at cell " + std::to_string(cell));
+        return end("step_limit", "step limit of " + std::to_string(p_.step_limit) +
+                                     " moves reached at cell " + std::to_string(cell));
       const int move = static_cast<int>(policy[sp.stateOf(cell)]);
       const krr::nav::Outcome out = dom_.simulator->step(cell, move, ctx, rng_);
       const int expected = dom_.grid->neighbour(cell, move);
       if (out.cell != cell) moveAlong(cell, out.cell, &executed);
       cell = out.cell;
-      result->final_cell = cell;
-      result->steps = static_cast<std::uint32_t>(step);
-      fb.current_cell = cell;
-      fb.step = static_cast<std::uint32_t>(step);
-      fb.last_move = krr::nav::moveName(move);
-      fb.blocked = out.blocked;
-      fb.pose = krr_ros::poseMsg(pose_, yaw_, p_.map_frame, ros::Time::now());
-      server_.publishFeedback(fb);
+      trip.final_cell = cell;
+      trip.steps = static_cast<std::uint32_t>(step);
+      onStep({cell, goal_cell, trip.steps, krr::nav::moveName(move), out.blocked});
       executed_pub_.publish(krr_ros::pathMsg(executed, p_.map_frame, ros::Time::now()));
       if (out.trapped)
-        return finish(result, "trapped", "trapped by walkers" + areasOf(expected) +
-                                             " moving " + fb.last_move + " from cell " +
-                                             std::to_string(cell) + " after " +
-                                             std::to_string(step) + " moves");
+        return end("trapped", "trapped by walkers" + areasOf(expected) + " moving " +
+                                  krr::nav::moveName(move) + " from cell " + std::to_string(cell) +
+                                  " after " + std::to_string(step) + " moves");
       if (cell != expected && cell != goal_cell)  // slipped or blocked: show the new route
         plan_pub_.publish(krr_ros::pathMsg(intendedRoute(dynamics, policy, cell, goal_cell),
                                            p_.map_frame, ros::Time::now()));
       if (p_.sim_rate > 0) rate.sleep();
     }
-    finish(result, "reached", "");
+    return end("reached", "");
   }
 
   /// @brief " in ba1, ba2" for the blocking areas of a cell ("" if none or invalid).
@@ -331,25 +510,19 @@ class NavigationNode {
     publishPoseLocked();
   }
 
-  void finish(krr_msgs::NavigateResult* r, const std::string& outcome, const std::string& reason) {
-    r->outcome = outcome;
-    r->success = outcome == "reached";
-    r->failure_reason = reason;
-    if (r->success) {
-      ROS_INFO_NAMED(kLog, "goal reached at cell %d in %u moves", r->final_cell, r->steps);
-      server_.setSucceeded(*r, "reached");
-    } else if (outcome == "preempted") {
-      ROS_INFO_NAMED(kLog, "goal %s", reason.c_str());
-      server_.setPreempted(*r, reason);
-    } else {
-      ROS_WARN_NAMED(kLog, "goal failed (%s): %s", outcome.c_str(), reason.c_str());
-      server_.setAborted(*r, reason);
-    }
-  }
-
   int currentCell() {
     std::lock_guard<std::mutex> lock(mutex_);
     return cell_;
+  }
+
+  krr::nav::Point2 pose() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return pose_;
+  }
+
+  double yawNow() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return yaw_;
   }
 
   void publishPose() {
@@ -361,13 +534,20 @@ class NavigationNode {
     const geometry_msgs::PoseStamped pose =
         krr_ros::poseMsg(pose_, yaw_, p_.map_frame, ros::Time::now());
     pose_pub_.publish(pose);
+    // REP 105: odom -> base_link carries the pose (map -> odom is the identity).
     geometry_msgs::TransformStamped tf;
     tf.header = pose.header;
+    tf.header.frame_id = p_.odom_frame;
     tf.child_frame_id = p_.base_frame;
     tf.transform.translation.x = pose.pose.position.x;
     tf.transform.translation.y = pose.pose.position.y;
     tf.transform.rotation = pose.pose.orientation;
     tf_.sendTransform(tf);
+    nav_msgs::Odometry odom;
+    odom.header = tf.header;
+    odom.child_frame_id = p_.base_frame;
+    odom.pose.pose = pose.pose;
+    odom_pub_.publish(odom);
   }
 
   NavigationParams p_;
@@ -383,10 +563,18 @@ class NavigationNode {
   int cell_ = -1;
   krr::nav::Point2 pose_;
   double yaw_ = 0;
-  ros::Publisher map_pub_, markers_pub_, pose_pub_, plan_pub_, executed_pub_;
+  ros::Publisher map_pub_, markers_pub_, pose_pub_, plan_pub_, executed_pub_, odom_pub_;
+  ros::Publisher simple_goal_pub_;
+  ros::Subscriber simple_goal_sub_;
   tf2_ros::TransformBroadcaster tf_;
+  tf2_ros::StaticTransformBroadcaster static_tf_;
   ros::Timer pose_timer_;
   NavigateServer server_;
+  std::unique_ptr<MoveBaseServer> move_base_;
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+  std::mutex drive_mutex_;             ///< one trip at a time (two action interfaces)
+  std::atomic<unsigned> goal_gen_{0};  ///< goals received: a trip stops when a newer one comes
 };
 
 }  // namespace
@@ -406,7 +594,8 @@ int main(int argc, char** argv) {
     ROS_FATAL_NAMED(kLog, "cannot start: %s", e.what());
     return 1;
   }
-  ROS_INFO_NAMED(kLog, "ready: send goals to the 'navigate' action");
+  ROS_INFO_NAMED(kLog, "ready: send goals to the 'navigate' action (or move_base / "
+                 "move_base_simple/goal)");
   ros::spin();
   return 0;
 }
