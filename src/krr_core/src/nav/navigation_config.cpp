@@ -151,6 +151,7 @@ NavigationConfig loadNavigationConfig(const std::string& path) {
                "trap_probability",
                "trap_reference_cell_size", "time_of_day", "areas"});
     SimulatorConfig& c = cfg.simulator;
+    c.source = path;
     c.move_success = s.requiredNumber("move_success", 0.0, 1.0);
     c.slip_stay = s.requiredNumber("slip_stay", 0.0, 1.0);
     c.slip_lateral = s.requiredNumber("slip_lateral", 0.0, 1.0);

@@ -47,6 +47,9 @@ struct SimulatorConfig {
   /// Multiplier of every area's rate at each time of day (same order); result clamped to [0,1].
   std::vector<double> time_factors{1.0, 1.0, 1.0};
   std::map<std::string, AreaConfig> areas;  ///< per-area overrides, by area name
+  /// @brief The file these settings were read from ("" when built in code), so that an override
+  /// naming an area the map does not have can say where to fix it.
+  std::string source;
 };
 
 /// @brief Parameters of the OMPL motion planner.
