@@ -12,7 +12,7 @@
  *  - a second extraction + rebuild (re-learning replaces pairs), and a "morning or noon" build;
  *  - peak RSS of the child.
  *
- * Usage: bench_procedure2 [--repo ROOT] [--time morning] [--repeat 3] [DOMAIN...]
+ * Usage: bench_procedure2 [--root DIR] [--time morning] [--repeat 3] [DOMAIN...]
  *        (default domains office_30x30 office_50x50)
  */
 #include <sys/resource.h>
@@ -156,7 +156,7 @@ int main(int argc, char** argv) {
                         "Procedure 2 on the real knowledge base (office geometry +\n"
                         "config/navigation.plog), before and after knowledge extraction; one child\n"
                         "process per domain, so the peak memory is the domain's own.");
-  cli.add("--repo", "ROOT", krr::kRepositoryRootHelp, &repo);
+  cli.add("--root", "DIR", krr::kRepositoryRootHelp, &repo);
   cli.add("--time", "TIME", "time of day of the builds", &time);
   cli.add("--repeat", "N", "runs per figure (the best is printed)", &repeat);
   cli.positional("DOMAIN", "domains (default office_30x30 office_50x50)",

@@ -88,6 +88,11 @@ const DomainConfig& NavigationConfig::domain(const std::string& name) const {
   throw UnknownSymbolError("navigation config: unknown domain '" + name + "'");
 }
 
+const DomainConfig& NavigationConfig::defaultDomain() const {
+  if (domains.empty()) throw ConfigError("navigation config: field 'domains' is empty");
+  return domains.front();
+}
+
 mdp::RMaxParams rmaxParamsOf(const PlanningConfig& planning, const RMaxLearningConfig& learning,
                              mdp::RMaxParams base) {
   base.step_cost = planning.step_cost;

@@ -105,6 +105,9 @@ struct NavigationConfig {
 
   /// @brief The domain called `name`; UnknownSymbolError if absent.
   const DomainConfig& domain(const std::string& name) const;
+  /// @brief The domain programs use when none is named: the first of `domains`, so that the
+  /// default is the site's own and never a name written in code. @throws ConfigError if none.
+  const DomainConfig& defaultDomain() const;
 };
 
 /// @brief `base` with the navigation task's reward (planning: step_cost, rmax) and R-Max
