@@ -172,6 +172,10 @@ TEST(LanguageConfig, BadConfigurationsAreRefusedWithTheirName) {
     }
   };
   refuses("synonyms: {office9: room9}", "room9");
+  // Every stale synonym in one message, with the field and the model's names.
+  refuses("synonyms: {office9: room9, cola: pepsi, \"carol's office\": room7}",
+          "field 'synonyms': 3 synonyms name no item, room or person of the model: 'carol's "
+          "office' -> 'room7', 'cola' -> 'pepsi', 'office9' -> 'room9'");
   refuses("synonyms: {coke: coffee}", "two meanings");
   refuses("yes: [yes, coke]", "two meanings");
   refuses("ignore: [no]", "two meanings");
