@@ -327,6 +327,12 @@ Interpretation LanguageFrontEnd::understand(const std::string& text,
   return interpret(parse(text), dialog, lastQuestion);
 }
 
+std::string exampleRequest(const DialogSpec& spec) {
+  if (spec.items.empty() || spec.rooms.empty() || spec.persons.empty())
+    throw ConfigError("exampleRequest: the dialog model needs items, rooms and persons");
+  return "a " + spec.items.front() + " for " + spec.persons.front() + " to " + spec.rooms.front();
+}
+
 std::string robotUtterance(const DialogPomdp& dialog, std::size_t action) {
   const auto& s = dialog.spec();
   if (action >= dialog.model().getA())

@@ -191,6 +191,22 @@ TEST(LanguageConfig, BadConfigurationsAreRefusedWithTheirName) {
   EXPECT_THROW(loadLanguageConfig("/nonexistent/language.yaml"), IoError);
 }
 
+TEST(ExampleRequest, IsInTheModelsOwnNamesAndUnderstood) {
+  DialogSpec spec;
+  spec.items = {"tea", "juice"};
+  spec.rooms = {"lab", "mailroom", "studio"};
+  spec.persons = {"carol", "dave", "erin"};
+  const DialogPomdp d(spec);
+  const std::string example = exampleRequest(d.spec());
+  EXPECT_EQ(example, "a tea for carol to lab");
+  const LanguageFrontEnd f(d, parseLanguageConfig("ignore: [a, for, to]", "site.yaml"), "site.yaml");
+  const ParsedUtterance p = f.parse(example);
+  EXPECT_EQ(p.mentions.size(), 3u);
+  EXPECT_TRUE(p.unknownWords.empty());
+  spec.persons.clear();
+  EXPECT_THROW(exampleRequest(spec), ConfigError);
+}
+
 TEST(LanguageConfig, InterpretRefusesAModelWithAnotherVocabulary) {
   DialogPomdp d = makeDialog();
   DialogSpec small;
