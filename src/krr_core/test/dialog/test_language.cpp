@@ -5,13 +5,14 @@
 
 #include "krr_core/common/errors.h"
 #include "krr_core/dialog/language.h"
+#include "../support/office_dialog.h"
 
 namespace krr {
 namespace dialog {
 namespace {
 
 DialogPomdp makeDialog() {
-  DialogSpec spec;
+  DialogSpec spec = test::officeSpec();
   spec.persons = {"john", "bob"};
   return DialogPomdp(spec);
 }
@@ -209,7 +210,7 @@ TEST(ExampleRequest, IsInTheModelsOwnNamesAndUnderstood) {
 
 TEST(LanguageConfig, InterpretRefusesAModelWithAnotherVocabulary) {
   DialogPomdp d = makeDialog();
-  DialogSpec small;
+  DialogSpec small = test::officeSpec();
   small.items = {"tea"};
   DialogPomdp other(small);
   LanguageFrontEnd f(d, LanguageConfig{});
