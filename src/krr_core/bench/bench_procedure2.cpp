@@ -13,7 +13,7 @@
  *  - peak RSS of the child.
  *
  * Usage: bench_procedure2 [--root DIR] [--time morning] [--repeat 3] [DOMAIN...]
- *        (default domains office_30x30 office_50x50)
+ *        (default: every domain of ROOT/config/navigation.yaml)
  */
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -159,11 +159,20 @@ int main(int argc, char** argv) {
   cli.add("--root", "DIR", krr::kRepositoryRootHelp, &repo);
   cli.add("--time", "TIME", "time of day of the builds", &time);
   cli.add("--repeat", "N", "runs per figure (the best is printed)", &repeat);
-  cli.positional("DOMAIN", "domains (default office_30x30 office_50x50)",
+  cli.positional("DOMAIN", "domains (default: every domain of ROOT/config/navigation.yaml)",
                  [&](const std::string& v) { domains.push_back(v); }, true);
   if (const auto status = cli.parse(argc, argv)) return *status;
   repeat = std::max(1, repeat);
-  if (domains.empty()) domains = {"office_30x30", "office_50x50"};
+  if (domains.empty()) {
+    try {
+      const auto cfg =
+          krr::nav::loadNavigationConfig(krr::findRepositoryRoot(repo) + "/config/navigation.yaml");
+      for (const auto& d : cfg.domains) domains.push_back(d.name);
+    } catch (const krr::Error& e) {
+      std::fprintf(stderr, "bench_procedure2: %s\n", e.what());
+      return 1;
+    }
+  }
   int status_all = 0;
   for (const std::string& d : domains) {
     // One child per domain: its peak RSS is the domain's own.
