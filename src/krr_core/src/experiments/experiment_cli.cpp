@@ -22,7 +22,8 @@ void ExperimentCli::declare(OptionParser& p) {
   p.add("--trial-begin", "K", "index of the first trial (trial i depends only on seed and i)",
         &begin);
   p.add("--threads", "T", "worker threads", &threads);
-  p.add("--domain", "NAME", "navigation domain (maps/NAME_geometry.plog)", &experiment.domain_name);
+  p.add("--domain", "NAME", "navigation domain (maps/NAME_geometry.plog)", &experiment.domain_name)
+      .defaultText("the first domain of ROOT/config/navigation.yaml");
   p.add("--learned-cache", "DIR|none",
         "learned knowledge and solved policies; none: learn and solve every run",
         [this](const std::string& v) { cache_ = v, haveCache_ = true; },
