@@ -2,9 +2,12 @@
 //
 //   dialog_script --utterance "a coke for Bob to office2" --utterance coke --utterance yes
 //                 [--question ask_item ...] [--no-policy] [--deliver [--check TEXT ...]
-//                 [--legs ok,ok,fail]] [--out turns.csv] [--json] [--reach r1,...,r5
-//                 [--reach-back b1,...,b5]] [--dialog-config F] [--language F]
-//                 [--domain office_30x30] [--root DIR] [--cache DIR|none]
+//                 [--legs ok,ok,fail]] [--out turns.csv] [--json] [--reach P,...
+//                 [--reach-back P,...]] [--dialog-config F] [--language F]
+//                 [--domain NAME] [--root DIR] [--cache DIR|none]
+//
+// --reach and --reach-back take one probability per room of the model, in the knowledge
+// base's room order; --domain defaults to the first domain of config/navigation.yaml.
 //
 // The model is the robot's: DialogKnowledge::buildSpec over config/dialog.yaml and the
 // knowledge base (prior and speech model by P-log), with P^N and trip costs from the
@@ -46,7 +49,7 @@ const char* kSummary =
 struct Args {
   std::vector<std::string> utterances, questions, checks;
   std::vector<bool> legs;
-  std::string out, dialogConfig, language, domain = "office_30x30", root, cache;
+  std::string out, dialogConfig, language, domain, root, cache;
   bool json = false, noPolicy = false, deliver = false, haveCache = false;
   std::vector<double> reach, reachBack;
 
@@ -67,9 +70,11 @@ struct Args {
           });
     p.add("--out", "FILE", "per-turn marginals as CSV", &out);
     p.flag("--json", "print JSON", &json);
-    p.add("--reach", "r1,...,r5", "P^N(shop, room) per room instead of the knowledge base's",
+    p.add("--reach", "P,...",
+          "P^N(shop, room), one per room of the model in its room order, instead of the "
+          "knowledge base's",
           [this](const std::string& v) { reach = krr::parseNumberListOption("--reach", v); });
-    p.add("--reach-back", "b1,...,b5", "with --reach: P^N(room, shop) per room",
+    p.add("--reach-back", "P,...", "with --reach: P^N(room, shop), one per room of the model",
           [this](const std::string& v) {
             reachBack = krr::parseNumberListOption("--reach-back", v);
           });
@@ -77,7 +82,8 @@ struct Args {
         .defaultText("ROOT/config/dialog.yaml");
     p.add("--language", "FILE", "language front end", &language)
         .defaultText("ROOT/config/language.yaml");
-    p.add("--domain", "NAME", "navigation domain", &domain);
+    p.add("--domain", "NAME", "navigation domain", &domain)
+        .defaultText("the first domain of ROOT/config/navigation.yaml");
     p.add("--root", "DIR", krr::kRepositoryRootHelp, &root);
     p.add("--cache", "DIR|none", "solved policies; none: solve every run",
           [this](const std::string& v) { cache = v, haveCache = true; },
@@ -93,6 +99,18 @@ struct Args {
     if (!reachBack.empty() && reach.empty()) throw krr::ConfigError("--reach-back needs --reach");
   }
 };
+
+/// @brief One value per room of the model, whatever the site's room count; the error lists the
+/// rooms in order so that the values can be lined up with them. @throws krr::ConfigError.
+void checkReachCount(const std::string& flag, const std::vector<double>& values,
+                     const std::vector<std::string>& rooms) {
+  if (values.size() == rooms.size()) return;
+  std::string names;
+  for (const std::string& r : rooms) names += (names.empty() ? "" : ", ") + r;
+  throw krr::ConfigError("option " + flag + ": " + std::to_string(values.size()) +
+                         " values, but the model has " + std::to_string(rooms.size()) +
+                         " rooms (" + names + "): give one per room, in this order");
+}
 
 }  // namespace
 
@@ -111,11 +129,13 @@ static int mainBody(int argc, char** argv) {
     const DialogKnowledge knowledge(config.office_plog, config.speech_plog);
     TripTable trips;
     if (!a.reach.empty()) {
+      checkReachCount("--reach", a.reach, knowledge.base().rooms);
+      if (!a.reachBack.empty()) checkReachCount("--reach-back", a.reachBack, knowledge.base().rooms);
       trips = TripTable::fromReach(knowledge.base().rooms, a.reach, a.reachBack, config.failure_penalty);
     } else {
       const auto paths = krr::experiments::ExperimentPaths::find(root, a.domain);
       const krr::kb::NavDomain domain = krr::kb::NavDomain::load(
-          paths.navigation_yaml, a.domain, paths.geometry, paths.navigation_plog);
+          paths.navigation_yaml, paths.domain, paths.geometry, paths.navigation_plog);
       krr::kb::NavigationKnowledge nav(*domain.grid, domain.knowledge_files);
       trips = deliveryNavigationFromKnowledge(domain, nav, config, knowledge.base().rooms)->trips();
     }

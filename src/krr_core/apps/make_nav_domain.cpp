@@ -2,14 +2,17 @@
  * @file make_nav_domain.cpp
  * @brief Generate the office map and the navigation domains derived from it.
  *
- *   make_nav_domain [--config ROOT/config/navigation.yaml] [--generate-office] [-h | --help]
+ *   make_nav_domain [--config ROOT/config/navigation.yaml] [--dialog-config FILE] [--shop NAME]
+ *                   [--generate-office] [-h | --help]
  *
  * --generate-office (re)writes the map files named by the config (office.yaml + office.pgm and
  * office_places.yaml) from the code in office_map.cpp. Then, for every domain of the config, the
  * map is loaded back through the map_server loader and cut into a NavGrid, written next to the
  * map as <domain>.yaml and <domain>_geometry.plog. A JSON summary line per domain is printed
  * (free cells, place cells, blocking-area cells, shortest routes from the shop and the blocking
- * areas they cross).
+ * areas they cross). The shop is the dialog config's navigation.shop (the dialog.yaml beside the
+ * navigation config by default) or --shop; it must be a place of the places file, checked
+ * before any domain is written.
  */
 #include <cstdio>
 #include <iostream>
@@ -22,6 +25,7 @@
 #include "krr_core/common/limits.h"
 #include "krr_core/common/main_guard.h"
 #include "krr_core/common/resource_locator.h"
+#include "krr_core/dialog/dialog_config.h"
 #include "krr_core/nav/grid_astar.h"
 #include "krr_core/nav/nav_grid.h"
 #include "krr_core/nav/navigation_config.h"
@@ -44,11 +48,31 @@ std::string stem(const std::string& p) {
   return pos == std::string::npos ? b : b.substr(0, pos);
 }
 
+/**
+ * @brief The shop the routes start from: `flag` if given, else the dialog config's
+ * navigation.shop, since the dialog drives from there; refused unless it is a place of the map
+ * so that nothing is written for a site whose shop the dialog could not reach.
+ * @throws krr::ConfigError naming the option or the file and field, and the places there are.
+ */
+std::string shopOf(const std::string& flag, const std::string& dialogConfig,
+                   const PlacesFile& places, const std::string& placesFile) {
+  const std::string shop = flag.empty() ? dialog::loadDialogConfig(dialogConfig).shop : flag;
+  std::string names;
+  for (const Place& p : places.places) {
+    if (p.name == shop) return shop;
+    names += (names.empty() ? "" : ", ") + p.name;
+  }
+  const std::string where =
+      flag.empty() ? dialogConfig + ": field 'navigation.shop'" : std::string("option --shop");
+  throw ConfigError(where + ": '" + shop + "' is not a place of " + placesFile + " (places: " +
+                    names + ")");
+}
+
 }  // namespace
 
 /// @brief The program; main() runs it under guardedMain so that no exception aborts it.
 static int mainBody(int argc, char** argv) {
-  std::string config_path;
+  std::string config_path, dialog_config, shop_flag;
   bool generate = false;
   OptionParser parser("make_nav_domain",
                       "Cut the map named by the config (map_server YAML + PGM or PNG) into the\n"
@@ -56,6 +80,11 @@ static int mainBody(int argc, char** argv) {
                       "<domain>_geometry.plog next to the map.");
   parser.add("--config", "FILE", "navigation config", &config_path)
       .defaultText("ROOT/config/navigation.yaml");
+  parser.add("--dialog-config", "FILE", "dialog config whose navigation.shop is the shop",
+             &dialog_config)
+      .defaultText("dialog.yaml beside the navigation config");
+  parser.add("--shop", "NAME", "the place routes start from (overrides the dialog config's)",
+             &shop_flag);
   parser.flag("--generate-office", "first (re)write the office map and places from office_map.cpp",
               &generate);
   if (const auto status = parser.parse(argc, argv)) return *status;
@@ -73,6 +102,9 @@ static int mainBody(int argc, char** argv) {
     }
     OccupancyGrid map = loadMap(cfg.map);
     PlacesFile places = loadPlaces(cfg.places);
+    const std::string shopName = shopOf(
+        shop_flag, dialog_config.empty() ? dirName(config_path) + "/dialog.yaml" : dialog_config,
+        places, cfg.places);
     const std::string dir = dirName(cfg.map);
     for (const DomainConfig& d : cfg.domains) {
       // The loader already refuses such names; this guards the file names written below.
@@ -94,9 +126,9 @@ static int mainBody(int argc, char** argv) {
                   << grid.areaCells(static_cast<int>(a)).size();
       }
       GridAStar astar(grid);
-      const int shop = grid.placeCell("shop");
+      const int shop = grid.placeCell(shopName);
       for (const Place& p : grid.places()) {
-        if (p.name == "shop") continue;
+        if (p.name == shopName) continue;
         try {
           GridRoute r = astar.plan(shop, grid.placeCell(p.name));
           std::uint32_t crossed = 0;

@@ -22,7 +22,7 @@ namespace {
 const char* kSummary =
     "The paper's navigation experiment: learn shop-room1, extract, apply to shop-room2.\n"
     "Experiment defaults come from the options file; flags override them. Default paths are\n"
-    "under ROOT (see --repo).";
+    "under ROOT (see --root).";
 const char* kEpilog =
     "--out: episode, mean and 95% CI of the reward with/without extraction, success rates.\n"
     "--trials-out: trial, episode, condition (with/without), reward, success.\n";
@@ -53,14 +53,15 @@ void applyOverride(krr::experiments::NavTransferOptions& o, const std::string& f
 
 struct Args {
   krr::experiments::NavExperimentFiles files;
-  std::string domain = "office_30x30", out, trials_out;
+  std::string domain, out, trials_out;
   std::size_t trials = 1000, begin = 0, threads = std::max(1u, std::thread::hardware_concurrency());
   std::uint64_t seed = 1;
   std::vector<std::pair<std::string, std::string>> overrides;  // applied after the options file
 
   /// @brief Declare the options on `p`; this object receives their values.
   void declare(krr::OptionParser& p) {
-    p.add("--domain", "NAME", "navigation domain", &domain);
+    p.add("--domain", "NAME", "navigation domain", &domain)
+        .defaultText("the first domain of the navigation config");
     p.add("--trials", "N", "trials to run (at least 1)", &trials);
     p.add("--trial-begin", "K", "index of the first trial (trial i depends only on seed and i)",
           &begin);
@@ -86,6 +87,37 @@ struct Args {
   }
 };
 
+/**
+ * @brief Refuse a start, source or target that is not a place of the domain's map, naming where
+ * the name came from (the flag, or the options file and its field) and the places there are:
+ * the experiment's places are the office's by default and a new map rarely has them.
+ * @throws krr::ConfigError.
+ */
+void checkPlaces(const krr::nav::NavGrid& grid, const krr::experiments::NavTransferOptions& o,
+                 const Args& a, const std::string& optionsFile) {
+  const std::pair<const char*, const std::string*> fields[] = {
+      {"start", &o.start}, {"source", &o.source}, {"target", &o.target}};
+  for (const auto& [field, value] : fields) {
+    bool known = false;
+    std::string places;
+    for (const auto& p : grid.places()) {
+      known = known || p.name == *value;
+      places += (places.empty() ? "" : ", ") + p.name;
+    }
+    if (known) continue;
+    const std::string flag = std::string("--") + field;
+    bool fromFlag = false;
+    for (const auto& ov : a.overrides) fromFlag = fromFlag || ov.first == flag;
+    const std::string where =
+        fromFlag ? "option " + flag
+                 : (optionsFile.empty() ? std::string("built-in default")
+                                        : optionsFile + ": field 'nav_transfer." + field + "'") +
+                       (field == std::string("start") ? "" : " (or " + flag + ")");
+    throw krr::ConfigError(where + ": unknown place '" + *value + "' (places of domain '" +
+                           a.domain + "': " + places + ")");
+  }
+}
+
 }  // namespace
 
 /// @brief The program; main() runs it under guardedMain so that no exception aborts it.
@@ -103,9 +135,10 @@ static int mainBody(int argc, char** argv) {
     // Given, the options file must exist; by default, it may be absent.
     const bool givenOptions = !a.files.options.empty();
     a.files.resolveRoot();
+    if (a.domain.empty()) a.domain = a.files.defaultDomain();
     krr::experiments::NavTransferOptions o;
-    if (givenOptions || std::ifstream(a.files.options).good())
-      o = krr::experiments::loadNavTransferOptions(a.files.options);
+    const bool loadedOptions = givenOptions || std::ifstream(a.files.options).good();
+    if (loadedOptions) o = krr::experiments::loadNavTransferOptions(a.files.options);
     for (const auto& [f, v] : a.overrides) applyOverride(o, f, v);
     o.validate();
     a.files.resolveInputs(a.domain);
@@ -117,6 +150,7 @@ static int mainBody(int argc, char** argv) {
     krr::Stopwatch clock;
     auto dom =
         krr::kb::NavDomain::load(a.files.config, a.domain, a.files.geometry, a.files.knowledge);
+    checkPlaces(*dom.grid, o, a, loadedOptions ? a.files.options : std::string());
     const auto trials =
         krr::experiments::runNavTransferTrials(dom, o, a.seed, a.begin, a.trials, a.threads);
     const auto s = krr::experiments::summarizeNavTransfer(trials);

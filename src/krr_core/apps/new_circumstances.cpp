@@ -26,7 +26,7 @@ namespace {
 
 const char* kSummary =
     "The paper's \"controllers for new circumstances\" experiment: one CSV row per trial and a\n"
-    "summary. Flags override the options file; default paths are under ROOT (see --repo).";
+    "summary. Flags override the options file; default paths are under ROOT (see --root).";
 
 }  // namespace
 
@@ -47,7 +47,8 @@ static int mainBody(int argc, char** argv) {
   parser.add("--out", "FILE", "trials as CSV", &out);
   parser.flag("--no-header", "write the CSV without its header line", &no_header);
   files.declare(parser, "config/experiments/new_circumstances.yaml");
-  parser.add("--domain", "NAME", "navigation domain (default: the options file's)", &domain);
+  parser.add("--domain", "NAME", "navigation domain (default: the options file's, else the first of the navigation "
+                 "config's)", &domain);
   // Overrides of the options file, applied after it is read.
   const std::pair<const char*, const char*> experiment[] = {
       {"--goal", "PLACE"}, {"--br", "B"}, {"--learn-episodes", "N"},
@@ -83,6 +84,7 @@ static int mainBody(int argc, char** argv) {
       else if (f == "--extraction") o.extraction = v;
     }
     if (!domain.empty()) o.domain = domain;
+    if (o.domain.empty()) o.domain = files.defaultDomain();
     o.validate();
     files.resolveInputs(o.domain);
 

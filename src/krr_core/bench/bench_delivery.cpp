@@ -32,10 +32,10 @@ int main(int argc, char** argv) {
       .defaultText("config/dialog.yaml's");
   if (const auto status = cli.parse(argc, argv)) return *status;
   try {
-    const ExperimentPaths paths = ExperimentPaths::find(root, "office_30x30");
+    const ExperimentPaths paths = ExperimentPaths::find(root);
     DialogConfig cfg = loadDeliveryExperimentConfig(paths);
     if (solverTrials > 0) cfg.solver_max_trials = solverTrials;
-    const kb::NavDomain dom = kb::NavDomain::load(paths.navigation_yaml, "office_30x30",
+    const kb::NavDomain dom = kb::NavDomain::load(paths.navigation_yaml, paths.domain,
                                                   paths.geometry, paths.navigation_plog);
     const int reps = 5;
     double tKnowledge = 0, tNav = 0, tSpec = 0;
@@ -68,6 +68,7 @@ int main(int argc, char** argv) {
     DeliveryExperimentOptions eo;
     eo.blocking_rate = br;
     eo.cache_dir = "";
+    eo.domain_name = paths.domain;
     DeliveryExperiment ex(dom, cfg, eo);
     c.reset();
     const auto res = ex.runTrials(0, trials, 1);

@@ -76,9 +76,9 @@ int main(int argc, char** argv) {
     for (double br : {0.1, 0.5, 0.7})
       for (auto c : {KnowledgeCondition::kLearned, KnowledgeCondition::kOutdated}) models.push_back({br, c});
   try {
-    const ExperimentPaths paths = ExperimentPaths::find(root, "office_30x30");
+    const ExperimentPaths paths = ExperimentPaths::find(root);
     const DialogConfig cfg = loadDeliveryExperimentConfig(paths);
-    const kb::NavDomain dom = kb::NavDomain::load(paths.navigation_yaml, "office_30x30",
+    const kb::NavDomain dom = kb::NavDomain::load(paths.navigation_yaml, paths.domain,
                                                   paths.geometry, paths.navigation_plog);
     std::printf("# turn limit %d, precision %g, trial budget %zu (config/dialog.yaml); "
                 "solver timeout %g s per model; %zu delivery trials per model\n",
@@ -90,6 +90,7 @@ int main(int argc, char** argv) {
       o.blocking_rate = br;
       o.condition = condition;
       o.seed = seed;
+      o.domain_name = paths.domain;
       o.cache_dir = haveCache ? (cache == "none" ? "" : cache) : defaultCacheDir();
       DeliveryExperiment ex(dom, cfg, o, false);
       const DialogPomdp& d = ex.dialog();

@@ -64,7 +64,7 @@ RunResult runOne(const std::string& name, const std::string& dir, double budget,
       // The default request space (3 items x 5 rooms x 2 persons) with uneven delivery success
       // and an own-office prior, so that asking pays (with every serve succeeding, the value is
       // trivially 80).
-      DialogSpec spec;
+      DialogSpec spec = krr::dialog::placeholderNames(DialogSpec(), 3, 5, 2);
       spec.prior = ownOfficePrior(3, 5, {0, 3}, 0.8);
       Eigen::VectorXd reach(5);
       reach << 0.95, 0.6, 0.8, 0.9, 0.7;

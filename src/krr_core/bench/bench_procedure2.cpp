@@ -12,8 +12,8 @@
  *  - a second extraction + rebuild (re-learning replaces pairs), and a "morning or noon" build;
  *  - peak RSS of the child.
  *
- * Usage: bench_procedure2 [--repo ROOT] [--time morning] [--repeat 3] [DOMAIN...]
- *        (default domains office_30x30 office_50x50)
+ * Usage: bench_procedure2 [--root DIR] [--time morning] [--repeat 3] [DOMAIN...]
+ *        (default: every domain of ROOT/config/navigation.yaml)
  */
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -156,14 +156,23 @@ int main(int argc, char** argv) {
                         "Procedure 2 on the real knowledge base (office geometry +\n"
                         "config/navigation.plog), before and after knowledge extraction; one child\n"
                         "process per domain, so the peak memory is the domain's own.");
-  cli.add("--repo", "ROOT", krr::kRepositoryRootHelp, &repo);
+  cli.add("--root", "DIR", krr::kRepositoryRootHelp, &repo);
   cli.add("--time", "TIME", "time of day of the builds", &time);
   cli.add("--repeat", "N", "runs per figure (the best is printed)", &repeat);
-  cli.positional("DOMAIN", "domains (default office_30x30 office_50x50)",
+  cli.positional("DOMAIN", "domains (default: every domain of ROOT/config/navigation.yaml)",
                  [&](const std::string& v) { domains.push_back(v); }, true);
   if (const auto status = cli.parse(argc, argv)) return *status;
   repeat = std::max(1, repeat);
-  if (domains.empty()) domains = {"office_30x30", "office_50x50"};
+  if (domains.empty()) {
+    try {
+      const auto cfg =
+          krr::nav::loadNavigationConfig(krr::findRepositoryRoot(repo) + "/config/navigation.yaml");
+      for (const auto& d : cfg.domains) domains.push_back(d.name);
+    } catch (const krr::Error& e) {
+      std::fprintf(stderr, "bench_procedure2: %s\n", e.what());
+      return 1;
+    }
+  }
   int status_all = 0;
   for (const std::string& d : domains) {
     // One child per domain: its peak RSS is the domain's own.

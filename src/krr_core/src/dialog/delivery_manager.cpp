@@ -200,8 +200,7 @@ CheckResult DeliveryManager::check(const std::string& text, std::string* reply) 
   if (u.no == 0 && (u.yes > 0 || !u.mentions.empty())) return checkRequest(named);
   if (u.no > 0) saidWrong_ = true;
   if (reply)
-    *reply = u.no > 0 ? "Sorry! What did you ask for? (for example: no, a coke for " +
-                            spec.persons[0] + " to " + spec.rooms[0] + ")"
+    *reply = u.no > 0 ? "Sorry! What did you ask for? (for example: no, " + exampleRequest(spec) + ")"
                       : "Is this right? Please answer yes, or tell me what you asked for.";
   return CheckResult::kUnclear;
 }

@@ -18,7 +18,9 @@ void checkProb(double p, const std::string& field) {
 }
 
 void checkNames(const std::vector<std::string>& v, const std::string& field) {
-  if (v.empty()) throw ConfigError("dialog POMDP: " + field + " is empty");
+  if (v.empty())
+    throw ConfigError("dialog POMDP: " + field + " is empty (the names are the building's: "
+                      "from its knowledge base, or placeholderNames)");
   std::set<std::string> seen;
   for (const auto& n : v) {
     if (n.empty()) throw ConfigError("dialog POMDP: empty name in " + field);
@@ -73,6 +75,19 @@ Eigen::VectorXd ownOfficePrior(std::size_t numItems, std::size_t numRooms,
         prior((i * numRooms + r) * nP + p) = pr / (numItems * nP);
       }
   return prior;
+}
+
+DialogSpec placeholderNames(DialogSpec spec, std::size_t items, std::size_t rooms,
+                            std::size_t persons) {
+  auto names = [](const std::string& stem, std::size_t n) {
+    std::vector<std::string> v;
+    for (std::size_t k = 1; k <= n; ++k) v.push_back(stem + std::to_string(k));
+    return v;
+  };
+  spec.items = names("item_", items);
+  spec.rooms = names("room_", rooms);
+  spec.persons = names("person_", persons);
+  return spec;
 }
 
 DialogPomdp::DialogPomdp(DialogSpec spec)

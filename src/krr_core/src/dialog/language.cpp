@@ -156,12 +156,25 @@ LanguageFrontEnd::LanguageFrontEnd(const std::vector<std::string>& items,
     add(norm(w), {Kind::kNo, Factor::kItem, 0, "no word '" + w + "'"}, configName);
   for (const auto& w : config_.ignoreWords)
     add(norm(w), {Kind::kIgnore, Factor::kItem, 0, "ignored word '" + w + "'"}, configName);
+  // Every synonym whose target the model lacks, listed at once: a language file written for
+  // another building has many, and fixing them one run at a time is slow.
+  std::string stale;
+  std::size_t staleCount = 0;
   for (const auto& [phrase, target] : config_.synonyms) {
-    auto it = values.find(norm(target));
-    if (it == values.end())
-      throw ConfigError(configName + ": synonym '" + phrase + "' -> '" + target +
-                        "': no item, room or person of the model is called '" + target + "'");
-    Entry e = it->second;
+    if (values.count(norm(target))) continue;
+    stale += std::string(staleCount++ ? ", " : "") + "'" + phrase + "' -> '" + target + "'";
+  }
+  if (staleCount > 0) {
+    std::string names;
+    for (int f = 0; f < 3; ++f)
+      for (const std::string& v : *lists[f]) names += (names.empty() ? "" : ", ") + v;
+    throw ConfigError(configName + ": field 'synonyms': " + std::to_string(staleCount) +
+                      (staleCount == 1 ? " synonym names" : " synonyms name") +
+                      " no item, room or person of the model: " + stale + " (the model's names: " +
+                      names + ")");
+  }
+  for (const auto& [phrase, target] : config_.synonyms) {
+    Entry e = values.find(norm(target))->second;
     e.source = "synonym '" + phrase + "' of " + target;
     add(norm(phrase), e, configName);
   }
@@ -312,6 +325,12 @@ Interpretation LanguageFrontEnd::understand(const std::string& text,
                                             const DialogPomdp& dialog,
                                             long lastQuestion) const {
   return interpret(parse(text), dialog, lastQuestion);
+}
+
+std::string exampleRequest(const DialogSpec& spec) {
+  if (spec.items.empty() || spec.rooms.empty() || spec.persons.empty())
+    throw ConfigError("exampleRequest: the dialog model needs items, rooms and persons");
+  return "a " + spec.items.front() + " for " + spec.persons.front() + " to " + spec.rooms.front();
 }
 
 std::string robotUtterance(const DialogPomdp& dialog, std::size_t action) {

@@ -44,7 +44,6 @@ void DeliveryExperimentOptions::validate() const {
   };
   if (!(blocking_rate >= 0 && blocking_rate <= 1)) bad("blocking_rate", blocking_rate);
   if (!(outdated_rate >= 0 && outdated_rate <= 1)) bad("outdated_rate", outdated_rate);
-  if (domain_name.empty()) throw ConfigError("delivery experiment: field 'domain_name' is empty");
 }
 
 namespace {
@@ -121,6 +120,8 @@ DeliveryExperiment::DeliveryExperiment(const kb::NavDomain& domain, const Dialog
                                        bool solve_policy)
     : domain_(domain), config_(config), options_(options) {
   options_.validate();
+  if (options_.domain_name.empty())
+    throw ConfigError("delivery experiment: field 'domain_name' is empty");
   config_.validate();
   if (!domain.grid || !domain.space || !domain.simulator)
     throw ConfigError("delivery experiment: the navigation domain is not loaded");

@@ -4,6 +4,7 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/common/resource_locator.h"
 #include "krr_core/common/yaml_section.h"
+#include "krr_core/nav/navigation_config.h"
 #include "experiment_yaml.h"
 
 namespace krr {
@@ -21,7 +22,8 @@ void ExperimentCli::declare(OptionParser& p) {
   p.add("--trial-begin", "K", "index of the first trial (trial i depends only on seed and i)",
         &begin);
   p.add("--threads", "T", "worker threads", &threads);
-  p.add("--domain", "NAME", "navigation domain (maps/NAME_geometry.plog)", &experiment.domain_name);
+  p.add("--domain", "NAME", "navigation domain (maps/NAME_geometry.plog)", &experiment.domain_name)
+      .defaultText("the first domain of ROOT/config/navigation.yaml");
   p.add("--learned-cache", "DIR|none",
         "learned knowledge and solved policies; none: learn and solve every run",
         [this](const std::string& v) { cache_ = v, haveCache_ = true; },
@@ -80,7 +82,7 @@ DialogConfig ExperimentCli::config(const ExperimentPaths& paths) const {
 void NavExperimentFiles::declare(OptionParser& p, const std::string& options_file,
                                  const std::string& options_note) {
   options_file_ = options_file;
-  p.add("--repo", "ROOT", kRepositoryRootHelp, &repo);
+  p.add("--root", "DIR", kRepositoryRootHelp, &root);
   p.add("--options", "FILE", "experiment options", &options)
       .defaultText("ROOT/" + options_file + options_note);
   p.add("--config", "FILE", "navigation config", &config).defaultText("ROOT/config/navigation.yaml");
@@ -91,14 +93,20 @@ void NavExperimentFiles::declare(OptionParser& p, const std::string& options_fil
 }
 
 void NavExperimentFiles::resolveRoot() {
-  repo = findRepositoryRoot(repo);
-  if (options.empty()) options = repo + "/" + options_file_;
+  root = findRepositoryRoot(root);
+  if (options.empty()) options = root + "/" + options_file_;
+}
+
+std::string NavExperimentFiles::defaultDomain() const {
+  return nav::loadNavigationConfig(config.empty() ? root + "/config/navigation.yaml" : config)
+      .defaultDomain()
+      .name;
 }
 
 void NavExperimentFiles::resolveInputs(const std::string& domain) {
-  if (config.empty()) config = repo + "/config/navigation.yaml";
-  if (geometry.empty()) geometry = repo + "/maps/" + domain + "_geometry.plog";
-  if (knowledge.empty()) knowledge = repo + "/config/navigation.plog";
+  if (config.empty()) config = root + "/config/navigation.yaml";
+  if (geometry.empty()) geometry = root + "/maps/" + domain + "_geometry.plog";
+  if (knowledge.empty()) knowledge = root + "/config/navigation.plog";
 }
 
 }  // namespace experiments

@@ -5,6 +5,7 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/resource_locator.h"
+#include "krr_core/nav/navigation_config.h"
 
 namespace krr {
 namespace experiments {
@@ -26,12 +27,17 @@ ExperimentPaths ExperimentPaths::find(const std::string& root_hint, const std::s
   p.delivery_yaml = root + "/config/experiments/delivery_trials.yaml";
   p.navigation_yaml = root + "/config/navigation.yaml";
   p.navigation_plog = root + "/config/navigation.plog";
-  p.geometry = root + "/maps/" + domain + "_geometry.plog";
   for (const std::string* f : {&p.dialog_yaml, &p.delivery_yaml, &p.navigation_yaml, &p.navigation_plog})
     if (!isFile(*f)) throw ConfigError("missing input file " + *f + " (repository root " + root + ")");
-  if (!isFile(p.geometry))
-    throw ConfigError("no geometry file " + p.geometry + " for domain '" + domain +
-                      "' (generate it with make_nav_domain)");
+  p.domain = domain.empty() ? nav::loadNavigationConfig(p.navigation_yaml).defaultDomain().name : domain;
+  p.geometry = root + "/maps/" + p.domain + "_geometry.plog";
+  if (!isFile(p.geometry)) {
+    const std::string chosen = domain.empty()
+                                   ? "the first domain of " + p.navigation_yaml + "; --domain chooses another"
+                                   : "--domain";
+    throw ConfigError("no geometry file " + p.geometry + " for domain '" + p.domain + "' (" + chosen +
+                      "): generate it with make_nav_domain --config " + p.navigation_yaml);
+  }
   return p;
 }
 

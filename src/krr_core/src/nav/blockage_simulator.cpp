@@ -40,12 +40,24 @@ BlockageSimulator::BlockageSimulator(const NavGrid& grid, const SimulatorConfig&
     }
   }
   for (const auto& kv : config_.areas) {
-    const size_t a = static_cast<size_t>(grid_.areaIndex(kv.first));  // UnknownSymbolError
+    const size_t a = static_cast<size_t>(areaOfOverride(kv.first));
     if (kv.second.rate >= 0.0) base_rate_[a] = kv.second.rate;
     for (const auto& tf : kv.second.time_factor) {
       factor_[a * (num_times_ + 1) + timeOfDayIndex(tf.first) + 1] = tf.second;
     }
   }
+}
+
+int BlockageSimulator::areaOfOverride(const std::string& name) const {
+  for (size_t a = 0; a < grid_.areas().size(); ++a) {
+    if (grid_.areas()[a].name == name) return static_cast<int>(a);
+  }
+  std::string known;
+  for (const auto& area : grid_.areas()) known += (known.empty() ? "" : ", ") + area.name;
+  throw ConfigError((config_.source.empty() ? std::string("simulator config") : config_.source) +
+                    ": field 'simulator.areas." + name + "': unknown blocking area '" + name +
+                    "' (the places file's blocking areas: " + (known.empty() ? "none" : known) +
+                    ")");
 }
 
 int BlockageSimulator::timeOfDayIndex(const std::string& name) const {

@@ -88,6 +88,11 @@ const DomainConfig& NavigationConfig::domain(const std::string& name) const {
   throw UnknownSymbolError("navigation config: unknown domain '" + name + "'");
 }
 
+const DomainConfig& NavigationConfig::defaultDomain() const {
+  if (domains.empty()) throw ConfigError("navigation config: field 'domains' is empty");
+  return domains.front();
+}
+
 mdp::RMaxParams rmaxParamsOf(const PlanningConfig& planning, const RMaxLearningConfig& learning,
                              mdp::RMaxParams base) {
   base.step_cost = planning.step_cost;
@@ -151,6 +156,7 @@ NavigationConfig loadNavigationConfig(const std::string& path) {
                "trap_probability",
                "trap_reference_cell_size", "time_of_day", "areas"});
     SimulatorConfig& c = cfg.simulator;
+    c.source = path;
     c.move_success = s.requiredNumber("move_success", 0.0, 1.0);
     c.slip_stay = s.requiredNumber("slip_stay", 0.0, 1.0);
     c.slip_lateral = s.requiredNumber("slip_lateral", 0.0, 1.0);

@@ -15,6 +15,7 @@
 #include "krr_core/pomdp/belief.h"
 #include "krr_core/pomdp/point_based_solver.h"
 #include "krr_core/pomdp/turn_counter_model.h"
+#include "../support/office_dialog.h"
 
 namespace krr {
 namespace dialog {
@@ -43,9 +44,6 @@ double bruteForce(const DialogPomdp& d, const pomdp::Belief& b, int turns) {
 
 DialogSpec randomSpec(Rng& rng, std::size_t nI, std::size_t nR, std::size_t nP, int limit) {
   DialogSpec s;
-  s.items.clear();
-  s.rooms.clear();
-  s.persons.clear();
   for (std::size_t i = 0; i < nI; ++i) s.items.push_back("i" + std::to_string(i));
   for (std::size_t i = 0; i < nR; ++i) s.rooms.push_back("r" + std::to_string(i));
   for (std::size_t i = 0; i < nP; ++i) s.persons.push_back("p" + std::to_string(i));
@@ -176,7 +174,7 @@ TEST(CertifiedDialogSolver, OptimumKnownByHand) {
 
 /// The paper's 3 x 5 x 2 dialog: own-office prior, the office's reach, wrong-serve penalty.
 DialogSpec officeShaped(int turnLimit) {
-  DialogSpec s;
+  DialogSpec s = test::officeSpec();
   s.prior = ownOfficePrior(3, 5, {4, 1}, 0.8);
   Eigen::VectorXd reach(5);
   reach << 1.0, 0.9, 0.94, 1.0, 0.85;
@@ -366,7 +364,7 @@ TEST(CertifiedDialogSolver, BoundsStayValidWhenTheMemoryBudgetCutsTheSearch) {
 }
 
 TEST(CertifiedDialogSolver, RefusesBadInput) {
-  const DialogPomdp d{DialogSpec()};
+  const DialogPomdp d{test::officeSpec()};
   EXPECT_THROW(CertifiedDialogSolver(d, Eigen::VectorXd::Ones(3), 0), ConfigError);
   EXPECT_THROW(CertifiedDialogSolver(d, Eigen::VectorXd(), 21), ConfigError);
   EXPECT_THROW(CertifiedDialogSolver(d, Eigen::VectorXd(), -1), ConfigError);

@@ -208,6 +208,37 @@ TEST(DeliveryManager, NoRedeliveryLeftFailsAndUnansweredChecksEnd) {
   EXPECT_EQ(m4.record().outcome, DeliveryOutcome::kFulfilled);
 }
 
+TEST(DeliveryManager, TheCorrectionHintUsesTheModelsOwnNames) {
+  // Another building: none of the office's names. The hint after "no" must be one this
+  // robot understands.
+  DialogSpec s;
+  s.items = {"tea", "juice"};
+  s.rooms = {"lab", "studio"};
+  s.persons = {"carol"};
+  s.serveCost = 100.0 * (Eigen::MatrixXd::Ones(4, 4) - Eigen::MatrixXd::Identity(4, 4));
+  s.turnLimit = 6;
+  const DialogPomdp dialog(s);
+  const pomdp::TurnLimitedPolicy policy = Fixture::solve(dialog);
+  const LanguageFrontEnd language(dialog, LanguageConfig());
+  DialogConfig config;
+  config.turn_limit = 6;
+  DeliveryManager m(dialog, policy, &language, config);
+  Person p(dialog, dialog.requestIndex(1, 1, 0), "a juice to studio", {});
+  m.start();
+  p.open(m);
+  while (m.phase() == DeliveryPhase::kDialog) {
+    const std::size_t a = m.decide();
+    if (dialog.isQuestion(a)) p.answer(m, a);
+  }
+  m.legDone(true, 0);
+  m.legDone(true, 0);
+  ASSERT_EQ(m.phase(), DeliveryPhase::kAwaitCheck);
+  std::string reply;
+  EXPECT_EQ(m.check("no", &reply), CheckResult::kUnclear);
+  EXPECT_EQ(reply, "Sorry! What did you ask for? (for example: no, a tea for carol to lab)");
+  EXPECT_EQ(exampleRequest(dialog.spec()), "a tea for carol to lab");
+}
+
 TEST(DeliveryManager, ALegThatDoesNotArriveFailsTheDelivery) {
   Fixture f;
   DeliveryManager m(f.dialog, f.policy, &f.language, f.config);

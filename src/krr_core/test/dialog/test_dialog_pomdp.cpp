@@ -8,13 +8,14 @@
 #include "krr_core/pomdp/belief.h"
 #include "krr_core/dialog/dialog_pomdp.h"
 #include "krr_core/dialog/certified_dialog_solver.h"
+#include "../support/office_dialog.h"
 
 namespace krr {
 namespace dialog {
 namespace {
 
 DialogSpec paperSpec() {
-  DialogSpec spec;  // coke coffee soda / room1..room5 / alice bob
+  DialogSpec spec = test::officeSpec();
   spec.prior = ownOfficePrior(3, 5, {0, 1}, 0.8);  // alice: room1, bob: room2
   Eigen::VectorXd reach(5);
   reach << 0.95, 0.65, 0.75, 0.95, 0.5;

@@ -6,6 +6,7 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/dialog/dialog_script.h"
 #include "krr_core/dialog/certified_dialog_solver.h"
+#include "../support/office_dialog.h"
 
 namespace krr {
 namespace dialog {
@@ -13,7 +14,7 @@ namespace {
 
 /// The office dialog of the paper; prior: john's office room5, bob's room2, 0.8.
 DialogPomdp officeDialog() {
-  DialogSpec spec;
+  DialogSpec spec = test::officeSpec();
   spec.persons = {"john", "bob"};
   spec.prior = ownOfficePrior(3, 5, {4, 1}, 0.8);
   Eigen::VectorXd reach(5);

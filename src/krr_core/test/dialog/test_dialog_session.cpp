@@ -6,13 +6,14 @@
 
 #include "krr_core/common/errors.h"
 #include "krr_core/dialog/dialog_session.h"
+#include "../support/office_dialog.h"
 
 namespace krr {
 namespace dialog {
 namespace {
 
 DialogSpec officeSpec() {
-  DialogSpec spec;
+  DialogSpec spec = test::officeSpec();
   spec.persons = {"john", "bob"};
   spec.prior = ownOfficePrior(3, 5, {4, 1}, 0.8);  // john: room5, bob: room2
   return spec;

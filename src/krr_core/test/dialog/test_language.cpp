@@ -5,13 +5,14 @@
 
 #include "krr_core/common/errors.h"
 #include "krr_core/dialog/language.h"
+#include "../support/office_dialog.h"
 
 namespace krr {
 namespace dialog {
 namespace {
 
 DialogPomdp makeDialog() {
-  DialogSpec spec;
+  DialogSpec spec = test::officeSpec();
   spec.persons = {"john", "bob"};
   return DialogPomdp(spec);
 }
@@ -172,6 +173,10 @@ TEST(LanguageConfig, BadConfigurationsAreRefusedWithTheirName) {
     }
   };
   refuses("synonyms: {office9: room9}", "room9");
+  // Every stale synonym in one message, with the field and the model's names.
+  refuses("synonyms: {office9: room9, cola: pepsi, \"carol's office\": room7}",
+          "field 'synonyms': 3 synonyms name no item, room or person of the model: 'carol's "
+          "office' -> 'room7', 'cola' -> 'pepsi', 'office9' -> 'room9'");
   refuses("synonyms: {coke: coffee}", "two meanings");
   refuses("yes: [yes, coke]", "two meanings");
   refuses("ignore: [no]", "two meanings");
@@ -187,9 +192,25 @@ TEST(LanguageConfig, BadConfigurationsAreRefusedWithTheirName) {
   EXPECT_THROW(loadLanguageConfig("/nonexistent/language.yaml"), IoError);
 }
 
+TEST(ExampleRequest, IsInTheModelsOwnNamesAndUnderstood) {
+  DialogSpec spec;
+  spec.items = {"tea", "juice"};
+  spec.rooms = {"lab", "mailroom", "studio"};
+  spec.persons = {"carol", "dave", "erin"};
+  const DialogPomdp d(spec);
+  const std::string example = exampleRequest(d.spec());
+  EXPECT_EQ(example, "a tea for carol to lab");
+  const LanguageFrontEnd f(d, parseLanguageConfig("ignore: [a, for, to]", "site.yaml"), "site.yaml");
+  const ParsedUtterance p = f.parse(example);
+  EXPECT_EQ(p.mentions.size(), 3u);
+  EXPECT_TRUE(p.unknownWords.empty());
+  spec.persons.clear();
+  EXPECT_THROW(exampleRequest(spec), ConfigError);
+}
+
 TEST(LanguageConfig, InterpretRefusesAModelWithAnotherVocabulary) {
   DialogPomdp d = makeDialog();
-  DialogSpec small;
+  DialogSpec small = test::officeSpec();
   small.items = {"tea"};
   DialogPomdp other(small);
   LanguageFrontEnd f(d, LanguageConfig{});

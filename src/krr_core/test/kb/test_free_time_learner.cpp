@@ -25,7 +25,7 @@ FreeTimeOptions options() {
 TEST(LeastKnownSelector, PicksTheRouteTheKnowledgeBaseKnowsLeast) {
   NavDomain d = corridor();
   NavigationKnowledge kb(*d.grid, d.knowledge_files);
-  LeastKnownSelector sel({"shop", "room1", "room2"});
+  LeastKnownSelector sel({"shop", "room1", "room2"}, "shop");
   krr::Rng rng = krr::makeRng(1, "sel");
   // Teach the KB the whole shop->room1 route (top row): that task now has no unknown pair on
   // its shortest route, so room2 must be selected.
@@ -43,7 +43,7 @@ TEST(LeastKnownSelector, PicksTheRouteTheKnowledgeBaseKnowsLeast) {
   kb.addLearned(pairs, "morning");
   for (int i = 0; i < 5; ++i)
     EXPECT_EQ(sel.next(kb.buildModel({"morning"}), *d.space, rng).goal, "room2");
-  EXPECT_THROW(LeastKnownSelector({"shop"}), krr::ConfigError);
+  EXPECT_THROW(LeastKnownSelector({"shop"}, "shop"), krr::ConfigError);
 }
 
 /// @brief How much the knowledge base learned at `time`, in the extraction's own unit: learned
@@ -64,7 +64,7 @@ class FreeTimeLearnerBoth : public ::testing::TestWithParam<Extraction> {};
 TEST_P(FreeTimeLearnerBoth, LearnsTasksAndWritesKnowledgeBack) {
   NavDomain d = corridor();
   NavigationKnowledge kb(*d.grid, d.knowledge_files);
-  LeastKnownSelector sel({"room1", "room2"});
+  LeastKnownSelector sel({"room1", "room2"}, "shop");
   auto o = options();
   o.extraction = GetParam();
   o.max_tasks = 1;
@@ -96,7 +96,7 @@ TEST_P(FreeTimeLearnerBoth, LearnsTasksAndWritesKnowledgeBack) {
 TEST_P(FreeTimeLearnerBoth, InterruptionKeepsWhatWasLearnedSoFar) {
   NavDomain d = corridor();
   NavigationKnowledge kb(*d.grid, d.knowledge_files);
-  LeastKnownSelector sel({"room1", "room2"});
+  LeastKnownSelector sel({"room1", "room2"}, "shop");
   auto o = options();
   o.extraction = GetParam();
   FreeTimeLearner learner(d, kb, sel, o);
@@ -121,7 +121,7 @@ INSTANTIATE_TEST_SUITE_P(Extractions, FreeTimeLearnerBoth,
 TEST(FreeTimeLearner, InvalidOptionsAreRefused) {
   NavDomain d = corridor();
   NavigationKnowledge kb(*d.grid, d.knowledge_files);
-  LeastKnownSelector sel({"room1"});
+  LeastKnownSelector sel({"room1"}, "shop");
   auto o = options();
   o.max_episodes_per_task = 0;
   EXPECT_THROW(FreeTimeLearner(d, kb, sel, o), krr::ConfigError);

@@ -214,7 +214,16 @@ TEST(BlockageSimulator, ConfigErrors) {
   }
   c = testConfig();
   c.areas["ba9"].rate = 0.5;
-  EXPECT_THROW(BlockageSimulator(g, c), UnknownSymbolError);
+  c.source = "site/navigation.yaml";
+  try {  // an override of an area the map lacks says which file and field to fix
+    BlockageSimulator s(g, c);
+    FAIL();
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("site/navigation.yaml: field 'simulator.areas.ba9': "
+                                         "unknown blocking area 'ba9'"),
+              std::string::npos)
+        << e.what();
+  }
   c = testConfig();
   c.areas["bz"].time_factor["midnight"] = 1.0;
   EXPECT_THROW(BlockageSimulator(g, c), ConfigError);

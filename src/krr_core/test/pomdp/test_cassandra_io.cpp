@@ -11,6 +11,7 @@
 #include "krr_core/examples/tiger.h"
 
 #include "../support/pomdp_expect.h"
+#include "../support/office_dialog.h"
 
 namespace krr {
 namespace pomdp {
@@ -47,7 +48,7 @@ TEST(CassandraIo, RoundTripTiger) {
 }
 
 TEST(CassandraIo, RoundTripDialogModel) {
-  DialogSpec spec;
+  DialogSpec spec = dialog::test::officeSpec();
   spec.prior = ownOfficePrior(3, 5, {0, 1}, 0.8);
   Eigen::VectorXd reach(5);
   reach << 0.95, 0.65, 0.75, 0.95, 0.5;

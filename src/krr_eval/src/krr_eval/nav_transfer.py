@@ -20,10 +20,17 @@ def main(argv=None):
     ap.add_argument("--episodes", type=int, default=100, help="target-task episodes")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--threads", type=int, default=os.cpu_count() or 1)
-    ap.add_argument("--domains", default="small,large")
+    ap.add_argument("--domains", default="small,large",
+                    help="comma-separated: small, large (the paper's office domains) or domains "
+                         "of config/navigation.yaml")
     a = ap.parse_args(argv)
     if a.trials < 1 or a.episodes < 1:
         ap.error("--trials and --episodes must be at least 1")
+    for d in a.domains.split(","):  # every name checked before anything runs
+        try:
+            navigation.resolve_domain(d)
+        except (navigation.UnknownDomainError, OSError) as e:
+            ap.error("--domains: %s" % e)
     os.makedirs(a.out, exist_ok=True)
     tables, lines = {}, ["# Navigation transfer (shop-room1 -> shop-room2)", "",
                          "seed %d, %d trials per point, %d episodes, 10-episode smoothing" %

@@ -9,14 +9,50 @@ import os
 import subprocess
 
 import numpy as np
+import yaml
 
 from . import paths
 
 DOMAINS = {
+    # The paper's office domains under the names its figure uses.
     # name: (grid, step limit) -- paper: 30x30 with 200 steps, 50x50 with 300 steps
     "small": ("office_30x30", 200),
     "large": ("office_50x50", 300),
 }
+
+
+class UnknownDomainError(ValueError):
+    """A navigation domain that is neither one of the paper's names nor in the navigation
+    config; the message names the domain and where the known ones come from."""
+
+
+def config_domains(config=None):
+    """(name, step limit) of every domain of the navigation config (default: the repository's
+    config/navigation.yaml), in the file's order."""
+    config = config or paths.repo("config", "navigation.yaml")
+    with open(config) as f:
+        data = yaml.safe_load(f) or {}
+    domains = data.get("domains") or {}
+    if not isinstance(domains, dict):
+        raise UnknownDomainError("%s: field 'domains' must map names to {cols, rows, step_limit}"
+                                 % config)
+    return [(name, (d or {}).get("step_limit")) for name, d in domains.items()]
+
+
+def resolve_domain(name, config=None):
+    """(grid, step limit) of `name`: one of DOMAINS (the paper's small / large) or a domain of
+    the navigation config, so that a site's own domains run too. Raises UnknownDomainError."""
+    if name in DOMAINS:
+        return DOMAINS[name]
+    config = config or paths.repo("config", "navigation.yaml")
+    known = config_domains(config)
+    for grid, limit in known:
+        if grid == name:
+            return grid, limit
+    raise UnknownDomainError(
+        "unknown navigation domain '%s': the known ones are %s (the paper's) and the domains of "
+        "%s: %s" % (name, ", ".join(sorted(DOMAINS)), config,
+                    ", ".join(g for g, _ in known) or "none"))
 
 
 def smooth(values, window=10):
@@ -42,8 +78,9 @@ def read_table(path):
 
 
 def run_domain(domain, out_dir, trials, seed, threads, target_episodes=100, extra=()):
-    """Run nav_transfer on one domain ("small"/"large"); returns (table, summary text)."""
-    grid, _ = DOMAINS[domain]
+    """Run nav_transfer on one domain ("small"/"large" or a domain of config/navigation.yaml);
+    returns (table, summary text)."""
+    grid, _ = resolve_domain(domain)
     csv_path = os.path.join(out_dir, "nav_transfer_%s.csv" % domain)
     cmd = [paths.program("nav_transfer"),
            "--config", paths.repo("config", "navigation.yaml"),

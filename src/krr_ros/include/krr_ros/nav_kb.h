@@ -5,8 +5,8 @@
  *
  * Parameters (private, relative paths resolved by ParamReader):
  *   ~navigation_config  config/navigation.yaml   map, places, domains, simulator, planner
- *   ~domain             office_30x30             navigation domain (grid size, step limit)
- *   ~geometry           maps/office_30x30_geometry.plog   generated P-log geometry of the grid
+ *   ~domain             the config's first domain   navigation domain (grid size, step limit)
+ *   ~geometry           maps/<domain>_geometry.plog   generated P-log geometry of the grid
  *   ~navigation_files   [config/navigation.plog] human navigation knowledge, loaded in order
  */
 #pragma once

@@ -8,9 +8,10 @@ namespace krr_ros {
 NavKbParams NavKbParams::read(ParamReader& params) {
   NavKbParams p;
   p.navigation_config = params.path("navigation_config", "config/navigation.yaml", true);
-  p.domain = params.str("domain", "office_30x30");
+  const krr::nav::NavigationConfig config = krr::nav::loadNavigationConfig(p.navigation_config);
+  p.domain = params.str("domain", config.defaultDomain().name);  // the site's, not a literal
   try {
-    krr::nav::loadNavigationConfig(p.navigation_config).domain(p.domain);
+    config.domain(p.domain);
   } catch (const krr::UnknownSymbolError& e) {
     params.refuse("domain", "'" + p.domain + "'", e.what());
   }

@@ -457,7 +457,8 @@ class DialogNode {
     report(h);
     if (!h.understood()) {
       manager().reset();
-      notice("What can I deliver for you? (for example: a coke for bob to room2)");
+      notice("What can I deliver for you? (for example: " +
+             krr::dialog::exampleRequest(model_->pomdp->spec()) + ")");
       return;
     }
     ++dialog_id_;

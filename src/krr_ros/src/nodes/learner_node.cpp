@@ -75,7 +75,9 @@ struct LearnerParams {
     p.task_hold = r.number("task_hold", 30, 0, 86400);
     p.idle_delay = r.number("idle_delay", 1, 0, 86400);
     p.places = r.strings("places", {});
-    p.start_place = r.str("start_place", "shop");
+    // No default place: a place name is the site's (config/learner_node.yaml).
+    p.start_place = r.str("start_place", "");
+    if (p.start_place.empty()) r.refuse("start_place", "''", "must name a place of the map");
     p.enabled = r.boolean("enabled", true);
     p.rest_threshold = r.integer("rest_threshold", 5, 0, 1000000);
     p.rest_after = r.integer("rest_after", 10, 1, 1000000);

@@ -87,7 +87,9 @@ struct NavigationParams {
     p.model_service = r.str("model_service", "/reasoner/build_task_model");
     p.model_timeout = r.number("model_timeout", 30, 0.1, 3600);
     p.learned_file = r.path("learned_file", "", false);
-    p.start_place = r.str("start_place", "shop");
+    // No default place: a place name is the site's (config/navigation_node.yaml).
+    p.start_place = r.str("start_place", "");
+    if (p.start_place.empty()) r.refuse("start_place", "''", "must name a place of the map");
     p.blocking_rate = r.number("blocking_rate", -1, -1, 1);
     p.sim_rate = r.number("sim_rate", 0, 0, 1000);
     p.step_limit = r.integer("step_limit", 0, 0, 1000000);

@@ -15,7 +15,7 @@ namespace krr {
 
 /**
  * @brief The repository root: the first of
- *  1. `hint` if not empty (a --root / --repo option), as given;
+ *  1. `hint` if not empty (a --root option), as given;
  *  2. $KRR_ROOT if set, as given;
  *  3. two directories above the krr_core package found on $ROS_PACKAGE_PATH or in a catkin
  *     source space of $CMAKE_PREFIX_PATH (src/krr_core -> the checkout);
@@ -34,7 +34,7 @@ std::string findRepositoryRoot(const std::string& hint = "",
 std::string resourcePath(const std::string& given, const std::string& relative,
                          const std::string& root_hint = "");
 
-/// @brief Help text of the --root / --repo options: where the root is when they are not given.
+/// @brief Help text of the --root option: where the root is when they are not given.
 extern const char* const kRepositoryRootHelp;
 
 }  // namespace krr

@@ -32,11 +32,13 @@ namespace krr {
 namespace dialog {
 
 /// @brief Everything the dialog model is built from. Request index:
-/// s = (item * |R| + room) * |P| + person.
+/// s = (item * |R| + room) * |P| + person. The names have no default: they are a building's
+/// (dialogSpecFromKnowledge reads them from its knowledge base), and DialogPomdp refuses empty
+/// lists; placeholderNames() gives generic ones where only the counts matter.
 struct DialogSpec {
-  std::vector<std::string> items{"coke", "coffee", "soda"};
-  std::vector<std::string> rooms{"room1", "room2", "room3", "room4", "room5"};
-  std::vector<std::string> persons{"alice", "bob"};
+  std::vector<std::string> items;
+  std::vector<std::string> rooms;
+  std::vector<std::string> persons;
   Eigen::VectorXd prior;     ///< over requests; empty = uniform
   Eigen::MatrixXd delivery;  ///< T^D(s, a): requests x serve actions; empty = all 1
   /// Extra cost subtracted from R(s, serve a) (requests x serve actions, finite); empty = 0.
@@ -51,6 +53,13 @@ struct DialogSpec {
   double discount = 0.99;  ///< not given in the paper; questions already carry costs
   int turnLimit = 20;  ///< questions allowed before a serve is forced (solved with the limit)
 };
+
+/**
+ * @brief `spec` with generic names item_1.., room_1.., person_1.. for the given counts, for
+ * models where only the sizes matter (benchmarks).
+ */
+DialogSpec placeholderNames(DialogSpec spec, std::size_t items, std::size_t rooms,
+                            std::size_t persons);
 
 /// @brief Kind of a dialog action.
 enum class DialogActionKind {

@@ -170,5 +170,12 @@ class LanguageFrontEnd {
  */
 std::string robotUtterance(const DialogPomdp& dialog, std::size_t action);
 
+/**
+ * @brief A request in the model's own names, "a <item> for <person> to <room>" (the first of
+ * each), for prompts and correction hints: the example a person is shown must be one this
+ * building's robot understands. @throws ConfigError when the spec lacks items, rooms or persons.
+ */
+std::string exampleRequest(const DialogSpec& spec);
+
 }  // namespace dialog
 }  // namespace krr

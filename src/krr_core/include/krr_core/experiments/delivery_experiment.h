@@ -67,8 +67,10 @@ struct DeliveryExperimentOptions {
   double outdated_rate = 0.3;  ///< br the outdated knowledge was learned at (paper: 0.3)
   std::uint64_t seed = 1;      ///< root seed of learning and of every trial
   std::string cache_dir;       ///< learned knowledge and solved policies; empty: no cache
-  std::string domain_name = "office_30x30";  ///< cache key of the navigation domain
-  /// @throws ConfigError naming the field.
+  /// Cache key of the navigation domain; empty until the CLI resolves the site's default
+  /// domain (the experiment itself needs it named).
+  std::string domain_name;
+  /// @throws ConfigError naming the field (an empty domain_name is allowed here).
   void validate() const;
 };
 

@@ -45,7 +45,13 @@ struct ExperimentCli {
   /// @brief Check the values and resolve the cache (a parse() check). @throws ConfigError.
   void finish();
   /// @brief The input paths of the domain.
-  ExperimentPaths paths() const { return ExperimentPaths::find(root, experiment.domain_name); }
+  /// @brief The input files; an unnamed domain becomes the site's default (navigation.yaml's
+  /// first), recorded in experiment.domain_name, which keys the caches.
+  ExperimentPaths paths() {
+    ExperimentPaths p = ExperimentPaths::find(root, experiment.domain_name);
+    experiment.domain_name = p.domain;
+    return p;
+  }
   /// @brief loadDeliveryExperimentConfig() with the overrides applied (validated).
   dialog::DialogConfig config(const ExperimentPaths& paths) const;
 
@@ -56,10 +62,10 @@ struct ExperimentCli {
 
 /**
  * @brief The input files the navigation experiments (nav_transfer, new_circumstances) read:
- * --repo, --options, --config, --geometry, --knowledge; unset ones default to the repository's.
+ * --root, --options, --config, --geometry, --knowledge; unset ones default to the repository's.
  */
 struct NavExperimentFiles {
-  std::string repo, options, config, geometry, knowledge;
+  std::string root, options, config, geometry, knowledge;
 
   /// @brief Declare the options; `options_file` is the default under the root (e.g.
   /// config/experiments/nav_transfer.yaml), `options_note` said after it in the help.
@@ -69,6 +75,9 @@ struct NavExperimentFiles {
   void resolveRoot();
   /// @brief Default the navigation config, `domain`'s geometry and the human knowledge.
   void resolveInputs(const std::string& domain);
+  /// @brief The site's default domain (the first of the navigation config's, after
+  /// resolveRoot), for runs that name none. @throws ConfigError.
+  std::string defaultDomain() const;
 
  private:
   std::string options_file_;

@@ -22,12 +22,14 @@ struct ExperimentPaths {
   std::string navigation_yaml;  ///< root/config/navigation.yaml
   std::string navigation_plog;  ///< root/config/navigation.plog
   std::string geometry;         ///< root/maps/<domain>_geometry.plog
+  std::string domain;           ///< the domain asked for, or navigation.yaml's default domain
 
   /**
-   * @brief Resolve the paths for `domain` (see the file comment for `root_hint` = --root).
+   * @brief Resolve the paths for `domain` (see the file comment for `root_hint` = --root);
+   * empty `domain`: the first domain of root/config/navigation.yaml.
    * @throws ConfigError naming what was searched when no root is found or a file is missing.
    */
-  static ExperimentPaths find(const std::string& root_hint, const std::string& domain);
+  static ExperimentPaths find(const std::string& root_hint, const std::string& domain = "");
 };
 
 }  // namespace experiments

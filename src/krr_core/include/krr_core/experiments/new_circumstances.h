@@ -60,7 +60,7 @@ namespace experiments {
 
 /// @brief Parameters of the new-circumstances experiment (config/experiments/new_circumstances.yaml).
 struct NewCircumstancesOptions {
-  std::string domain = "office_30x30";  ///< navigation domain (used by the CLI to load it)
+  std::string domain;  ///< navigation domain (the CLI loads it; empty: the site's default)
   std::string start = "shop";
   std::string goal = "room2";
   /// The settings (times of day): each has its own learned knowledge and controller.

@@ -46,8 +46,9 @@ class TaskSelector {
  */
 class LeastKnownSelector : public TaskSelector {
  public:
+  /// @brief `start`: where every practised task begins, the site's (no default place name).
   /// @throws ConfigError when fewer than two places are given.
-  explicit LeastKnownSelector(std::vector<std::string> places, std::string start = "shop");
+  LeastKnownSelector(std::vector<std::string> places, std::string start);
   NavTask next(const NavModel& current_model, const NavStateSpace& space, Rng& rng) override;
 
  private:

@@ -71,6 +71,9 @@ class BlockageSimulator {
   double trapProbability() const { return trap_; }
   /// @brief Index of a time-of-day name; ConfigError if the configuration does not define it.
   int timeOfDayIndex(const std::string& name) const;
+  /// @brief Index of the area a `simulator.areas` override names; ConfigError naming the
+  /// config file and field otherwise (a map's areas and the config's overrides are kept apart).
+  int areaOfOverride(const std::string& name) const;
 
   const NavGrid& grid() const { return grid_; }
   const SimulatorConfig& config() const { return config_; }

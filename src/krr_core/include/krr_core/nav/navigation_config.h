@@ -47,6 +47,9 @@ struct SimulatorConfig {
   /// Multiplier of every area's rate at each time of day (same order); result clamped to [0,1].
   std::vector<double> time_factors{1.0, 1.0, 1.0};
   std::map<std::string, AreaConfig> areas;  ///< per-area overrides, by area name
+  /// @brief The file these settings were read from ("" when built in code), so that an override
+  /// naming an area the map does not have can say where to fix it.
+  std::string source;
 };
 
 /// @brief Parameters of the OMPL motion planner.
@@ -102,6 +105,9 @@ struct NavigationConfig {
 
   /// @brief The domain called `name`; UnknownSymbolError if absent.
   const DomainConfig& domain(const std::string& name) const;
+  /// @brief The domain programs use when none is named: the first of `domains`, so that the
+  /// default is the site's own and never a name written in code. @throws ConfigError if none.
+  const DomainConfig& defaultDomain() const;
 };
 
 /// @brief `base` with the navigation task's reward (planning: step_cost, rmax) and R-Max

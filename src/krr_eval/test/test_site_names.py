@@ -1,0 +1,172 @@
+"""The programs assume no office names (issue 27): a site whose shop, rooms or domains are named
+otherwise runs, and a name the site lacks is refused with the file, field or option to fix.
+
+The C++ programs are found in the catkin workspace (catkin_ws/devel/lib/krr_core); under the test
+runner (KRR_ROOT set) a missing build is a failure, a bare `python3 -m unittest` skips them.
+"""
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import unittest
+
+from krr_eval import navigation, paths
+
+ROOT = paths.root()
+BIN = os.path.join(ROOT, "catkin_ws", "devel", "lib", "krr_core")
+SCRIPTS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "scripts")
+
+
+def need(program):
+    path = os.path.join(BIN, program)
+    if not os.path.isfile(path):
+        if os.environ.get("KRR_ROOT"):
+            raise AssertionError("%s not built (catkin_ws)" % path)
+        raise unittest.SkipTest("%s not built" % program)
+    return path
+
+
+def run(cmd, timeout=300):
+    return subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                          universal_newlines=True, timeout=timeout)
+
+
+class SiteCopy(unittest.TestCase):
+    """A copy of the repository's config/ and maps/ in a temporary root, to edit."""
+
+    def setUp(self):
+        self.root = tempfile.mkdtemp(prefix="krr_site_")
+        for d in ("config", "maps"):
+            shutil.copytree(os.path.join(ROOT, d), os.path.join(self.root, d))
+
+    def tearDown(self):
+        shutil.rmtree(self.root, ignore_errors=True)
+
+    def path(self, *parts):
+        return os.path.join(self.root, *parts)
+
+    def edit(self, rel, old, new):
+        p = self.path(rel)
+        with open(p) as f:
+            text = f.read()
+        self.assertIn(old, text)
+        with open(p, "w") as f:
+            f.write(text.replace(old, new))
+
+
+class MakeNavDomainShopTest(SiteCopy):
+    """make_nav_domain takes the shop from the dialog config or --shop, never a literal."""
+
+    def setUp(self):
+        super().setUp()
+        self.program = need("make_nav_domain")
+        self.edit("maps/office_places.yaml", "  shop: {", "  mailroom: {")
+        # One small domain keeps the run short.
+        self.edit("config/navigation.yaml", "  office_50x50: {cols: 50, rows: 50, step_limit: 300}\n",
+                  "")
+        os.remove(self.path("maps", "office_30x30.yaml"))
+
+    def test_a_shop_named_mailroom_by_flag(self):
+        res = run([self.program, "--config", self.path("config", "navigation.yaml"),
+                   "--shop", "mailroom"])
+        self.assertEqual(res.returncode, 0, res.stderr)
+        self.assertIn('"room2": {"moves"', res.stdout)
+        self.assertTrue(os.path.isfile(self.path("maps", "office_30x30.yaml")))
+
+    def test_a_shop_named_mailroom_by_the_dialog_config(self):
+        self.edit("config/dialog.yaml", "  shop: shop ", "  shop: mailroom ")
+        res = run([self.program, "--config", self.path("config", "navigation.yaml")])
+        self.assertEqual(res.returncode, 0, res.stderr)
+        self.assertIn('"room5": {"moves"', res.stdout)
+
+    def test_a_shop_the_map_lacks_is_refused_before_writing(self):
+        res = run([self.program, "--config", self.path("config", "navigation.yaml")])
+        self.assertEqual(res.returncode, 1, res.stdout)
+        self.assertIn("%s: field 'navigation.shop': 'shop' is not a place of "
+                      % self.path("config", "dialog.yaml"), res.stderr)
+        self.assertIn("office_places.yaml (places: mailroom, room1", res.stderr)
+        self.assertIn("mailroom", res.stderr)  # the places there are
+        self.assertFalse(os.path.exists(self.path("maps", "office_30x30.yaml")))
+
+
+class DialogScriptNamesTest(SiteCopy):
+    def setUp(self):
+        super().setUp()
+        self.program = need("dialog_script")
+
+    def test_reach_needs_one_value_per_room_of_the_model(self):
+        res = run([self.program, "--root", ROOT, "--utterance", "coke", "--no-policy",
+                   "--reach", "0.9,0.9,0.9,0.9"])
+        self.assertEqual(res.returncode, 1, res.stdout)
+        self.assertIn("option --reach: 4 values, but the model has 5 rooms "
+                      "(room1, room2, room3, room4, room5): give one per room", res.stderr)
+        help_text = run([self.program, "--help"]).stdout
+        self.assertNotIn("r1,...,r5", help_text)
+        self.assertIn("one per room of the model", help_text)
+
+    def test_the_default_domain_is_the_sites_first(self):
+        # A site whose first domain has no geometry yet: the error names that domain, where the
+        # default came from and the command, not the office's domain.
+        self.edit("config/navigation.yaml", "domains:\n",
+                  "domains:\n  site_20x12: {cols: 20, rows: 12, step_limit: 150}\n")
+        res = run([self.program, "--root", self.root, "--utterance", "coke", "--no-policy"])
+        self.assertEqual(res.returncode, 1, res.stdout)
+        self.assertIn("for domain 'site_20x12' (the first domain of", res.stderr)
+        self.assertIn("make_nav_domain --config", res.stderr)
+        self.assertNotIn("office_30x30", res.stderr)
+
+
+class NavTransferNamesTest(SiteCopy):
+    def setUp(self):
+        super().setUp()
+        self.program = need("nav_transfer")
+
+    def test_an_unknown_source_names_the_flag(self):
+        res = run([self.program, "--root", ROOT, "--trials", "1", "--source", "kitchen"])
+        self.assertEqual(res.returncode, 1, res.stdout)
+        self.assertRegex(res.stderr, r"option --source: unknown place 'kitchen' \(places of "
+                                     r"domain 'office_30x30': shop, room1")
+
+    def test_an_unknown_place_names_the_options_file_and_field(self):
+        options = self.path("config", "experiments", "nav_transfer.yaml")
+        self.edit("config/experiments/nav_transfer.yaml", "  source: room1", "  source: lab")
+        res = run([self.program, "--root", ROOT, "--trials", "1", "--options", options])
+        self.assertEqual(res.returncode, 1, res.stdout)
+        self.assertIn("%s: field 'nav_transfer.source' (or --source): unknown place 'lab'"
+                      % options, res.stderr)
+
+    def test_the_root_flag_is_root(self):
+        help_text = run([self.program, "--help"]).stdout
+        self.assertIn("--root DIR", help_text)
+        self.assertNotIn("--repo", help_text)
+
+
+class NavTransferDomainsTest(unittest.TestCase):
+    """rosrun krr_eval nav_transfer --domains NAME: the paper's names or the config's domains."""
+
+    def test_an_unknown_domain_is_a_clear_error(self):
+        res = run([sys.executable, os.path.join(SCRIPTS, "nav_transfer"), "--out",
+                   tempfile.mkdtemp(prefix="krr_nav_"), "--domains", "building_40x24"], timeout=60)
+        self.assertEqual(res.returncode, 2, res.stderr)
+        self.assertNotIn("KeyError", res.stderr)
+        self.assertIn("unknown navigation domain 'building_40x24'", res.stderr)
+        self.assertIn(os.path.join("config", "navigation.yaml"), res.stderr)
+        self.assertIn("office_30x30, office_50x50", res.stderr)
+
+    def test_config_domains_resolve_by_name(self):
+        self.assertEqual(navigation.resolve_domain("small"), ("office_30x30", 200))
+        self.assertEqual(navigation.resolve_domain("office_50x50"), ("office_50x50", 300))
+        with tempfile.TemporaryDirectory() as d:
+            cfg = os.path.join(d, "navigation.yaml")
+            with open(cfg, "w") as f:
+                f.write("domains:\n  building_40x24: {cols: 40, rows: 24, step_limit: 250}\n")
+            self.assertEqual(navigation.resolve_domain("building_40x24", cfg),
+                             ("building_40x24", 250))
+            with self.assertRaisesRegex(navigation.UnknownDomainError, re.escape(cfg)):
+                navigation.resolve_domain("office_7x7", cfg)
+
+
+if __name__ == "__main__":
+    unittest.main()
