@@ -329,6 +329,15 @@ class Table1Test(unittest.TestCase):
         self.assertIsNone(exp2_delivery.sanity_row(0.1, {"gap": None, "reward_error": None},
                                                    l_, stats.Estimate(0.0, 0.1, -0.1, 0.1, 100)))
 
+    def test_sanity_note_follows_the_dialog_discount(self):
+        from krr_eval import context, exp2_delivery
+        undiscounted = exp2_delivery.sanity_note(1.0)
+        self.assertIn("undiscounted", undiscounted)
+        self.assertNotIn("discount 0.99", undiscounted)
+        self.assertIn("discount 0.99 per question", exp2_delivery.sanity_note(0.99))
+        # the shipped dialog is undiscounted (config/dialog.yaml, episodic with a turn limit)
+        self.assertEqual(context.dialog_discount(), 1.0)
+
     def test_paired_statistics_join_on_trial_index(self):
         ctx, res = run_exp(experiments.exp2_table1, StubRunner())
 

@@ -128,6 +128,12 @@ def question_cost():
     return float(min(d.get("general_question_cost", 2.0), d.get("confirm_question_cost", 1.5)))
 
 
+def dialog_discount():
+    """config/dialog.yaml's dialog.discount (per question; 1: undiscounted)."""
+    with open(paths.repo("config", "dialog.yaml")) as f:
+        return float(yaml.safe_load(f).get("dialog", {}).get("discount", 1.0))
+
+
 FORCED_LIMIT = 0.01  # serves forced by the turn limit, per trial set
 
 
