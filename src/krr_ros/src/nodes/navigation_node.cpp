@@ -68,7 +68,7 @@ struct NavigationParams {
     p.model_timeout = r.number("model_timeout", 30, 0.1, 3600);
     p.learned_file = r.path("learned_file", "", false);
     p.start_place = r.str("start_place", "shop");
-    p.blocking_rate = r.number("blocking_rate", -1, -1, 1);
+    p.blocking_rate = r.blockingRate("blocking_rate");
     p.sim_rate = r.number("sim_rate", 0, 0, 1000);
     p.step_limit = r.integer("step_limit", 0, 0, 1000000);
     // Defaults from the one home of these settings, navigation.yaml (context, planning).
