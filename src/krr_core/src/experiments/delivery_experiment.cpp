@@ -161,12 +161,8 @@ DeliveryExperiment::DeliveryExperiment(const kb::NavDomain& domain, const Dialog
 }
 
 void DeliveryExperiment::setPolicy(const pomdp::TurnLimitedPolicy& policy) {
-  if (policy.numStates() != dialog_->model().getS() ||
-      policy.turnLimit() != dialog_->spec().turnLimit)
-    throw ConfigError("delivery experiment: policy has " + std::to_string(policy.numStates()) +
-                      " states and turn limit " + std::to_string(policy.turnLimit()) +
-                      ", the dialog model " + std::to_string(dialog_->model().getS()) + " and " +
-                      std::to_string(dialog_->spec().turnLimit));
+  const std::string mismatch = dialog::policyMismatch(policy, *dialog_);
+  if (!mismatch.empty()) throw ConfigError("delivery experiment: " + mismatch);
   policy_ = policy;
 }
 
