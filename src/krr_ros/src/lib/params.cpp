@@ -147,7 +147,7 @@ double ParamReader::number(const std::string& name, double def, double lo, doubl
 double ParamReader::blockingRate(const std::string& name) {
   const double v = number(name, -1, -std::numeric_limits<double>::max(),
                           std::numeric_limits<double>::max());
-  return krr::nav::checkBlockingRate(v, "parameters of " + nh_.getNamespace(), name,
+  return krr::nav::checkBlockingRate(v, "node parameters", nh_.getNamespace() + "/" + name,
                                      krr::nav::RateUnset::kAllowed);
 }
 
