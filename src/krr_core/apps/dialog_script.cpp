@@ -120,60 +120,55 @@ static int mainBody(int argc, char** argv) {
   krr::OptionParser parser("dialog_script", kSummary);
   a.declare(parser);
   if (const auto status = parser.parse(argc, argv, [&] { a.check(); })) return *status;
-  try {
-    using namespace krr::dialog;
-    const std::string root = krr::findRepositoryRoot(a.root, "config/dialog.yaml");
-    const DialogConfig config =
-        loadDialogConfig(a.dialogConfig.empty() ? root + "/config/dialog.yaml" : a.dialogConfig);
-    const std::string languageFile = a.language.empty() ? root + "/config/language.yaml" : a.language;
-    const DialogKnowledge knowledge(config.office_plog, config.speech_plog);
-    TripTable trips;
-    if (!a.reach.empty()) {
-      checkReachCount("--reach", a.reach, knowledge.base().rooms);
-      if (!a.reachBack.empty()) checkReachCount("--reach-back", a.reachBack, knowledge.base().rooms);
-      trips = TripTable::fromReach(knowledge.base().rooms, a.reach, a.reachBack, config.failure_penalty);
-    } else {
-      const auto paths = krr::experiments::ExperimentPaths::find(root, a.domain);
-      const krr::kb::NavDomain domain = krr::kb::NavDomain::load(
-          paths.navigation_yaml, paths.domain, paths.geometry, paths.navigation_plog);
-      krr::kb::NavigationKnowledge nav(*domain.grid, domain.knowledge_files);
-      trips = deliveryNavigationFromKnowledge(domain, nav, config, knowledge.base().rooms)->trips();
-    }
-    const krr::dialog::DialogPomdp dialog(knowledge.buildSpec(trips, config));
-    const LanguageFrontEnd language(dialog, loadLanguageConfig(languageFile), languageFile);
-    std::fprintf(stderr, "# P^N(shop, room):");
-    for (std::size_t r = 0; r < trips.rooms.size(); ++r)
-      std::fprintf(stderr, " %s %.3f", trips.rooms[r].c_str(), trips.to_room[r].reach);
-    std::fprintf(stderr, "\n");
-    krr::pomdp::TurnLimitedPolicy policy;
-    if (!a.noPolicy) {
-      PolicyReport rep;
-      const std::string cache = a.haveCache ? (a.cache == "none" ? "" : a.cache) : defaultCacheDir();
-      policy = solveDialogPolicy(dialog, config, cache, &rep);
-      std::fprintf(stderr, "# policy: %s in %.2f s, bounds at the prior [%.3f, %.3f] (gap %.3f), "
-                   "%zu trials, %zu vectors\n", rep.from_cache ? "loaded" : "solved", rep.seconds,
-                   rep.bounds.lower, rep.bounds.upper, rep.bounds.gap(), rep.bounds.trials,
-                   policy.size());
-    }
-    if (a.deliver) {
-      const ScriptedDelivery d =
-          runScriptedDelivery(dialog, language, policy, config, {a.utterances, a.checks, a.legs});
-      if (a.json) {
-        std::cout << scriptedDeliveryToJson(dialog, d);
-      } else {
-        for (const auto& s : d.decisions) std::cout << s << "\n";
-        if (!d.completed) std::cout << "(the script ended before the delivery did)\n";
-      }
-      return 0;
-    }
-    const auto result = runDialogScript(dialog, language, a.noPolicy ? nullptr : &policy,
-                                        a.questions, a.utterances);
-    std::cout << (a.json ? scriptToJson(dialog, result) : scriptToText(dialog, result));
-    if (!a.out.empty()) krr::writeFileAtomic(a.out, scriptToCsv(dialog, result));
-  } catch (const krr::Error& e) {
-    std::cerr << "dialog_script: " << e.what() << "\n";
-    return 1;
+  using namespace krr::dialog;
+  const std::string root = krr::findRepositoryRoot(a.root, "config/dialog.yaml");
+  const DialogConfig config =
+      loadDialogConfig(a.dialogConfig.empty() ? root + "/config/dialog.yaml" : a.dialogConfig);
+  const std::string languageFile = a.language.empty() ? root + "/config/language.yaml" : a.language;
+  const DialogKnowledge knowledge(config.office_plog, config.speech_plog);
+  TripTable trips;
+  if (!a.reach.empty()) {
+    checkReachCount("--reach", a.reach, knowledge.base().rooms);
+    if (!a.reachBack.empty()) checkReachCount("--reach-back", a.reachBack, knowledge.base().rooms);
+    trips = TripTable::fromReach(knowledge.base().rooms, a.reach, a.reachBack, config.failure_penalty);
+  } else {
+    const auto paths = krr::experiments::ExperimentPaths::find(root, a.domain);
+    const krr::kb::NavDomain domain = krr::kb::NavDomain::load(
+        paths.navigation_yaml, paths.domain, paths.geometry, paths.navigation_plog);
+    krr::kb::NavigationKnowledge nav(*domain.grid, domain.knowledge_files);
+    trips = deliveryNavigationFromKnowledge(domain, nav, config, knowledge.base().rooms)->trips();
   }
+  const krr::dialog::DialogPomdp dialog(knowledge.buildSpec(trips, config));
+  const LanguageFrontEnd language(dialog, loadLanguageConfig(languageFile), languageFile);
+  std::fprintf(stderr, "# P^N(shop, room):");
+  for (std::size_t r = 0; r < trips.rooms.size(); ++r)
+    std::fprintf(stderr, " %s %.3f", trips.rooms[r].c_str(), trips.to_room[r].reach);
+  std::fprintf(stderr, "\n");
+  krr::pomdp::TurnLimitedPolicy policy;
+  if (!a.noPolicy) {
+    PolicyReport rep;
+    const std::string cache = a.haveCache ? (a.cache == "none" ? "" : a.cache) : defaultCacheDir();
+    policy = solveDialogPolicy(dialog, config, cache, &rep);
+    std::fprintf(stderr, "# policy: %s in %.2f s, bounds at the prior [%.3f, %.3f] (gap %.3f), "
+                 "%zu trials, %zu vectors\n", rep.from_cache ? "loaded" : "solved", rep.seconds,
+                 rep.bounds.lower, rep.bounds.upper, rep.bounds.gap(), rep.bounds.trials,
+                 policy.size());
+  }
+  if (a.deliver) {
+    const ScriptedDelivery d =
+        runScriptedDelivery(dialog, language, policy, config, {a.utterances, a.checks, a.legs});
+    if (a.json) {
+      std::cout << scriptedDeliveryToJson(dialog, d);
+    } else {
+      for (const auto& s : d.decisions) std::cout << s << "\n";
+      if (!d.completed) std::cout << "(the script ended before the delivery did)\n";
+    }
+    return 0;
+  }
+  const auto result = runDialogScript(dialog, language, a.noPolicy ? nullptr : &policy,
+                                      a.questions, a.utterances);
+  std::cout << (a.json ? scriptToJson(dialog, result) : scriptToText(dialog, result));
+  if (!a.out.empty()) krr::writeFileAtomic(a.out, scriptToCsv(dialog, result));
   return 0;
 }
 

@@ -131,70 +131,65 @@ static int mainBody(int argc, char** argv) {
     a.threads = std::max<std::size_t>(1, a.threads);
   };
   if (const auto status = parser.parse(argc, argv, check)) return *status;
-  try {
-    // Given, the options file must exist; by default, it may be absent.
-    const bool givenOptions = !a.files.options.empty();
-    a.files.resolveRoot();
-    if (a.domain.empty()) a.domain = a.files.defaultDomain();
-    krr::experiments::NavTransferOptions o;
-    const bool loadedOptions = givenOptions || std::ifstream(a.files.options).good();
-    if (loadedOptions) o = krr::experiments::loadNavTransferOptions(a.files.options);
-    for (const auto& [f, v] : a.overrides) applyOverride(o, f, v);
-    o.validate();
-    a.files.resolveInputs(a.domain);
+  // Given, the options file must exist; by default, it may be absent.
+  const bool givenOptions = !a.files.options.empty();
+  a.files.resolveRoot();
+  if (a.domain.empty()) a.domain = a.files.defaultDomain();
+  krr::experiments::NavTransferOptions o;
+  const bool loadedOptions = givenOptions || std::ifstream(a.files.options).good();
+  if (loadedOptions) o = krr::experiments::loadNavTransferOptions(a.files.options);
+  for (const auto& [f, v] : a.overrides) applyOverride(o, f, v);
+  o.validate();
+  a.files.resolveInputs(a.domain);
 
-    std::cerr << "nav_transfer: seed " << a.seed << ", trials [" << a.begin << ", "
-              << a.begin + a.trials << "), " << a.threads << " threads, domain " << a.domain
-              << ", M " << o.rmax.known_threshold << ", Rmax " << o.rmax.rmax << ", step cost "
-              << o.rmax.step_cost << ", " << o.target_episodes << " target episodes\n";
-    krr::Stopwatch clock;
-    auto dom =
-        krr::kb::NavDomain::load(a.files.config, a.domain, a.files.geometry, a.files.knowledge);
-    checkPlaces(*dom.grid, o, a, loadedOptions ? a.files.options : std::string());
-    const auto trials =
-        krr::experiments::runNavTransferTrials(dom, o, a.seed, a.begin, a.trials, a.threads);
-    const auto s = krr::experiments::summarizeNavTransfer(trials);
-    if (!a.out.empty()) {
-      std::ostringstream csv;
-      csv << "episode,mean_with,ci95_with,mean_without,ci95_without,success_with,success_without\n";
-      for (std::size_t e = 0; e < s.mean_with.size(); ++e)
-        csv << e + 1 << "," << s.mean_with[e] << "," << s.ci_with[e] << "," << s.mean_without[e]
-            << "," << s.ci_without[e] << "," << s.success_with[e] << "," << s.success_without[e]
-            << "\n";
-      krr::writeFileAtomic(a.out, csv.str());
-    }
-    if (!a.trials_out.empty()) {
-      std::string csv = "trial,episode,condition,reward,success\n";
-      char buf[96];
-      for (const auto& t : trials) {
-        for (std::size_t e = 0; e < t.reward_with.size(); ++e) {
-          std::snprintf(buf, sizeof(buf), "%zu,%zu,with,%.10g,%d\n", t.index, e + 1,
-                        t.reward_with[e], t.success_with[e] ? 1 : 0);
-          csv += buf;
-          std::snprintf(buf, sizeof(buf), "%zu,%zu,without,%.10g,%d\n", t.index, e + 1,
-                        t.reward_without[e], t.success_without[e] ? 1 : 0);
-          csv += buf;
-        }
-      }
-      krr::writeFileAtomic(a.trials_out, csv);
-    }
-    double w = 0, wo = 0;
-    for (std::size_t e = 0; e < s.mean_with.size(); ++e) {
-      w += s.mean_with[e];
-      wo += s.mean_without[e];
-    }
-    const double n = static_cast<double>(s.mean_with.size());
-    std::printf("domain %s: %zu trials, %zu target episodes, source task learned in %.1f episodes, "
-                "%.0f pairs extracted, %.0f target pairs known from the KB\n",
-                a.domain.c_str(), s.trials, s.mean_with.size(), s.mean_source_episodes,
-                s.mean_learned_pairs, s.mean_prior_pairs);
-    std::printf("mean reward per episode: with extraction %.2f, without %.2f (%.1f s)\n", w / n,
-                wo / n, clock.seconds());
-    return 0;
-  } catch (const krr::Error& e) {
-    std::cerr << "nav_transfer: " << e.what() << "\n";
-    return 1;
+  std::cerr << "nav_transfer: seed " << a.seed << ", trials [" << a.begin << ", "
+            << a.begin + a.trials << "), " << a.threads << " threads, domain " << a.domain
+            << ", M " << o.rmax.known_threshold << ", Rmax " << o.rmax.rmax << ", step cost "
+            << o.rmax.step_cost << ", " << o.target_episodes << " target episodes\n";
+  krr::Stopwatch clock;
+  auto dom =
+      krr::kb::NavDomain::load(a.files.config, a.domain, a.files.geometry, a.files.knowledge);
+  checkPlaces(*dom.grid, o, a, loadedOptions ? a.files.options : std::string());
+  const auto trials =
+      krr::experiments::runNavTransferTrials(dom, o, a.seed, a.begin, a.trials, a.threads);
+  const auto s = krr::experiments::summarizeNavTransfer(trials);
+  if (!a.out.empty()) {
+    std::ostringstream csv;
+    csv << "episode,mean_with,ci95_with,mean_without,ci95_without,success_with,success_without\n";
+    for (std::size_t e = 0; e < s.mean_with.size(); ++e)
+      csv << e + 1 << "," << s.mean_with[e] << "," << s.ci_with[e] << "," << s.mean_without[e]
+          << "," << s.ci_without[e] << "," << s.success_with[e] << "," << s.success_without[e]
+          << "\n";
+    krr::writeFileAtomic(a.out, csv.str());
   }
+  if (!a.trials_out.empty()) {
+    std::string csv = "trial,episode,condition,reward,success\n";
+    char buf[96];
+    for (const auto& t : trials) {
+      for (std::size_t e = 0; e < t.reward_with.size(); ++e) {
+        std::snprintf(buf, sizeof(buf), "%zu,%zu,with,%.10g,%d\n", t.index, e + 1,
+                      t.reward_with[e], t.success_with[e] ? 1 : 0);
+        csv += buf;
+        std::snprintf(buf, sizeof(buf), "%zu,%zu,without,%.10g,%d\n", t.index, e + 1,
+                      t.reward_without[e], t.success_without[e] ? 1 : 0);
+        csv += buf;
+      }
+    }
+    krr::writeFileAtomic(a.trials_out, csv);
+  }
+  double w = 0, wo = 0;
+  for (std::size_t e = 0; e < s.mean_with.size(); ++e) {
+    w += s.mean_with[e];
+    wo += s.mean_without[e];
+  }
+  const double n = static_cast<double>(s.mean_with.size());
+  std::printf("domain %s: %zu trials, %zu target episodes, source task learned in %.1f episodes, "
+              "%.0f pairs extracted, %.0f target pairs known from the KB\n",
+              a.domain.c_str(), s.trials, s.mean_with.size(), s.mean_source_episodes,
+              s.mean_learned_pairs, s.mean_prior_pairs);
+  std::printf("mean reward per episode: with extraction %.2f, without %.2f (%.1f s)\n", w / n,
+              wo / n, clock.seconds());
+  return 0;
 }
 
 int main(int argc, char** argv) {

@@ -71,96 +71,88 @@ static int mainBody(int argc, char** argv) {
     threads = std::max<std::size_t>(1, threads);
   };
   if (const auto status = parser.parse(argc, argv, check)) return *status;
-  try {
-    files.resolveRoot();
-    krr::experiments::NewCircumstancesOptions o =
-        krr::experiments::loadNewCircumstancesOptions(files.options);
-    for (const auto& [f, v] : overrides) {
-      if (f == "--goal") o.goal = v;
-      else if (f == "--br") o.blocking_rate = krr::parseNumberOption(f, v);
-      else if (f == "--learn-episodes") o.learn_episodes = krr::parseCountOption(f, v);
-      else if (f == "--selector") o.selector = v;
-      else if (f == "--learning-runs") o.learning_runs = krr::parseCountOption(f, v);
-      else if (f == "--extraction") o.extraction = v;
-    }
-    if (!domain.empty()) o.domain = domain;
-    if (o.domain.empty()) o.domain = files.defaultDomain();
-    o.validate();
-    files.resolveInputs(o.domain);
-
-    std::cerr << "new_circumstances: seed " << seed << ", trials [" << begin << ", "
-              << begin + trials << "), " << threads << " threads, domain " << o.domain << ", "
-              << o.start << " -> " << o.goal << "\n";
-    krr::Stopwatch clock;
-    const auto dom =
-        krr::kb::NavDomain::load(files.config, o.domain, files.geometry, files.knowledge);
-    const auto res = krr::experiments::runNewCircumstances(dom, o, seed, begin, trials, threads);
-    std::ostringstream csv;
-    if (!no_header) csv << krr::experiments::newCircumstancesCsvHeader(o) << "\n";
-    for (const auto& t : res) csv << krr::experiments::newCircumstancesCsvRow(t) << "\n";
-    if (!out.empty()) krr::writeFileAtomic(out, csv.str());
-
-    const std::size_t T = o.learn_times.size();
-    std::vector<double> sm, sb, so, pm, pb, po, pick_mean, diff;
-    std::vector<std::vector<double>> sown(T), pown(T), self(T);
-    std::set<std::size_t> runs;
-    for (const auto& t : res) {
-      sm.push_back(t.success_merged);
-      sb.push_back(t.success_baseline);
-      so.push_back(t.success_oracle);
-      pm.push_back(t.p_merged);
-      pb.push_back(t.p_baseline);
-      po.push_back(t.p_oracle);
-      // The random pick's expected success in this trial: the mean of the possible settings'
-      // own controllers in the true setting.
-      double e = 0;
-      for (const std::string& s : t.possible) {
-        const std::size_t k = static_cast<std::size_t>(
-            std::find(o.learn_times.begin(), o.learn_times.end(), s) - o.learn_times.begin());
-        e += t.p_own[k] / static_cast<double>(t.possible.size());
-      }
-      pick_mean.push_back(e);
-      diff.push_back(t.p_merged - e);
-      for (std::size_t k = 0; k < T; ++k) {
-        sown[k].push_back(t.success_own[k]);
-        pown[k].push_back(t.p_own[k]);
-      }
-      if (runs.insert(t.learning_run).second)
-        for (std::size_t k = 0; k < T; ++k) self[k].push_back(t.p_self[k]);
-    }
-    auto line = [](const std::string& name, const std::vector<double>& x) {
-      const krr::experiments::MeanCi m = krr::experiments::meanCi(x);
-      std::printf("  %-44s %.3f +- %.3f\n", name.c_str(), m.mean, m.ci95);
-    };
-    std::printf("new circumstances (%s, %s -> %s, br %g): %zu trials, %zu learning run(s); the robot "
-                "is in one of %zu settings drawn from {",
-                o.domain.c_str(), o.start.c_str(), o.goal.c_str(), o.blocking_rate, res.size(),
-                runs.size(), o.unknown_count);
-    for (std::size_t k = 0; k < T; ++k) std::printf("%s%s", k ? ", " : "", o.learn_times[k].c_str());
-    std::printf("}\n");
-    line("success, merged (KRR-RL)", sm);
-    line("success, random pick (baseline)", sb);
-    line("success, oracle (knows the setting)", so);
-    for (std::size_t k = 0; k < T; ++k)
-      line("success, own controller of " + o.learn_times[k], sown[k]);
-    line("exact P(success), merged", pm);
-    line("exact P(success), random pick", pb);
-    line("exact P(success), random pick, mean over the pick", pick_mean);
-    line("exact P(success), oracle", po);
-    for (std::size_t k = 0; k < T; ++k)
-      line("exact P(success), own controller of " + o.learn_times[k], pown[k]);
-    line("exact merged - random pick (mean over pick)", diff);
-    for (std::size_t k = 0; k < T; ++k)
-      line("own controller in " + o.learn_times[k] + " (per learning run)", self[k]);
-    std::printf("  (%.1f s)\n", clock.seconds());
-    return 0;
-  } catch (const krr::Error& e) {
-    std::cerr << "new_circumstances: " << e.what() << "\n";
-    return 1;
-  } catch (const std::exception& e) {
-    std::cerr << "new_circumstances: internal error: " << e.what() << "\n";
-    return 1;
+  files.resolveRoot();
+  krr::experiments::NewCircumstancesOptions o =
+      krr::experiments::loadNewCircumstancesOptions(files.options);
+  for (const auto& [f, v] : overrides) {
+    if (f == "--goal") o.goal = v;
+    else if (f == "--br") o.blocking_rate = krr::parseNumberOption(f, v);
+    else if (f == "--learn-episodes") o.learn_episodes = krr::parseCountOption(f, v);
+    else if (f == "--selector") o.selector = v;
+    else if (f == "--learning-runs") o.learning_runs = krr::parseCountOption(f, v);
+    else if (f == "--extraction") o.extraction = v;
   }
+  if (!domain.empty()) o.domain = domain;
+  if (o.domain.empty()) o.domain = files.defaultDomain();
+  o.validate();
+  files.resolveInputs(o.domain);
+
+  std::cerr << "new_circumstances: seed " << seed << ", trials [" << begin << ", "
+            << begin + trials << "), " << threads << " threads, domain " << o.domain << ", "
+            << o.start << " -> " << o.goal << "\n";
+  krr::Stopwatch clock;
+  const auto dom =
+      krr::kb::NavDomain::load(files.config, o.domain, files.geometry, files.knowledge);
+  const auto res = krr::experiments::runNewCircumstances(dom, o, seed, begin, trials, threads);
+  std::ostringstream csv;
+  if (!no_header) csv << krr::experiments::newCircumstancesCsvHeader(o) << "\n";
+  for (const auto& t : res) csv << krr::experiments::newCircumstancesCsvRow(t) << "\n";
+  if (!out.empty()) krr::writeFileAtomic(out, csv.str());
+
+  const std::size_t T = o.learn_times.size();
+  std::vector<double> sm, sb, so, pm, pb, po, pick_mean, diff;
+  std::vector<std::vector<double>> sown(T), pown(T), self(T);
+  std::set<std::size_t> runs;
+  for (const auto& t : res) {
+    sm.push_back(t.success_merged);
+    sb.push_back(t.success_baseline);
+    so.push_back(t.success_oracle);
+    pm.push_back(t.p_merged);
+    pb.push_back(t.p_baseline);
+    po.push_back(t.p_oracle);
+    // The random pick's expected success in this trial: the mean of the possible settings'
+    // own controllers in the true setting.
+    double e = 0;
+    for (const std::string& s : t.possible) {
+      const std::size_t k = static_cast<std::size_t>(
+          std::find(o.learn_times.begin(), o.learn_times.end(), s) - o.learn_times.begin());
+      e += t.p_own[k] / static_cast<double>(t.possible.size());
+    }
+    pick_mean.push_back(e);
+    diff.push_back(t.p_merged - e);
+    for (std::size_t k = 0; k < T; ++k) {
+      sown[k].push_back(t.success_own[k]);
+      pown[k].push_back(t.p_own[k]);
+    }
+    if (runs.insert(t.learning_run).second)
+      for (std::size_t k = 0; k < T; ++k) self[k].push_back(t.p_self[k]);
+  }
+  auto line = [](const std::string& name, const std::vector<double>& x) {
+    const krr::experiments::MeanCi m = krr::experiments::meanCi(x);
+    std::printf("  %-44s %.3f +- %.3f\n", name.c_str(), m.mean, m.ci95);
+  };
+  std::printf("new circumstances (%s, %s -> %s, br %g): %zu trials, %zu learning run(s); the robot "
+              "is in one of %zu settings drawn from {",
+              o.domain.c_str(), o.start.c_str(), o.goal.c_str(), o.blocking_rate, res.size(),
+              runs.size(), o.unknown_count);
+  for (std::size_t k = 0; k < T; ++k) std::printf("%s%s", k ? ", " : "", o.learn_times[k].c_str());
+  std::printf("}\n");
+  line("success, merged (KRR-RL)", sm);
+  line("success, random pick (baseline)", sb);
+  line("success, oracle (knows the setting)", so);
+  for (std::size_t k = 0; k < T; ++k)
+    line("success, own controller of " + o.learn_times[k], sown[k]);
+  line("exact P(success), merged", pm);
+  line("exact P(success), random pick", pb);
+  line("exact P(success), random pick, mean over the pick", pick_mean);
+  line("exact P(success), oracle", po);
+  for (std::size_t k = 0; k < T; ++k)
+    line("exact P(success), own controller of " + o.learn_times[k], pown[k]);
+  line("exact merged - random pick (mean over pick)", diff);
+  for (std::size_t k = 0; k < T; ++k)
+    line("own controller in " + o.learn_times[k] + " (per learning run)", self[k]);
+  std::printf("  (%.1f s)\n", clock.seconds());
+  return 0;
 }
 
 int main(int argc, char** argv) {

@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "krr_core/common/cli.h"
 #include "krr_core/plog/asp_backend.h"
 #include "krr_core/plog/parser.h"
 #include "krr_core/plog/reasoner.h"
@@ -90,14 +91,14 @@ Run median(const Case& c, Backend b, int repeat) {
 int main(int argc, char** argv) {
   int repeat = 3;
   double asp_limit = 2.0;
-  for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--repeat") && i + 1 < argc) repeat = std::max(1, std::atoi(argv[++i]));
-    else if (!std::strcmp(argv[i], "--asp-limit") && i + 1 < argc) asp_limit = std::atof(argv[++i]);
-    else {
-      std::fprintf(stderr, "usage: bench_plog_auto [--repeat N] [--asp-limit S]\n");
-      return 2;
-    }
-  }
+  krr::OptionParser cli("bench_plog_auto",
+                        "Backend::Auto against the faster back end on two scaled families (one\n"
+                        "attribute over 10^2..10^6 values, conjunctions over 10..30 attributes).");
+  cli.add("--repeat", "N", "runs per case (the median is printed; at least 1)", &repeat);
+  cli.add("--asp-limit", "S", "clingo is not run where its own cost estimate is above S seconds",
+          &asp_limit);
+  if (const auto status = cli.parse(argc, argv)) return *status;
+  repeat = std::max(1, repeat);
   std::vector<Case> cases;
   for (int n : {100, 1000, 10000, 100000, 1000000}) cases.push_back(oneAttribute(n));
   for (int k : {10, 15, 20, 25, 30}) cases.push_back(conjunction(k));

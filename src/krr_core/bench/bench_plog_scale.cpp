@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "krr_core/common/cli.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/plog/reasoner.h"
 
@@ -67,14 +68,13 @@ double slope(const std::vector<double>& x, const std::vector<double>& y) {
 int main(int argc, char** argv) {
   int repeat = 3;
   bool quick = false;
-  for (int i = 1; i < argc; ++i) {
-    if (!std::strcmp(argv[i], "--repeat") && i + 1 < argc) repeat = std::max(1, std::atoi(argv[++i]));
-    else if (!std::strcmp(argv[i], "--quick")) quick = true;
-    else {
-      std::fprintf(stderr, "usage: bench_plog_scale [--repeat N] [--quick]\n");
-      return 2;
-    }
-  }
+  krr::OptionParser cli("bench_plog_scale",
+                        "Growth of the P-log front end (parse + ground + answer) on generated\n"
+                        "sums, facts and rule chains; fitted log-log slopes and the targets.");
+  cli.add("--repeat", "N", "runs per size (the median is printed; at least 1)", &repeat);
+  cli.flag("--quick", "the three smallest sizes only, without the time targets", &quick);
+  if (const auto status = cli.parse(argc, argv)) return *status;
+  repeat = std::max(1, repeat);
   struct Class {
     const char* name;
     std::function<std::string(int)> gen;

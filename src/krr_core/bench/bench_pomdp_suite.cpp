@@ -1,7 +1,7 @@
 // Benchmark: the point-based solver on the standard POMDP problems of issue 15 at fixed budgets.
 //
 // Usage: bench_pomdp_suite [--dir DIR] [--budgets 1,10] [--problems tiger,rocksample_4_4,...]
-//                          [--dialog-turns 10]
+//                          [--dialog-turns 10]   (--help: the options)
 // Problems: tiger (built in), rocksample_4_4, rocksample_5_5, rocksample_5_7, tag, rocksample_7_8 (from
 // DIR/<name>.pomdp; generate them with tools/pomdp_bench/gen_pomdp.py, see --help), dialog (a
 // 30-request dialog POMDP with the turn counter in the state, pomdp::withTurnCounter; not the
@@ -18,7 +18,9 @@
 #include <string>
 #include <vector>
 
+#include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
+#include "krr_core/common/main_guard.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/pomdp/cassandra_io.h"
@@ -129,40 +131,34 @@ RunResult runIsolated(const std::string& name, const std::string& dir, double bu
   return r;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+/// @brief The benchmark; main() runs it under guardedMain so that no exception aborts it.
+int mainBody(int argc, char** argv) {
   std::string dir = "/tmp/pomdp_bench";
-  std::vector<std::string> budgets{"1", "10"};
+  std::vector<double> budgets{1, 10};
   std::vector<std::string> problems{"tiger", "rocksample_4_4", "rocksample_5_5", "rocksample_5_7",
                                     "tag", "rocksample_7_8", "dialog"};
   int turns = 10;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    const bool more = i + 1 < argc;
-    if (a == "--dir" && more) {
-      dir = argv[++i];
-    } else if (a == "--budgets" && more) {
-      budgets = split(argv[++i]);
-    } else if (a == "--problems" && more) {
-      problems = split(argv[++i]);
-    } else if (a == "--dialog-turns" && more) {
-      turns = std::atoi(argv[++i]);
-    } else {
-      std::printf(
-          "usage: bench_pomdp_suite [--dir DIR] [--budgets 1,10] [--problems a,b,...] "
-          "[--dialog-turns 10]\n"
-          "  generate DIR's files first, e.g. for DIR=/tmp/pomdp_bench:\n"
-          "    tools/pomdp_bench/gen_pomdp.py rocksample 4 4 -o /tmp/pomdp_bench/rocksample_4_4.pomdp\n"
-          "    (likewise 5 5, 5 7, 7 8) and tools/pomdp_bench/gen_pomdp.py tag -o /tmp/pomdp_bench/tag.pomdp\n");
-      return a == "--help" || a == "-h" ? 0 : 2;
-    }
-  }
+  OptionParser cli("bench_pomdp_suite",
+                   "The point-based solver on the standard POMDP problems at fixed budgets, each\n"
+                   "run in a child process; per problem and budget: bounds at b0, gap, wall\n"
+                   "time, peak RSS and how the run ended.");
+  cli.add("--dir", "DIR", "where the problems' .pomdp files are", &dir);
+  cli.add("--budgets", "S,S...", "budgets in seconds (reading, set-up and search)",
+          [&](const std::string& v) { budgets = parseNumberListOption("--budgets", v); }, "1,10");
+  cli.add("--problems", "A,B...", "problems to run",
+          [&](const std::string& v) { problems = split(v); },
+          "tiger,rocksample_4_4,rocksample_5_5,rocksample_5_7,tag,rocksample_7_8,dialog");
+  cli.add("--dialog-turns", "N", "turn limit of the dialog problem", &turns);
+  cli.epilog(
+      "Generate DIR's files first, e.g. for DIR=/tmp/pomdp_bench:\n"
+      "  tools/pomdp_bench/gen_pomdp.py rocksample 4 4 -o /tmp/pomdp_bench/rocksample_4_4.pomdp\n"
+      "  (likewise 5 5, 5 7, 7 8) and tools/pomdp_bench/gen_pomdp.py tag -o "
+      "/tmp/pomdp_bench/tag.pomdp\n");
+  if (const auto status = cli.parse(argc, argv)) return *status;
   std::printf("%-15s %6s %4s %4s %7s %11s %11s %9s %8s %8s %8s %7s  %s\n", "problem", "S", "A",
               "O", "budget", "lower", "upper", "gap", "time_s", "setup_s", "peak_MiB", "alphas",
               "end");
-  for (const std::string& b : budgets) {
-    const double budget = std::atof(b.c_str());
+  for (const double budget : budgets) {
     for (const std::string& p : problems) {
       const RunResult r = runIsolated(p, dir, budget, turns);
       if (!r.ok) {
@@ -178,4 +174,10 @@ int main(int argc, char** argv) {
     }
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return krr::guardedMain("bench_pomdp_suite", mainBody, argc, argv);
 }

@@ -72,6 +72,9 @@ class TestNodeParams(unittest.TestCase):
         self.refused('navigation_node', {'time': 'midnight'}, "'midnight'")
         self.refused('navigation_node', {'ompl_paths': 'yes'}, 'ompl_paths = ')
         self.refused('navigation_node', {'domain': 'office_99x99'}, 'office_99x99')
+        # The core's one blocking-rate rule and message (krr_core/nav/blocking_rate.h).
+        self.refused('navigation_node', {'blocking_rate': 1.5},
+                     "blocking_rate': value 1.5 must be in [0, 1] (negative: not set)")
 
     def test_learner_node(self):
         self.refused('learner_node', {'max_episodes_per_task': 0},
@@ -81,6 +84,8 @@ class TestNodeParams(unittest.TestCase):
                      remove=('start_place',))
         self.refused('learner_node', {'enabled': 'yes'}, "enabled = 'yes': must be true or false")
         self.refused('learner_node', {'step_cost': 50.0}, 'step_cost')
+        self.refused('learner_node', {'blocking_rate': 1.5},
+                     "blocking_rate': value 1.5 must be in [0, 1] (negative: not set)")
 
     def test_help_needs_no_master_and_lists_the_parameters(self):
         import subprocess

@@ -4,11 +4,17 @@
 #include <exception>
 #include <new>
 
+#include "krr_core/common/errors.h"
+
 namespace krr {
 
 int guardedMain(const char* program, int (*body)(int, char**), int argc, char** argv) {
   try {
     return body(argc, argv);
+  } catch (const ParseError& e) {
+    std::fprintf(stderr, "%s\n", e.what());
+  } catch (const Error& e) {
+    std::fprintf(stderr, "%s: %s\n", program, e.what());
   } catch (const std::bad_alloc&) {
     // No allocation here: the heap may be exhausted.
     std::fprintf(stderr, "%s: out of memory (the input needs more memory than is available; "

@@ -42,17 +42,21 @@ YAML::Node loadYamlMapFile(const std::string& path, const std::string& what) {
 }
 
 YamlSection::YamlSection(const YAML::Node& node, std::string file, std::string prefix,
-                         const std::set<std::string>& allowed)
-    : node_(node), file_(std::move(file)), prefix_(std::move(prefix)) {
+                         const std::set<std::string>& allowed, Format format)
+    : node_(node), file_(std::move(file)), prefix_(std::move(prefix)), format_(format) {
   if (isEmpty(node_)) return;
   if (!node_.IsMap()) {
-    throw ConfigError(file_ + ": " +
+    raise(file_ + ": " +
                       (prefix_.empty() ? std::string("the top level") : "field '" + prefix_ + "'") +
                       ": value '" + yamlText(node_) + "' must be a mapping");
   }
+  if (format_ == Format::kMapServer) return;
   for (auto it = node_.begin(); it != node_.end(); ++it) {
     const std::string key = it->first.IsScalar() ? it->first.Scalar() : yamlText(it->first);
-    if (!allowed.count(key)) throw ConfigError(file_ + ": unknown field '" + field(key) + "'");
+    if (allowed.count(key)) continue;
+    std::string expected;
+    for (const std::string& a : allowed) expected += (expected.empty() ? "" : ", ") + a;
+    raise(file_ + ": unknown field '" + field(key) + "' (expected " + expected + ")");
   }
 }
 
@@ -68,13 +72,18 @@ std::string YamlSection::field(const std::string& key) const {
   return prefix_.empty() ? key : prefix_ + "." + key;
 }
 
+void YamlSection::raise(const std::string& what) const {
+  if (format_ != Format::kConfig) throw MapError(what);
+  throw ConfigError(what);
+}
+
 void YamlSection::fail(const std::string& key, const std::string& why) const {
-  throw ConfigError(file_ + ": field '" + field(key) + "': value '" + yamlText(get(key)) + "' " +
+  raise(file_ + ": field '" + field(key) + "': value '" + yamlText(get(key)) + "' " +
                     why);
 }
 
 void YamlSection::require(const std::string& key) const {
-  if (!has(key)) throw ConfigError(file_ + ": missing field '" + field(key) + "'");
+  if (!has(key)) raise(file_ + ": missing field '" + field(key) + "'");
 }
 
 double YamlSection::number(const std::string& key, double def, double lo, double hi,
@@ -88,7 +97,7 @@ double YamlSection::number(const std::string& key, double def, double lo, double
   }
   const bool open = bound == kLowerOpen;
   if (!std::isfinite(v) || v < lo || v > hi || (open && v == lo)) {
-    throw ConfigError(file_ + ": field '" + field(key) + "': value " + num(v) + " must be in " +
+    raise(file_ + ": field '" + field(key) + "': value " + num(v) + " must be in " +
                       (open ? "(" : "[") + num(lo) + ", " + num(hi) + "]");
   }
   return v;
@@ -103,7 +112,7 @@ long YamlSection::integer(const std::string& key, long def, long lo, long hi) co
     fail(key, "is not an integer");
   }
   if (v < lo || v > hi) {
-    throw ConfigError(file_ + ": field '" + field(key) + "': value " + std::to_string(v) +
+    raise(file_ + ": field '" + field(key) + "': value " + std::to_string(v) +
                       " must be in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
   }
   return v;
@@ -139,10 +148,27 @@ std::vector<std::string> YamlSection::strings(const std::string& key,
   std::vector<std::string> out;
   for (const auto& e : n) {
     if (!e.IsScalar() || e.Scalar().empty()) {
-      throw ConfigError(file_ + ": field '" + field(key) + "': element '" + yamlText(e) +
+      raise(file_ + ": field '" + field(key) + "': element '" + yamlText(e) +
                         "' is not a name");
     }
     out.push_back(e.Scalar());
+  }
+  return out;
+}
+
+std::vector<double> YamlSection::requiredNumbers(const std::string& key, std::size_t size,
+                                                const std::string& what) const {
+  require(key);
+  const YAML::Node n = get(key);
+  if (!n.IsSequence() || n.size() != size) fail(key, "must be " + what);
+  std::vector<double> out;
+  for (const auto& e : n) {
+    try {
+      out.push_back(e.as<double>());
+    } catch (const YAML::Exception&) {
+      fail(key, "must be " + std::to_string(size) + " numbers " + what);
+    }
+    if (!std::isfinite(out.back())) fail(key, "must be finite");
   }
   return out;
 }

@@ -83,6 +83,16 @@ void readBounds(const std::string& file, PolicyReport& r) {
 
 }  // namespace
 
+std::string policyMismatch(const pomdp::TurnLimitedPolicy& policy, const DialogPomdp& dialog) {
+  if (policy.numStates() == dialog.model().getS() &&
+      policy.turnLimit() == dialog.spec().turnLimit)
+    return "";
+  return "policy has " + std::to_string(policy.numStates()) + " states and turn limit " +
+         std::to_string(policy.turnLimit()) + ", the dialog model " +
+         std::to_string(dialog.model().getS()) + " and " +
+         std::to_string(dialog.spec().turnLimit);
+}
+
 CertifiedSolverOptions certifiedSolverOptions(const DialogConfig& config) {
   CertifiedSolverOptions o;
   o.precision = config.solver_precision;
@@ -119,11 +129,9 @@ pomdp::TurnLimitedPolicy solveDialogPolicy(const DialogPomdp& dialog,
     }
     if (fileExists(rep.file) && fileExists(boundsFile)) {
       pomdp::TurnLimitedPolicy p = pomdp::TurnLimitedPolicy::load(rep.file);
-      if (p.numStates() != dialog.model().getS() || p.turnLimit() != limit)
-        throw IoError(rep.file + ": cached policy has " + std::to_string(p.numStates()) +
-                      " states and turn limit " + std::to_string(p.turnLimit()) +
-                      ", the model " + std::to_string(dialog.model().getS()) + " and " +
-                      std::to_string(limit) + " (delete it to solve again)");
+      const std::string mismatch = policyMismatch(p, dialog);
+      if (!mismatch.empty())
+        throw IoError(rep.file + ": cached " + mismatch + " (delete it to solve again)");
       readBounds(boundsFile, rep);
       rep.from_cache = true;
       rep.reproducible = true;  // only reproducible policies are cached

@@ -1,6 +1,7 @@
 #include "krr_core/dialog/dialog_session.h"
 
 #include "krr_core/common/errors.h"
+#include "krr_core/dialog/dialog_policy.h"
 
 namespace krr {
 namespace dialog {
@@ -22,13 +23,10 @@ BeliefSummary summarizeBelief(const DialogPomdp& dialog, const pomdp::Belief& b)
 DialogSession::DialogSession(const DialogPomdp& dialog, const LanguageFrontEnd* language,
                              const pomdp::TurnLimitedPolicy* policy)
     : dialog_(dialog), language_(language), policy_(policy) {
-  if (policy_ && policy_->numStates() != dialog_.model().getS())
-    throw ConfigError("dialog session: policy has " + std::to_string(policy_->numStates()) +
-                      " states, the dialog model has " + std::to_string(dialog_.model().getS()));
-  if (policy_ && policy_->turnLimit() != dialog_.spec().turnLimit)
-    throw ConfigError("dialog session: policy was solved for a turn limit of " +
-                      std::to_string(policy_->turnLimit()) + ", the dialog model has " +
-                      std::to_string(dialog_.spec().turnLimit));
+  if (policy_) {
+    const std::string mismatch = policyMismatch(*policy_, dialog_);
+    if (!mismatch.empty()) throw ConfigError("dialog session: " + mismatch);
+  }
   reset();
 }
 

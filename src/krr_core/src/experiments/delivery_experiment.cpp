@@ -6,6 +6,7 @@
 #include <cstdio>
 
 #include "krr_core/common/errors.h"
+#include "krr_core/nav/blocking_rate.h"
 #include "krr_core/kb/simulated_navigation.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/pomdp/belief.h"
@@ -42,7 +43,7 @@ void DeliveryExperimentOptions::validate() const {
     throw ConfigError("delivery experiment: field '" + f + "': value " + std::to_string(v) +
                       " must be in [0, 1]");
   };
-  if (!(blocking_rate >= 0 && blocking_rate <= 1)) bad("blocking_rate", blocking_rate);
+  nav::checkBlockingRate(blocking_rate, "delivery experiment");
   if (!(outdated_rate >= 0 && outdated_rate <= 1)) bad("outdated_rate", outdated_rate);
 }
 
@@ -161,12 +162,8 @@ DeliveryExperiment::DeliveryExperiment(const kb::NavDomain& domain, const Dialog
 }
 
 void DeliveryExperiment::setPolicy(const pomdp::TurnLimitedPolicy& policy) {
-  if (policy.numStates() != dialog_->model().getS() ||
-      policy.turnLimit() != dialog_->spec().turnLimit)
-    throw ConfigError("delivery experiment: policy has " + std::to_string(policy.numStates()) +
-                      " states and turn limit " + std::to_string(policy.turnLimit()) +
-                      ", the dialog model " + std::to_string(dialog_->model().getS()) + " and " +
-                      std::to_string(dialog_->spec().turnLimit));
+  const std::string mismatch = dialog::policyMismatch(policy, *dialog_);
+  if (!mismatch.empty()) throw ConfigError("delivery experiment: " + mismatch);
   policy_ = policy;
 }
 

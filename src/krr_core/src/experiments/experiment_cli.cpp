@@ -62,7 +62,7 @@ DialogConfig loadDeliveryExperimentConfig(const ExperimentPaths& paths) {
                       "experiments (their trips' discount is config/dialog.yaml's "
                       "navigation.discount)");
   }
-  detail::readBaseOverrides(top, b, 0.0);
+  detail::readBaseOverrides(top, b, nav::RateUnset::kRefused);
   c.setRMaxParams(nav::rmaxParamsOf(b.planning, b.rmax_learning, c.rmaxParams()));
   c.validate();
   return c;

@@ -10,6 +10,7 @@
 #include "krr_core/common/files.h"
 #include "krr_core/common/yaml_section.h"
 #include "krr_core/mdp/rmax_agent.h"
+#include "krr_core/nav/blocking_rate.h"
 #include "krr_core/nav/navigation_config.h"
 
 namespace krr {
@@ -61,9 +62,9 @@ inline void applyRMax(const ExperimentBase& b, mdp::RMaxParams& p) {
 
 /// @brief The overrides of base settings in an experiment file's top level: `planning`
 /// {step_cost, rmax, discount}, `rmax_learning` {known_threshold, discount, replan_every,
-/// optimism, refine_known}, `simulator` {blocking_rate} (blocking_rate_lo: its lower bound)
-/// and `context` {time}; a section the caller's `top` does not allow is refused there.
-inline void readBaseOverrides(const YamlSection& top, ExperimentBase& b, double blocking_rate_lo) {
+/// optimism, refine_known}, `simulator` {blocking_rate} (`unset`: whether the experiment lets
+/// it be unset) and `context` {time}; a section the caller's `top` does not allow is refused there.
+inline void readBaseOverrides(const YamlSection& top, ExperimentBase& b, nav::RateUnset unset) {
   if (top.has("planning")) {
     YamlSection p(top.get("planning"), top.file(), "planning", {"step_cost", "rmax", "discount"});
     b.planning.step_cost = p.number("step_cost", b.planning.step_cost, 0.0, 1e12);
@@ -87,7 +88,7 @@ inline void readBaseOverrides(const YamlSection& top, ExperimentBase& b, double 
   }
   if (top.has("simulator")) {
     YamlSection s(top.get("simulator"), top.file(), "simulator", {"blocking_rate"});
-    b.blocking_rate = s.number("blocking_rate", b.blocking_rate, blocking_rate_lo, 1.0);
+    b.blocking_rate = nav::readBlockingRate(s, "blocking_rate", unset, b.blocking_rate);
   }
   if (top.has("context")) {
     YamlSection c(top.get("context"), top.file(), "context", {"time"});

@@ -8,6 +8,7 @@
 #include "krr_core/common/parallel.h"
 #include "krr_core/common/random.h"
 #include "krr_core/kb/simulated_navigation.h"
+#include "krr_core/nav/blocking_rate.h"
 
 namespace krr {
 namespace experiments {
@@ -22,7 +23,7 @@ void NavTransferOptions::validate() const {
   auto bad = [](const std::string& f, const std::string& v) {
     throw ConfigError("nav transfer: field '" + f + "' has invalid value " + v);
   };
-  if (!(blocking_rate >= 0 && blocking_rate <= 1)) bad("blocking_rate", std::to_string(blocking_rate));
+  nav::checkBlockingRate(blocking_rate, "nav transfer");
   if (source_episodes == 0) bad("source_episodes", "0");
   if (target_episodes == 0) bad("target_episodes", "0");
   if (convergence_episodes == 0) bad("convergence_episodes", "0");
@@ -42,7 +43,7 @@ NavTransferOptions loadNavTransferOptions(const std::string& path,
     b = detail::experimentBaseOf(defaults.rmax, defaults.blocking_rate, 0.99);
     b.time = defaults.time;
   }
-  detail::readBaseOverrides(top, b, 0.0);
+  detail::readBaseOverrides(top, b, nav::RateUnset::kRefused);
   NavTransferOptions o = defaults;
   detail::applyRMax(b, o.rmax);
   o.blocking_rate = b.blocking_rate;

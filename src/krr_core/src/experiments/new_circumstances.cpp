@@ -15,6 +15,7 @@
 #include "krr_core/kb/free_time_learner.h"
 #include "krr_core/mdp/reach_probability.h"
 #include "krr_core/mdp/solvers.h"
+#include "krr_core/nav/blocking_rate.h"
 
 namespace krr {
 namespace experiments {
@@ -50,7 +51,8 @@ void NewCircumstancesOptions::validate() const {
     bad("unknown_count", std::to_string(unknown_count) + " (expected 2.." +
                              std::to_string(learn_times.size()) +
                              ": the robot is in one of that many learned settings)");
-  if (!(blocking_rate <= 1)) bad("blocking_rate", std::to_string(blocking_rate));
+  nav::checkBlockingRate(blocking_rate, "new circumstances", "blocking_rate",
+                         nav::RateUnset::kAllowed);
   if (selector != "fixed" && selector != "least_known")
     bad("selector", "'" + selector + "' (expected fixed or least_known)");
   if (selector == "least_known" && places.empty()) bad("places", "[]");
@@ -78,7 +80,7 @@ NewCircumstancesOptions loadNewCircumstancesOptions(const std::string& path,
   detail::ExperimentBase b = detail::experimentBase(path);
   if (!b.found) b = detail::experimentBaseOf(defaults.rmax, defaults.blocking_rate, defaults.plan_discount);
   if (!b.found) b.planning.rmax = defaults.plan_rmax;
-  detail::readBaseOverrides(top, b, -1.0);
+  detail::readBaseOverrides(top, b, nav::RateUnset::kAllowed);
   NewCircumstancesOptions o = defaults;
   detail::applyRMax(b, o.rmax);
   o.blocking_rate = b.blocking_rate;

@@ -2,6 +2,7 @@
 
 #include "krr_core/kb/area_knowledge.h"
 #include "krr_core/common/errors.h"
+#include "krr_core/nav/blocking_rate.h"
 #include "krr_core/nav/grid_astar.h"
 
 namespace krr {
@@ -50,9 +51,8 @@ void FreeTimeOptions::validate() const {
     throw ConfigError("free-time learning: max_episodes_per_task must be at least 1");
   if (convergence_episodes == 0)
     throw ConfigError("free-time learning: convergence_episodes must be at least 1");
-  if (blocking_rate > 1)
-    throw ConfigError("free-time learning: blocking_rate " + std::to_string(blocking_rate) +
-                      " is above 1");
+  nav::checkBlockingRate(blocking_rate, "free-time learning", "blocking_rate",
+                         nav::RateUnset::kAllowed);
   rmax.validate();
 }
 

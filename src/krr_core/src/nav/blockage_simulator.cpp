@@ -1,4 +1,5 @@
 #include "krr_core/nav/blockage_simulator.h"
+#include "krr_core/nav/blocking_rate.h"
 
 #include <algorithm>
 #include <cmath>
@@ -73,10 +74,9 @@ double BlockageSimulator::areaRate(int a, const Context& ctx) const {
                       std::to_string(ctx.time_of_day) + " out of range [-1, " +
                       std::to_string(num_times_ - 1) + "]");
   }
-  if (ctx.blocking_rate > 1.0 || std::isnan(ctx.blocking_rate)) {
-    throw ConfigError("blockage simulator: context blocking_rate " +
-                      std::to_string(ctx.blocking_rate) + " must be <= 1 (< 0: not set)");
-  }
+  if (!isBlockingRate(ctx.blocking_rate, RateUnset::kAllowed))
+    refuseBlockingRate(ctx.blocking_rate, "blockage simulator", "context.blocking_rate",
+                       RateUnset::kAllowed);
   const double base = ctx.blocking_rate >= 0.0 ? ctx.blocking_rate
                                                : base_rate_[static_cast<size_t>(a)];
   const double f = factor_[static_cast<size_t>(a) * (num_times_ + 1) + ctx.time_of_day + 1];

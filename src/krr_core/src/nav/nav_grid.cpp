@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <set>
 #include <sstream>
 
@@ -28,30 +29,11 @@ std::string dump(const YAML::Node& n) {
   return s;
 }
 
-std::vector<double> numbers(const YAML::Node& n, size_t count, const std::string& where) {
-  if (!n || !n.IsSequence() || n.size() != count) {
-    throw MapError(where + ": value '" + (n ? dump(n) : std::string("<missing>")) + "' must be " +
-                   std::to_string(count) + " numbers");
-  }
-  std::vector<double> out;
-  for (size_t i = 0; i < count; ++i) {
-    try {
-      out.push_back(n[i].as<double>());
-    } catch (const YAML::Exception&) {
-      throw MapError(where + ": value '" + dump(n) + "' must be " + std::to_string(count) +
-                     " numbers");
-    }
-    if (!std::isfinite(out.back())) throw MapError(where + ": value '" + dump(n) + "' not finite");
-  }
-  return out;
-}
-
-Rect rectFrom(const YAML::Node& n, const std::string& where) {
-  std::vector<double> v = numbers(n, 4, where);
-  Rect r{v[0], v[1], v[2], v[3]};
-  if (!(r.x1 > r.x0 && r.y1 > r.y0)) {
-    throw MapError(where + ": value '" + dump(n) + "' must be [x0, y0, x1, y1] with x1>x0, y1>y0");
-  }
+/// @brief The rectangle [x0, y0, x1, y1] under `key`, with x1 > x0 and y1 > y0.
+Rect rectFrom(const YamlSection& s, const std::string& key) {
+  const std::vector<double> v = s.requiredNumbers(key, 4, "[x0, y0, x1, y1]");
+  const Rect r{v[0], v[1], v[2], v[3]};
+  if (!(r.x1 > r.x0 && r.y1 > r.y0)) s.fail(key, "must be [x0, y0, x1, y1] with x1>x0, y1>y0");
   return r;
 }
 
@@ -70,19 +52,6 @@ std::string fmt(double v) {
   return o.str();
 }
 
-/// @brief Refuse keys of a mapping outside `allowed`: a typo ("blocking_areas_typo") must be an
-/// error, not a silently missing section. `where` is "file: field" or "file".
-void checkKeys(const YAML::Node& map, const std::set<std::string>& allowed,
-               const std::string& where) {
-  for (auto it = map.begin(); it != map.end(); ++it) {
-    const std::string key = it->first.IsScalar() ? it->first.Scalar() : dump(it->first);
-    if (allowed.count(key)) continue;
-    std::string expected;
-    for (const std::string& a : allowed) expected += (expected.empty() ? "" : ", ") + a;
-    throw MapError(where + ": unknown key '" + key + "' (expected " + expected + ")");
-  }
-}
-
 }  // namespace
 
 namespace {
@@ -90,25 +59,26 @@ namespace {
 PlacesFile loadPlacesImpl(const std::string& path) {
   YAML::Node root = loadYamlMapFile(path, "places file");
   if (!root.IsMap()) throw MapError(path + ": broken YAML: top level is not a mapping");
-  checkKeys(root, {"places", "blocking_areas"}, path);
+  using Format = YamlSection::Format;
+  const YamlSection top(root, path, "", {"places", "blocking_areas"}, Format::kMap);
   PlacesFile pf;
   std::set<std::string> names;
-  const YAML::Node places = root["places"];
-  if (!places) throw MapError(path + ": missing field 'places'");
+  if (!top.has("places")) throw MapError(path + ": missing field 'places'");
+  const YAML::Node places = top.get("places");
   if (!places.IsMap()) throw MapError(path + ": field 'places' must be a mapping name -> place");
   for (auto it = places.begin(); it != places.end(); ++it) {
     Place p;
     p.name = it->first.as<std::string>();
-    const std::string where = path + ": places." + p.name;
+    const std::string field = "places." + p.name, where = path + ": " + field;
     if (!validName(p.name)) throw MapError(where + ": bad name (lower-case identifier expected)");
     if (!names.insert(p.name).second) throw MapError(where + ": duplicate name");
     if (!it->second.IsMap()) throw MapError(where + ": must be a mapping with 'point'");
-    checkKeys(it->second, {"point", "room"}, where);
-    std::vector<double> pt = numbers(it->second["point"], 2, where + ".point");
+    const YamlSection s(it->second, path, field, {"point", "room"}, Format::kMap);
+    const std::vector<double> pt = s.requiredNumbers("point", 2, "[x, y]");
     p.point = Point2{pt[0], pt[1]};
-    if (it->second["room"]) {
+    if (s.has("room")) {
       p.has_room = true;
-      p.room = rectFrom(it->second["room"], where + ".room");
+      p.room = rectFrom(s, "room");
       if (!p.room.contains(p.point)) {
         throw MapError(where + ".point: value [" + fmt(pt[0]) + ", " + fmt(pt[1]) +
                        "] lies outside its room rectangle");
@@ -116,17 +86,22 @@ PlacesFile loadPlacesImpl(const std::string& path) {
     }
     pf.places.push_back(p);
   }
-  const YAML::Node areas = root["blocking_areas"];
-  if (areas) {
+  if (top.has("blocking_areas")) {
+    const YAML::Node areas = top.get("blocking_areas");
     if (!areas.IsMap()) throw MapError(path + ": field 'blocking_areas' must be a mapping");
     for (auto it = areas.begin(); it != areas.end(); ++it) {
       BlockingArea a;
       a.name = it->first.as<std::string>();
-      const std::string where = path + ": blocking_areas." + a.name;
+      const std::string field = "blocking_areas." + a.name, where = path + ": " + field;
       if (!validName(a.name)) throw MapError(where + ": bad name (lower-case identifier expected)");
       if (!names.insert(a.name).second) throw MapError(where + ": duplicate name");
-      if (it->second.IsMap()) checkKeys(it->second, {"rect"}, where);
-      a.rect = rectFrom(it->second.IsMap() ? it->second["rect"] : it->second, where + ".rect");
+      // {rect: [...]} or the rectangle itself.
+      YAML::Node area = it->second;
+      if (!area.IsMap()) {
+        area = YAML::Node(YAML::NodeType::Map);
+        area["rect"] = it->second;
+      }
+      a.rect = rectFrom(YamlSection(area, path, field, {"rect"}, Format::kMap), "rect");
       pf.areas.push_back(a);
     }
     if (pf.areas.size() > 32) throw MapError(path + ": blocking_areas: at most 32 areas");
@@ -486,37 +461,16 @@ std::string NavGrid::toPlog(const std::string& name) const {
 NavGrid NavGrid::fromYaml(const std::string& path) {
   YAML::Node root = loadYamlMapFile(path, "navigation domain");
   if (!root.IsMap()) throw MapError(path + ": broken YAML: top level is not a mapping");
-  auto getInt = [&](const char* field) {
-    if (!root[field]) throw MapError(path + ": missing field '" + field + "'");
-    try {
-      return root[field].as<int>();
-    } catch (const YAML::Exception&) {
-      throw MapError(path + ": field '" + field + "': value '" + dump(root[field]) +
-                     "' is not an integer");
-    }
-  };
-  auto getDouble = [&](const char* field) {
-    if (!root[field]) throw MapError(path + ": missing field '" + field + "'");
-    try {
-      return root[field].as<double>();
-    } catch (const YAML::Exception&) {
-      throw MapError(path + ": field '" + field + "': value '" + dump(root[field]) +
-                     "' is not a number");
-    }
-  };
+  // The generated domain file: keys it does not read are ignored (map_server's semantics).
+  const YamlSection top(root, path, "", {}, YamlSection::Format::kMapServer);
   NavGrid g;
-  g.cols_ = getInt("cols");
-  g.rows_ = getInt("rows");
-  if (g.cols_ < 1 || g.rows_ < 1 || g.cols_ > 10000 || g.rows_ > 10000) {
-    throw MapError(path + ": field 'cols'/'rows': grid " + std::to_string(g.cols_) + "x" +
-                   std::to_string(g.rows_) + " out of range");
-  }
-  g.cell_w_ = getDouble("cell_width");
-  g.cell_h_ = getDouble("cell_height");
-  if (!(g.cell_w_ > 0 && g.cell_h_ > 0)) {
-    throw MapError(path + ": field 'cell_width'/'cell_height' must be > 0");
-  }
-  std::vector<double> origin = numbers(root["origin"], 3, path + ": field 'origin'");
+  g.cols_ = static_cast<int>(top.requiredInteger("cols", 1, 10000));
+  g.rows_ = static_cast<int>(top.requiredInteger("rows", 1, 10000));
+  g.cell_w_ = top.requiredNumber("cell_width", 0.0, std::numeric_limits<double>::max(),
+                                 YamlSection::kLowerOpen);
+  g.cell_h_ = top.requiredNumber("cell_height", 0.0, std::numeric_limits<double>::max(),
+                                 YamlSection::kLowerOpen);
+  const std::vector<double> origin = top.requiredNumbers("origin", 3, "[x, y, yaw]");
   g.origin_x_ = origin[0];
   g.origin_y_ = origin[1];
   g.yaw_ = origin[2];
@@ -544,21 +498,25 @@ NavGrid NavGrid::fromYaml(const std::string& path) {
       }
     }
     PlacesFile pf;
+    using Format = YamlSection::Format;
     for (auto it = root["places"].begin(); it != root["places"].end(); ++it) {
       Place p;
       p.name = it->first.as<std::string>();
-      std::vector<double> pt = numbers(it->second["point"], 2, path + ": places." + p.name);
+      const YamlSection s(it->second, path, "places." + p.name, {}, Format::kMapServer);
+      const std::vector<double> pt = s.requiredNumbers("point", 2, "[x, y]");
       p.point = Point2{pt[0], pt[1]};
-      if (it->second["room"]) {
+      if (s.has("room")) {
         p.has_room = true;
-        p.room = rectFrom(it->second["room"], path + ": places." + p.name + ".room");
+        p.room = rectFrom(s, "room");
       }
       g.places_.push_back(p);
     }
     for (auto it = root["blocking_areas"].begin(); it != root["blocking_areas"].end(); ++it) {
       BlockingArea a;
       a.name = it->first.as<std::string>();
-      a.rect = rectFrom(it->second["rect"], path + ": blocking_areas." + a.name);
+      a.rect = rectFrom(YamlSection(it->second, path, "blocking_areas." + a.name, {},
+                                    Format::kMapServer),
+                        "rect");
       g.areas_.push_back(a);
     }
   } catch (const YAML::Exception& e) {

@@ -10,6 +10,7 @@
 #include "krr_core/common/files.h"
 #include "krr_core/common/limits.h"
 #include "krr_core/common/yaml_section.h"
+#include "krr_core/nav/blocking_rate.h"
 
 namespace krr {
 namespace nav {
@@ -40,7 +41,7 @@ void validate(const SimulatorConfig& c) {
     throw ConfigError("simulator config: field 'move_success': move_success + slip_stay + "
                       "slip_lateral = " + num(sum) + " must be 1");
   }
-  checkProbability(c.blocking_rate, "blocking_rate");
+  checkBlockingRate(c.blocking_rate, "simulator config");
   checkProbability(c.trap_probability, "trap_probability");
   if (!std::isfinite(c.trap_reference_cell_size)) {
     throw ConfigError("simulator config: field 'trap_reference_cell_size': value " +
@@ -165,7 +166,7 @@ NavigationConfig loadNavigationConfig(const std::string& path) {
       throw ConfigError(path + ": field 'simulator.move_success': move_success + slip_stay + "
                         "slip_lateral = " + num(sum) + " must be 1");
     }
-    c.blocking_rate = s.requiredNumber("blocking_rate", 0.0, 1.0);
+    c.blocking_rate = readBlockingRate(s, "blocking_rate", RateUnset::kRefused);
     const std::string mode = s.string("blocking_mode", "per_cell");
     if (mode == "per_cell") {
       c.blocking_mode = BlockingMode::kPerCell;

@@ -8,7 +8,9 @@
 #include <csetjmp>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <sstream>
+#include <vector>
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
@@ -345,98 +347,47 @@ MapImage readImage(const std::string& path) {
   return parseImage(bytes, path);
 }
 
-namespace {
-
-double fieldDouble(const YAML::Node& root, const std::string& field, const std::string& file) {
-  const YAML::Node n = root[field];
-  if (!n) throw MapError(file + ": missing field '" + field + "'");
-  try {
-    double v = n.as<double>();
-    if (!std::isfinite(v)) throw YAML::Exception(YAML::Mark(), "not finite");
-    return v;
-  } catch (const YAML::Exception&) {
-    throw MapError(file + ": field '" + field + "': value '" + YAML::Dump(n) +
-                   "' is not a number");
-  }
-}
-
-}  // namespace
-
 MapMetadata loadMapMetadata(const std::string& yaml_path) {
   const YAML::Node root = loadYamlMapFile(yaml_path, "map YAML");
   if (!root.IsMap()) throw MapError(yaml_path + ": broken YAML: top level is not a mapping");
+  // map_server's semantics: the keys it does not read are ignored; errors are MapError.
+  const YamlSection s(root, yaml_path, "", {}, YamlSection::Format::kMapServer);
   MapMetadata m;
-  const YAML::Node image = root["image"];
-  if (!image) throw MapError(yaml_path + ": missing field 'image'");
-  if (!image.IsScalar() || image.Scalar().empty()) {
-    throw MapError(yaml_path + ": field 'image': value '" + YAML::Dump(image) +
-                   "' is not a file name");
-  }
-  m.image = image.Scalar();
-  m.resolution = fieldDouble(root, "resolution", yaml_path);
-  if (!(m.resolution > 0.0)) {
-    throw MapError(yaml_path + ": field 'resolution': value " + std::to_string(m.resolution) +
-                   " must be > 0");
-  }
-  const YAML::Node origin = root["origin"];
-  if (!origin) throw MapError(yaml_path + ": missing field 'origin'");
-  if (!origin.IsSequence() || origin.size() != 3) {
-    throw MapError(yaml_path + ": field 'origin': value '" + YAML::Dump(origin) +
-                   "' must be [x, y, yaw]");
-  }
-  for (size_t i = 0; i < 3; ++i) {
-    try {
-      m.origin[i] = origin[i].as<double>();
-    } catch (const YAML::Exception&) {
-      throw MapError(yaml_path + ": field 'origin': value '" + YAML::Dump(origin) +
-                     "' must be three numbers [x, y, yaw]");
-    }
-    if (!std::isfinite(m.origin[i])) {
-      throw MapError(yaml_path + ": field 'origin': value '" + YAML::Dump(origin) +
-                     "' must be finite");
-    }
-  }
-  m.occupied_thresh = fieldDouble(root, "occupied_thresh", yaml_path);
-  m.free_thresh = fieldDouble(root, "free_thresh", yaml_path);
-  if (m.occupied_thresh < 0.0 || m.occupied_thresh > 1.0) {
-    throw MapError(yaml_path + ": field 'occupied_thresh': value " +
-                   std::to_string(m.occupied_thresh) + " must be in [0, 1]");
-  }
-  if (m.free_thresh < 0.0 || m.free_thresh > 1.0) {
-    throw MapError(yaml_path + ": field 'free_thresh': value " + std::to_string(m.free_thresh) +
-                   " must be in [0, 1]");
-  }
+  m.image = s.requiredString("image");
+  m.resolution = s.requiredNumber("resolution", 0.0, std::numeric_limits<double>::max(),
+                                  YamlSection::kLowerOpen);
+  const std::vector<double> origin = s.requiredNumbers("origin", 3, "[x, y, yaw]");
+  for (size_t i = 0; i < 3; ++i) m.origin[i] = origin[i];
+  m.occupied_thresh = s.requiredNumber("occupied_thresh", 0.0, 1.0);
+  m.free_thresh = s.requiredNumber("free_thresh", 0.0, 1.0);
   if (m.occupied_thresh <= m.free_thresh) {
     throw MapError(yaml_path + ": field 'occupied_thresh': value " +
                    std::to_string(m.occupied_thresh) + " must be > free_thresh " +
                    std::to_string(m.free_thresh));
   }
-  const YAML::Node negate = root["negate"];
-  if (!negate) throw MapError(yaml_path + ": missing field 'negate'");
-  try {
-    // map_server writes negate as 0/1; accept booleans too.
-    if (negate.Scalar() == "0" || negate.Scalar() == "1") {
-      m.negate = negate.Scalar() == "1";
-    } else {
-      m.negate = negate.as<bool>();
+  // map_server writes negate as 0/1; accept booleans too.
+  if (s.has("negate") && !s.get("negate").IsScalar())
+    s.fail("negate", "must be 0, 1, true or false");
+  const std::string negate = s.requiredString("negate");
+  if (negate == "0" || negate == "1") {
+    m.negate = negate == "1";
+  } else {
+    try {
+      m.negate = s.get("negate").as<bool>();
+    } catch (const YAML::Exception&) {
+      s.fail("negate", "must be 0, 1, true or false");
     }
-  } catch (const YAML::Exception&) {
-    throw MapError(yaml_path + ": field 'negate': value '" + YAML::Dump(negate) +
-                   "' must be 0, 1, true or false");
   }
-  const YAML::Node mode = root["mode"];
-  if (mode) {
-    const std::string s = mode.IsScalar() ? mode.Scalar() : YAML::Dump(mode);
-    if (s == "trinary") {
-      m.mode = MapMode::kTrinary;
-    } else if (s == "scale") {
-      m.mode = MapMode::kScale;
-    } else if (s == "raw") {
-      m.mode = MapMode::kRaw;
-    } else {
-      throw MapError(yaml_path + ": field 'mode': unknown value '" + s +
-                     "' (expected trinary, scale or raw)");
-    }
+  const std::string mode = s.string("mode", "trinary");
+  if (mode == "trinary") {
+    m.mode = MapMode::kTrinary;
+  } else if (mode == "scale") {
+    m.mode = MapMode::kScale;
+  } else if (mode == "raw") {
+    m.mode = MapMode::kRaw;
+  } else {
+    throw MapError(yaml_path + ": field 'mode': unknown value '" + mode +
+                   "' (expected trinary, scale or raw)");
   }
   return m;
 }

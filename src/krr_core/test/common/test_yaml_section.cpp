@@ -57,7 +57,7 @@ TEST(YamlSection, NullSectionIsEmpty) {
 }
 
 TEST(YamlSection, BadFieldsNameFileAndPath) {
-  EXPECT_EQ(errorOf([] { section("s: {y: 1}\n", {"x"}); }), "f.yaml: unknown field 's.y'");
+  EXPECT_EQ(errorOf([] { section("s: {y: 1}\n", {"x"}); }), "f.yaml: unknown field 's.y' (expected x)");
   EXPECT_EQ(errorOf([] { section("s: [1, 2]\n", {"x"}); }),
             "f.yaml: field 's': value '[1, 2]' must be a mapping");
   EXPECT_EQ(errorOf([] { section("s: {x: lots}\n", {"x"}).number("x", 0, 0, 1); }),
@@ -91,4 +91,29 @@ TEST(YamlSection, BrokenAndUnreadableFiles) {
   const std::string p = ::testing::TempDir() + "/yaml_section_ok.yaml";
   krr::writeFileAtomic(p, "s: {x: 1}\n");
   EXPECT_EQ(krr::loadYamlFile(p, "test config")["s"]["x"].as<int>(), 1);
+}
+
+// map_server's map YAML: keys it does not read are ignored, as map_server does, and every
+// error is a MapError (the map loaders' type) with the same "file: field" text.
+TEST(YamlSection, MapServerFormatIgnoresUnknownKeysAndThrowsMapError) {
+  const YAML::Node n = krr::parseYaml("{resolution: -1, origin: [1, x, 0], sampler: extra}", "m.yaml");
+  const YamlSection s(n, "m.yaml", "", {}, YamlSection::Format::kMapServer);
+  try {
+    s.requiredNumber("resolution", 0.0, 1.0, YamlSection::kLowerOpen);
+    ADD_FAILURE() << "no error";
+  } catch (const krr::MapError& e) {
+    EXPECT_STREQ(e.what(), "m.yaml: field 'resolution': value -1 must be in (0, 1]");
+  }
+  try {
+    s.requiredNumbers("origin", 3, "[x, y, yaw]");
+    ADD_FAILURE() << "no error";
+  } catch (const krr::MapError& e) {
+    EXPECT_STREQ(e.what(), "m.yaml: field 'origin': value '[1, x, 0]' must be 3 numbers [x, y, yaw]");
+  }
+  EXPECT_THROW(s.requiredString("image"), krr::MapError);
+  // The same document is refused by a configuration section (unknown keys) with ConfigError.
+  EXPECT_THROW(YamlSection(n, "m.yaml", "", {"resolution", "origin"}), ConfigError);
+  const YAML::Node ok = krr::parseYaml("{origin: [1, 2, 0.5]}", "m.yaml");
+  EXPECT_EQ(YamlSection(ok, "m.yaml", "", {"origin"}).requiredNumbers("origin", 3, "[x, y, yaw]"),
+            (std::vector<double>{1, 2, 0.5}));
 }

@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 
 #include "krr_core/common/errors.h"
+#include "krr_core/dialog/dialog_policy.h"
 #include "krr_core/dialog/dialog_session.h"
 #include "../support/office_dialog.h"
 
@@ -332,6 +334,19 @@ TEST(DialogSession, RefusesBadActionsAndPolicies) {
   pomdp::TurnLimitedPolicy otherLimit(d.model().getS(), d.spec().turnLimit + 1);
   otherLimit.add(constant(d, 0.0), d.serveAction(0), d.spec().turnLimit + 1);
   EXPECT_THROW(DialogSession(d, &lang, &otherLimit), ConfigError);
+  // One check, one message (dialog_policy.h policyMismatch) for the session, the experiment
+  // and the policy cache.
+  const std::string S = std::to_string(d.model().getS()), T = std::to_string(d.spec().turnLimit);
+  EXPECT_EQ(policyMismatch(wrong, d),
+            "policy has 3 states and turn limit " + T + ", the dialog model " + S + " and " + T);
+  EXPECT_EQ(policyMismatch(otherLimit, d), "policy has " + S + " states and turn limit " +
+                                               std::to_string(d.spec().turnLimit + 1) +
+                                               ", the dialog model " + S + " and " + T);
+  try {
+    DialogSession bad(d, &lang, &wrong);
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(std::string(e.what()), "dialog session: " + policyMismatch(wrong, d));
+  }
   // An empty policy has nothing to say.
   pomdp::TurnLimitedPolicy empty(d.model().getS(), d.spec().turnLimit);
   DialogSession none(d, &lang, &empty);

@@ -171,6 +171,13 @@ TEST(BlockageSimulator, ContextChangesRates) {
   EXPECT_THROW(sim.timeOfDayIndex("night"), ConfigError);
   EXPECT_THROW(sim.blockingRate(in_area, Context{2, -1.0}), ConfigError);
   EXPECT_THROW(sim.blockingRate(in_area, Context{-1, 1.5}), ConfigError);
+  try {
+    sim.blockingRate(in_area, Context{-1, std::nan("")});
+    ADD_FAILURE() << "a NaN context rate was accepted";
+  } catch (const ConfigError& e) {  // the one rule's message (nav/blocking_rate.h)
+    EXPECT_STREQ(e.what(), "blockage simulator: field 'context.blocking_rate': value nan must be "
+                           "in [0, 1] (negative: not set)");
+  }
   SimulatorConfig c = testConfig();
   c.areas["bz"].rate = 0.1;
   c.areas["bz"].time_factor["noon"] = 3.0;

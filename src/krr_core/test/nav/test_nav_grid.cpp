@@ -148,11 +148,11 @@ TEST(NavGrid, PlacesFileErrors) {
        "blocking_areas.ba1.rect"},
       // Typo'd keys are errors naming the key, not silently missing sections (issue 12).
       {"places:\n  shop: {point: [0, 0]}\nblocking_areas_typo:\n  ba1: {rect: [0, 0, 1, 1]}\n",
-       "unknown key 'blocking_areas_typo' (expected blocking_areas, places)"},
+       "unknown field 'blocking_areas_typo' (expected blocking_areas, places)"},
       {"places:\n  shop: {point: [0, 0], rooom: [0, 0, 1, 1]}\n",
-       "places.shop: unknown key 'rooom'"},
+       "unknown field 'places.shop.rooom' (expected point, room)"},
       {"places:\n  shop: {point: [0, 0]}\nblocking_areas:\n  ba1: {rect: [0, 0, 1, 1], rat: 1}\n",
-       "blocking_areas.ba1: unknown key 'rat'"},
+       "unknown field 'blocking_areas.ba1.rat' (expected rect)"},
   };
   int k = 0;
   for (const Case& c : cases) {

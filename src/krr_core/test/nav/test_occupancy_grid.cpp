@@ -174,6 +174,34 @@ TEST(OccupancyGridErrors, ModeAndOrigin) {
   expectMapError("err_mode.yaml", "field 'mode': unknown value 'fancy'");
   expectMapError("err_origin.yaml", "field 'origin'");
 }
+// map_server's semantics through the one YAML section reader: keys it does not read are
+// ignored; a bad field is a MapError naming file and field.
+TEST(OccupancyGrid, MapYamlIgnoresUnknownKeys) {
+  const std::string yaml = ::testing::TempDir() + "/extra_keys_map.yaml";
+  {
+    std::ofstream out(yaml);
+    out << "image: " << kDir << "tiny_3x2.pgm\nresolution: 0.5\norigin: [1.0, -2.0, 0.0]\n"
+        << "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\nsampler: uniform\n"
+        << "made_by: some_tool\n";
+  }
+  const MapMetadata m = loadMapMetadata(yaml);
+  EXPECT_DOUBLE_EQ(m.resolution, 0.5);
+  EXPECT_DOUBLE_EQ(m.origin[1], -2.0);
+  EXPECT_FALSE(m.negate);
+  {
+    std::ofstream out(yaml);
+    out << "image: x.pgm\nresolution: 0.5\norigin: [1.0, -2.0]\nnegate: 0\n"
+        << "occupied_thresh: 0.65\nfree_thresh: 0.196\n";
+  }
+  try {
+    loadMapMetadata(yaml);
+    ADD_FAILURE() << "no error";
+  } catch (const MapError& e) {
+    EXPECT_NE(std::string(e.what()).find("field 'origin': value '[1.0, -2.0]' must be [x, y, yaw]"),
+              std::string::npos)
+        << e.what();
+  }
+}
 TEST(OccupancyGridErrors, MissingYamlFile) { expectMapError("nonexistent.yaml", "cannot read"); }
 TEST(OccupancyGridErrors, PgmValueAboveMaxval) {
   EXPECT_THROW(parsePgm("P2\n2 1\n10\n3 11\n", "mem.pgm"), MapError);

@@ -35,6 +35,10 @@ class ParamReader {
                   const std::vector<std::string>& allowed = {});
   /// @brief A number (int or double on the server) in [lo, hi].
   double number(const std::string& name, double def, double lo, double hi);
+  /// @brief A blocking rate whose negative value (the default, -1) leaves the rates to
+  /// navigation.yaml; checked by the core's one rule (krr_core/nav/blocking_rate.h), so a node
+  /// refuses what the experiments refuse, with the same message.
+  double blockingRate(const std::string& name);
   /// @brief An integer in [lo, hi].
   long integer(const std::string& name, long def, long lo, long hi);
   /// @brief A boolean.

@@ -7,9 +7,11 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include "krr_core/common/errors.h"
+#include "krr_core/nav/blocking_rate.h"
 
 namespace krr_ros {
 
@@ -140,6 +142,13 @@ double ParamReader::number(const std::string& name, double def, double lo, doubl
     refuse(name, val.str(), range.str());
   }
   return d;
+}
+
+double ParamReader::blockingRate(const std::string& name) {
+  const double v = number(name, -1, -std::numeric_limits<double>::max(),
+                          std::numeric_limits<double>::max());
+  return krr::nav::checkBlockingRate(v, "node parameters", nh_.getNamespace() + "/" + name,
+                                     krr::nav::RateUnset::kAllowed);
 }
 
 long ParamReader::integer(const std::string& name, long def, long lo, long hi) {

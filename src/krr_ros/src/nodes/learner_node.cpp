@@ -86,7 +86,7 @@ struct LearnerParams {
     // What extraction writes back: per blocking area (the default, as in the experiments) or
     // per (cell, move) pair.
     o.extraction = krr::kb::extractionFromString(r.str("extraction", "areas", {"areas", "pairs"}));
-    o.blocking_rate = r.number("blocking_rate", -1, -1, 1);
+    o.blocking_rate = r.blockingRate("blocking_rate");
     o.max_episodes_per_task = static_cast<std::size_t>(r.integer("max_episodes_per_task", 300, 1, 1000000));
     o.convergence_episodes = static_cast<std::size_t>(r.integer("convergence_episodes", 20, 1, 1000000));
     o.max_tasks = static_cast<std::size_t>(r.integer("max_tasks", 0, 0, 1000000));

@@ -90,7 +90,7 @@ struct NavigationParams {
     // No default place: a place name is the site's (config/navigation_node.yaml).
     p.start_place = r.str("start_place", "");
     if (p.start_place.empty()) r.refuse("start_place", "''", "must name a place of the map");
-    p.blocking_rate = r.number("blocking_rate", -1, -1, 1);
+    p.blocking_rate = r.blockingRate("blocking_rate");
     p.sim_rate = r.number("sim_rate", 0, 0, 1000);
     p.step_limit = r.integer("step_limit", 0, 0, 1000000);
     // Defaults from the one home of these settings, navigation.yaml (context, planning).

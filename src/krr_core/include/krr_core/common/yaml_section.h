@@ -56,15 +56,20 @@ class YamlSection {
  public:
   /// @brief Whether a number's lower bound belongs to its range.
   enum Bound { kClosed, kLowerOpen };
+  /// @brief The file's kind: configuration files refuse a key outside `allowed` and throw
+  /// ConfigError; map files throw MapError like the other map loaders, and a map_server map
+  /// YAML ignores the keys it does not read (map_server does, and other tools add their own).
+  enum class Format { kConfig, kMap, kMapServer };
 
   /**
    * @brief `node` must be a mapping whose keys are all in `allowed`; a null node (an empty
    * file, "section:" with nothing under it) is an empty mapping. `prefix` is the field path of
-   * the node ("" for the top level).
-   * @throws ConfigError for a non-mapping or an unknown key.
+   * the node ("" for the top level). Format::kMap makes every error of this section a
+   * MapError instead of a ConfigError; Format::kMapServer also ignores unknown keys.
+   * @throws ConfigError (MapError) for a non-mapping or an unknown key.
    */
   YamlSection(const YAML::Node& node, std::string file, std::string prefix,
-              const std::set<std::string>& allowed);
+              const std::set<std::string>& allowed, Format format = Format::kConfig);
 
   bool has(const std::string& key) const;
   /// @brief The node of `key` (undefined when absent).
@@ -87,6 +92,10 @@ class YamlSection {
   /// @brief A list of non-empty scalars.
   std::vector<std::string> strings(const std::string& key,
                                    const std::vector<std::string>& def) const;
+  /// @brief A list of exactly `size` finite numbers (`what` names them in the error, e.g.
+  /// "[x, y, yaw]"); the key is required.
+  std::vector<double> requiredNumbers(const std::string& key, std::size_t size,
+                                      const std::string& what) const;
 
   /// @name Required fields: ConfigError "missing field 'prefix.key'" when absent.
   /// @{
@@ -95,14 +104,17 @@ class YamlSection {
   std::string requiredString(const std::string& key) const;
   /// @}
 
-  /// @brief ConfigError "file: field 'prefix.key': value 'text' why".
+  /// @brief ConfigError (MapError for a map file) "file: field 'prefix.key': value 'text' why".
   [[noreturn]] void fail(const std::string& key, const std::string& why) const;
+  /// @brief The section's error type (Format) with `what`.
+  [[noreturn]] void raise(const std::string& what) const;
 
  private:
   void require(const std::string& key) const;
 
   YAML::Node node_;
   std::string file_, prefix_;
+  Format format_ = Format::kConfig;
 };
 
 }  // namespace krr

@@ -39,6 +39,14 @@ struct PolicyReport {
 };
 
 /**
+ * @brief Why `policy` cannot drive `dialog`, or "" if it can: the one check that a policy
+ * (solved, cached or given) fits the model, its state count and turn limit being the model's.
+ * The text is "policy has S states and turn limit T, the dialog model S' and T'"; callers put
+ * what and where in front and throw the error type of their input.
+ */
+std::string policyMismatch(const pomdp::TurnLimitedPolicy& policy, const DialogPomdp& dialog);
+
+/**
  * @brief The policy of `dialog` (see the file comment).
  * @throws ConfigError for an inconsistent model or options; IoError / ParseError for a broken
  *         cache file (it is then not used silently: the message names it).

@@ -28,7 +28,7 @@
 #include <concepts>
 #endif
 
-#include "krr_core/mdp/sparse_model.h"
+#include "krr_core/mdp/types.h"
 
 namespace krr {
 namespace mdp {

@@ -20,23 +20,10 @@
 #include <vector>
 
 #include "krr_core/common/random.h"
+#include "krr_core/mdp/types.h"
 
 namespace krr {
 namespace mdp {
-
-/// @brief Index of a state (dense, 0..S-1).
-using StateId = std::uint32_t;
-/// @brief Index of an action (dense, 0..A-1).
-using ActionId = std::uint32_t;
-
-/// @brief One outcome of an action: a next state and its probability.
-struct Outcome {
-  StateId state = 0;
-  double probability = 0.0;
-};
-
-/// @brief A discrete distribution over next states, as written to / read from the knowledge base.
-using Distribution = std::vector<Outcome>;
 
 /// @brief Non-owning view of one CSR row: the successors of a state-action pair.
 class SuccessorRange {
