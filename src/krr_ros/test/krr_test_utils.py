@@ -84,3 +84,23 @@ class Latest:
                         return m
             time.sleep(0.05)
         return None
+
+
+def wait_connected(publishers, subscribers, timeout=60.0):
+    """Wait until every publisher has a subscriber and every subscriber a publisher (a node
+    that solves its model before advertising takes a while), then let the connections settle."""
+    deadline = time.time() + timeout
+    while time.time() < deadline and not rospy.is_shutdown():
+        if all(p.get_num_connections() > 0 for p in publishers) and \
+                all(s.get_num_connections() > 0 for s in subscribers):
+            break
+        time.sleep(0.1)
+    time.sleep(0.5)
+
+
+def appender(lock, target):
+    """A subscriber callback that appends each message to target under lock."""
+    def cb(msg):
+        with lock:
+            target.append(msg)
+    return cb

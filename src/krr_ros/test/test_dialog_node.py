@@ -15,6 +15,8 @@ import rostest
 from krr_msgs.msg import (DeliveryStatus, DialogBelief, NavigateAction, NavigateResult,
                           RobotUtterance, UserUtterance)
 
+from krr_test_utils import appender, wait_connected
+
 QUESTIONS = (RobotUtterance.ASK_ITEM, RobotUtterance.ASK_ROOM, RobotUtterance.ASK_PERSON,
              RobotUtterance.CONFIRM_ITEM, RobotUtterance.CONFIRM_ROOM,
              RobotUtterance.CONFIRM_PERSON)
@@ -36,20 +38,11 @@ class DialogNodeTest(unittest.TestCase):
             rospy.Subscriber("delivery_status", DeliveryStatus, cls._append(cls.statuses)),
         ]
         cls.pub = rospy.Publisher("user_utterance", UserUtterance, queue_size=10)
-        deadline = time.time() + 60  # the node solves its POMDP before subscribing
-        while time.time() < deadline and not rospy.is_shutdown():
-            if cls.pub.get_num_connections() > 0 and all(s.get_num_connections() > 0
-                                                          for s in cls.subs):
-                break
-            time.sleep(0.1)
-        time.sleep(0.5)
+        wait_connected([cls.pub], cls.subs)  # the node solves its POMDP before subscribing
 
     @classmethod
     def _append(cls, target):
-        def cb(msg):
-            with cls.lock:
-                target.append(msg)
-        return cb
+        return appender(cls.lock, target)
 
     def say(self, text, dialog_id=0):
         self.pub.publish(UserUtterance(text=text, dialog_id=dialog_id))

@@ -11,6 +11,8 @@ import rostest
 from std_msgs.msg import String
 from krr_msgs.msg import RobotUtterance
 
+from krr_test_utils import appender, wait_connected
+
 QUESTIONS = (RobotUtterance.ASK_ITEM, RobotUtterance.ASK_ROOM, RobotUtterance.ASK_PERSON,
              RobotUtterance.CONFIRM_ITEM, RobotUtterance.CONFIRM_ROOM,
              RobotUtterance.CONFIRM_PERSON)
@@ -30,20 +32,11 @@ class DialogSpeechTest(unittest.TestCase):
             rospy.Subscriber("tts/say", String, cls._append(cls.spoken)),
         ]
         cls.pub = rospy.Publisher("recognizer/output", String, queue_size=10)
-        deadline = time.time() + 60  # the node solves its POMDP before subscribing
-        while time.time() < deadline and not rospy.is_shutdown():
-            if cls.pub.get_num_connections() > 0 and all(s.get_num_connections() > 0
-                                                          for s in cls.subs):
-                break
-            time.sleep(0.1)
-        time.sleep(0.5)
+        wait_connected([cls.pub], cls.subs)  # the node solves its POMDP before subscribing
 
     @classmethod
     def _append(cls, target):
-        def cb(msg):
-            with cls.lock:
-                target.append(msg)
-        return cb
+        return appender(cls.lock, target)
 
     def hear(self, text):
         self.pub.publish(String(data=text))
