@@ -56,19 +56,31 @@ say() {  # say "text": publish an utterance, then print what the robot said in r
   sleep "${2:-2}"
   tail -n +"$((before + 1))" "$WORK/robot.txt" | grep -v '^---$' >> "$OUT" || true
 }
+# The person answers the question the robot actually asked (as a person would), for the request
+# they have in mind: item, room, person.
+converse() {  # converse ITEM ROOM PERSON: answer until the robot serves (at most 20 answers)
+  local q a
+  for _ in $(seq 1 20); do
+    q=$(grep -v '^---$' "$WORK/robot.txt" | tail -n 1)
+    case "$q" in
+      *"Which item"*) a="$1" ;;
+      *"Which room"*) a="$2" ;;
+      *"Who is it for"*) a="$3" ;;
+      *"Should I deliver a "*) [ "${q#*deliver a }" = "$1?\"" ] && a=yes || a=no ;;
+      *"Should I deliver to "*) [ "${q#*deliver to }" = "$2?\"" ] && a=yes || a=no ;;
+      *"Is it for "*) [ "${q#*Is it for }" = "$3?\"" ] && a=yes || a=no ;;
+      *) return 0 ;;  # served (or anything that is not a question): the dialog is over
+    esac
+    say "$a" 3
+  done
+}
 say "I would like a coke for Bob to office2, please"
 run "rostopic echo -n 1 /dialog_belief" "^(entropy|most_likely|  (item|room|person):)"
-say "coke"
-say "room2"
+converse coke room2 bob
 say "yes" 4
-say "yes" 3
 say "xyzzy"
 say "Could you bring a soda for John to room 3?"
-say "room3"
-say "soda"
-say "yes"
-say "yes"
-say "room3"
+converse soda room3 john
 say "yes" 4
 kill "$ECHO" 2> /dev/null || true
 goal "{goal: {place: room1}}" "^(success|outcome|final_cell|steps|failure_reason)"
