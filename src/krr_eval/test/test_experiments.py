@@ -326,6 +326,9 @@ class Table1Test(unittest.TestCase):
         self.assertAlmostEqual(ok[5], -1.6)
         bad = exp2_delivery.sanity_row(0.1, o, l_, stats.Estimate(-3.0, 0.5, -3.5, -2.5, 100))
         self.assertTrue(bad[-1].startswith("VIOLATED: 0.90 below the line"), bad[-1])
+        self.assertNotIn("discount", bad[-1])  # undiscounted: nothing else to blame
+        self.assertIn("discount/undiscounted mismatch", exp2_delivery.sanity_row(
+            0.1, o, l_, stats.Estimate(-3.0, 0.5, -3.5, -2.5, 100), discount=0.99)[-1])
         self.assertIsNone(exp2_delivery.sanity_row(0.1, {"gap": None, "reward_error": None},
                                                    l_, stats.Estimate(0.0, 0.1, -0.1, 0.1, 100)))
 

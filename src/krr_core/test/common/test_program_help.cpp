@@ -2,43 +2,25 @@
 // with its usage on stdout and status 0, from any directory, without running or writing
 // anything; bad options give status 2 and the usage on stderr.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
-#include <cstdlib>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include "krr_core/common/cli.h"
+#include "../support/run_command.h"
 
 namespace {
 
-struct Outcome {
-  int status = -1;
-  std::string out, err;
-};
-
-std::string slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using krr::test::CommandOutcome;
 
 /// @brief `program args` run in the empty directory `cwd`, its output captured outside it.
-Outcome run(const std::string& program, const std::string& args, const std::string& cwd) {
-  const std::string log = ::testing::TempDir() + "/program_help_" + program;
-  const std::string cmd = "cd '" + cwd + "' && '" + std::string(KRR_PROGRAM_DIR) + "/" + program +
-                          "' " + args + " >'" + log + ".out' 2>'" + log + ".err' </dev/null";
-  Outcome r;
-  const int st = std::system(cmd.c_str());
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  r.out = slurp(log + ".out");
-  r.err = slurp(log + ".err");
-  return r;
+CommandOutcome run(const std::string& program, const std::string& args,
+                              const std::string& cwd) {
+  return krr::test::runCommand("cd '" + cwd + "' && '" + std::string(KRR_PROGRAM_DIR) + "/" +
+                                   program + "' " + args + " </dev/null",
+                               ::testing::TempDir() + "/program_help_" + program);
 }
 
 /// @brief A fresh empty directory (the programs must not depend on the working directory).
@@ -55,7 +37,7 @@ TEST(ProgramHelp, EveryProgramPrintsItsUsageOnStdoutAndExits0) {
   const std::string cwd = emptyDir("program_help_cwd");
   for (const std::string& p : programs) {
     for (const char* flag : {"--help", "-h"}) {
-      const Outcome r = run(p, flag, cwd);
+      const CommandOutcome r = run(p, flag, cwd);
       EXPECT_EQ(r.status, 0) << p << " " << flag << ": " << r.err;
       EXPECT_EQ(r.out.rfind("usage: " + p, 0), 0u) << p << " " << flag << ": " << r.out;
       EXPECT_EQ(r.err, "") << p << " " << flag;
@@ -68,16 +50,16 @@ TEST(ProgramHelp, EveryProgramPrintsItsUsageOnStdoutAndExits0) {
 TEST(ProgramHelp, UsageErrorsExit2WithTheUsageOnStderr) {
   const std::string cwd = emptyDir("program_usage_cwd");
   for (const std::string p : {"plog", "pomdp_solve", "bench_pomdp_suite"}) {
-    const Outcome r = run(p, "--frobnicate", cwd);
+    const CommandOutcome r = run(p, "--frobnicate", cwd);
     EXPECT_EQ(r.status, 2) << p;
     EXPECT_EQ(r.out, "") << p;
     EXPECT_EQ(r.err.rfind(p + ": ", 0), 0u) << p << ": " << r.err;
     EXPECT_NE(r.err.find("usage: " + p), std::string::npos) << p << ": " << r.err;
   }
   // pomdp_solve has one memory option, --memory-budget.
-  const Outcome old = run("pomdp_solve", "x.pomdp --memory-limit 10", cwd);
+  const CommandOutcome old = run("pomdp_solve", "x.pomdp --memory-limit 10", cwd);
   EXPECT_EQ(old.status, 2) << old.err;
-  const Outcome help = run("pomdp_solve", "--help", cwd);
+  const CommandOutcome help = run("pomdp_solve", "--help", cwd);
   EXPECT_NE(help.out.find("--memory-budget"), std::string::npos) << help.out;
   EXPECT_EQ(help.out.find("--memory-limit"), std::string::npos) << help.out;
   // A missing input file is a usage error too.

@@ -2,45 +2,27 @@
 // refused at the reward's file:line:col with exit status 1, and no run ever prints a bound that
 // is not a finite number, let alone labels it "valid bounds".
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "krr_core/common/files.h"
+#include "../support/run_command.h"
 
 namespace {
 
-struct Outcome {
-  int status = -1;
-  std::string out, err;
-};
+using krr::test::CommandOutcome;
 
-std::string slurp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-/// @brief Outcome pomdp_solve on `text` (written to a file named `name`) with `args`.
-Outcome solve(const std::string& name, const std::string& text, const std::string& args) {
-  const std::string dir = ::testing::TempDir();
-  const std::string file = dir + "/" + name, out = file + ".out", err = file + ".err";
+/// @brief pomdp_solve on `text` (written to a file named `name`) with `args`.
+CommandOutcome solve(const std::string& name, const std::string& text,
+                                const std::string& args) {
+  const std::string file = ::testing::TempDir() + "/" + name;
   std::ofstream(file, std::ios::binary) << text;
-  const std::string cmd = std::string(KRR_POMDP_SOLVE) + " '" + file + "' " + args + " >'" +
-                          out + "' 2>'" + err + "'";
-  Outcome r;
-  const int st = std::system(cmd.c_str());
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  r.out = slurp(out);
-  r.err = slurp(err);
-  return r;
+  return krr::test::runCommand(std::string(KRR_POMDP_SOLVE) + " '" + file + "' " + args, file);
 }
 
 /// @brief Every number in the table rows of pomdp_solve's output (lines not starting with '#'
@@ -64,7 +46,7 @@ const std::string kHead = "discount: 0.95\nvalues: reward\nstates: a b\nactions:
 // The reported case: rewards of +-1e308 gave lower = upper = -inf, gap nan, exit 0 and
 // "timeout: NOT converged, gap above precision (valid bounds)".
 TEST(PomdpSolveApp, HugeRewardsAreRefusedAtTheirPosition) {
-  const Outcome r = solve("huge.pomdp", kHead + "R: x : a : * : * 1e308\nR: y : * : * : * -1e308\n",
+  const CommandOutcome r = solve("huge.pomdp", kHead + "R: x : a : * : * 1e308\nR: y : * : * : * -1e308\n",
                       "--timeout 2");
   EXPECT_EQ(r.status, 1) << r.out << r.err;
   EXPECT_NE(r.err.find("huge.pomdp:9:18: reward 1e308 is outside [-1e+12, 1e+12]"),
@@ -78,7 +60,7 @@ TEST(PomdpSolveApp, HugeRewardsAreRefusedAtTheirPosition) {
 // At the limit, with a discount close to 1, every printed bound is finite and the run says
 // "valid bounds" only about finite numbers.
 TEST(PomdpSolveApp, RewardsAtTheLimitGiveFiniteBounds) {
-  const Outcome r = solve("limit.pomdp",
+  const CommandOutcome r = solve("limit.pomdp",
                       "discount: 0.999999\n" + kHead.substr(kHead.find('\n') + 1) +
                           "R: x : a : * : * 1e12\nR: y : * : * : * -1e12\nR: x : b : * : * -1e12\n",
                       "--timeout 1");
@@ -96,13 +78,13 @@ TEST(PomdpSolveApp, RewardsAtTheLimitGiveFiniteBounds) {
 }
 
 TEST(PomdpSolveApp, NegativeCountAndNulByteAreRefusedWhereTheyAre) {
-  const Outcome neg = solve("neg.pomdp", "discount: 0.95\nstates: -2\nactions: x\nobservations: o\n",
+  const CommandOutcome neg = solve("neg.pomdp", "discount: 0.95\nstates: -2\nactions: x\nobservations: o\n",
                         "--timeout 2");
   EXPECT_EQ(neg.status, 1);
   EXPECT_NE(neg.err.find("neg.pomdp:2:9: number of states must be a positive integer, got '-2'"),
             std::string::npos)
       << neg.err;
-  const Outcome nul = solve("nul.pomdp", std::string("discount: 0.95\0 junk\n", 21) +
+  const CommandOutcome nul = solve("nul.pomdp", std::string("discount: 0.95\0 junk\n", 21) +
                                          kHead.substr(kHead.find('\n') + 1) +
                                          "R: x : * : * : * 1\n",
                         "--timeout 2");

@@ -108,15 +108,16 @@ def sanity_note(discount):
                    "that." % discount)
 
 
-def sanity_row(br, o, l, e):
-    """One exp2_sanity row, or None without the columns (old or fake data)."""
+def sanity_row(br, o, l, e, discount=1.0):
+    """One exp2_sanity row, or None without the columns (old or fake data); discount: the
+    dialog's (config/dialog.yaml), which decides what a violation may come from."""
     if o["gap"] is None or l["gap"] is None or l["reward_error"] is None:
         return None
     line = -(l["gap"] + o["gap"] + 2.0 * l["reward_error"])
     ok = e.mean + e.half >= line
     verdict = "holds" if ok else (
         "VIOLATED: %.2f below the line; either a policy earns less than its certificate in "
-        "the true world%s" % (line - e.mean - e.half, "" if dialog_discount() >= 1.0
+        "the true world%s" % (line - e.mean - e.half, "" if discount >= 1.0
                                 else " or the discount/undiscounted mismatch"))
     return ["%g" % br, Est(e.mean, e.half, "%+.2f"), l["gap"], o["gap"], l["reward_error"], line,
             verdict]
@@ -398,6 +399,7 @@ def exp2_table1(ctx):
 
     sig, rates, counts, pairs_sd = [], [], [], collections.OrderedDict()
     sanity = []
+    discount = dialog_discount()  # config/dialog.yaml, read once for the rows and the note
     mismatched = []
     for br in brs:
         o, l = data[br, "outdated"], data[br, "learned"]
@@ -424,7 +426,7 @@ def exp2_table1(ctx):
               P(mc(key)[0].p) if mc(key) else None]
              for key in ("identified", "nav_ok", "delivered")), []))
         if "expected" in s:
-            row = sanity_row(br, o, l, s["expected"][0])
+            row = sanity_row(br, o, l, s["expected"][0], discount)
             if row:
                 sanity.append(row)
         if "expected" in s:
@@ -524,7 +526,7 @@ def exp2_table1(ctx):
              "reward error learned", "allowed down to", "verdict"], sanity,
             formats={"gap learned": "%.2f", "gap outdated": "%.2f",
                      "reward error learned": "%.3f", "allowed down to": "%.2f"},
-            note=sanity_note(dialog_discount())))
+            note=sanity_note(discount)))
         bad = [r for r in sanity if r[-1].startswith("VIOLATED")]
         res.notes.append("**Sanity line.** " + (
             "Violated at br %s: see exp2_sanity." % ", ".join(r[0] for r in bad) if bad else

@@ -24,6 +24,7 @@
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
 #include <ros/ros.h>
+#include <tf2/LinearMath/Transform.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <tf2_ros/transform_broadcaster.h>
@@ -322,7 +323,7 @@ class NavigationNode {
     result.failure_reason = trip.reason;
     result.final_cell = trip.final_cell;
     result.steps = trip.steps;
-    log(trip);
+    logTrip(trip);
     if (result.success) server_.setSucceeded(result, "reached");
     else if (trip.outcome == "preempted") server_.setPreempted(result, trip.reason);
     else server_.setAborted(result, trip.reason);
@@ -346,7 +347,7 @@ class NavigationNode {
     } catch (const std::exception& e) {
       trip.outcome = "error", trip.reason = e.what();
     }
-    log(trip);
+    logTrip(trip);
     move_base_msgs::MoveBaseResult result;
     if (trip.outcome == "reached")
       move_base_->setSucceeded(result, "reached cell " + std::to_string(trip.final_cell) + " in " +
@@ -398,19 +399,17 @@ class NavigationNode {
     return resolveGoal(g, from);  // reachability, with its message
   }
 
-  /// @brief The x, y of point q under a tf transform (rotation by the quaternion, then
-  /// translation).
+  /// @brief The x, y of point q under a tf transform (tf2's own arithmetic).
   static krr::nav::Point2 transformPoint(const geometry_msgs::Transform& t,
                                          const geometry_msgs::Point& q) {
     const auto& r = t.rotation;
-    const double n = std::sqrt(r.x * r.x + r.y * r.y + r.z * r.z + r.w * r.w);
-    const double w = r.w / n, x = r.x / n, y = r.y / n, z = r.z / n;
-    const double px = (1 - 2 * (y * y + z * z)) * q.x + 2 * (x * y - w * z) * q.y + 2 * (x * z + w * y) * q.z;
-    const double py = 2 * (x * y + w * z) * q.x + (1 - 2 * (x * x + z * z)) * q.y + 2 * (y * z - w * x) * q.z;
-    return {px + t.translation.x, py + t.translation.y};
+    const tf2::Transform tr(tf2::Quaternion(r.x, r.y, r.z, r.w).normalized(),
+                            tf2::Vector3(t.translation.x, t.translation.y, t.translation.z));
+    const tf2::Vector3 p = tr * tf2::Vector3(q.x, q.y, q.z);
+    return {p.x(), p.y()};
   }
 
-  void log(const Trip& t) const {
+  void logTrip(const Trip& t) const {
     if (t.outcome == "reached")
       ROS_INFO_NAMED(kLog, "goal reached at cell %d in %u moves", t.final_cell, t.steps);
     else if (t.outcome == "preempted")
