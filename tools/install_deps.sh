@@ -15,7 +15,11 @@ done
 if [ ${#missing[@]} -gt 0 ]; then
   echo "[install_deps] installing: ${missing[*]}"
   SUDO=""; [ "$(id -u)" -eq 0 ] || SUDO="sudo"
-  $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+  # Another install running at the same time (a second build, a CI step) holds dpkg's lock:
+  # wait for it (up to 20 minutes) instead of failing at once.
+  LOCK=(-o DPkg::Lock::Timeout=1200)
+  $SUDO apt-get "${LOCK[@]}" update -qq
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get "${LOCK[@]}" install -y -qq --no-install-recommends \
+    "${missing[@]}" >/dev/null
 fi
 echo "[install_deps] all ${#PKGS[@]} packages present"
