@@ -158,10 +158,44 @@ class CertifiedDialogSolver::Impl {
   // --- search ---
   struct Node {
     double upper, lower;
+    std::uint32_t group;  ///< its simplex (see groupTable_), kNoGroup if none
+    /// The shallowest node with the same statistics when this one was created (itself if
+    /// none): the optimal value never grows with fewer questions left, V_d(s) <= V_d'(s) for
+    /// d' <= d, so that node's upper bound is this node's too (see effUpper).
+    std::uint32_t head;
     bool expanded;
   };
+  KeyTable statsTable_;                       // statistics without the turn -> shallowest node
+  std::vector<std::uint32_t> statsNode_;
+  std::vector<std::int16_t> statsScratch_;
   KeyTable table_;
   std::vector<Node> nodes_;
+
+  /// Nodes with the same turn and the same statistics of every slot but the revealed one
+  /// (the room) differ only in the room's likelihoods, and their beliefs are the mixtures
+  /// b = sum_r w_r b|r of the same corners b|r (b|r does not depend on the room's
+  /// statistics). V_t is convex, so on that simplex it is a convex function of w whose corner
+  /// values are the exact sub-dialog values V_r: the room-revealed bound is the linear
+  /// interpolation sum_r w_r V_r. A node whose upper bound U' fell below that line by
+  /// delta' = sum_r w'_r V_r - U' lowers it everywhere on the simplex (HSVI's sawtooth):
+  /// writing w = rho w' + (1 - rho) z with rho = min_r w_r / w'_r,
+  ///   V_t(w) <= rho U' + (1 - rho) sum_r z_r V_r = sum_r w_r V_r - rho delta'.
+  /// Each simplex keeps up to kSimplexPoints such points (the largest deltas).
+  static constexpr std::uint32_t kNoGroup = std::numeric_limits<std::uint32_t>::max();
+  static constexpr std::size_t kSimplexPoints = 8;
+  KeyTable groupTable_;              // a node key with the revealed slot's section zeroed
+  std::vector<double> groupZ_;       // per simplex, per value r: sum over b|r's requests of
+                                     // root x the other slots' likelihoods (w_r ~ Z_r lambda_r)
+  std::vector<double> groupV_;       // per simplex, per r: the corner value (sub-dialog)
+  /// per simplex: its points, each [node, delta, w_0 .. w_{n-1}] (n = revealed slot's values)
+  std::vector<std::vector<double>> groupPoints_;
+  std::size_t sharedCuts_ = 0;       // new nodes' upper bounds lowered by another node's
+  /// The room weights w of node n on its simplex, and the interpolation sum_r w_r V_r.
+  double simplexWeights(std::size_t n, double* w) const;
+  /// Node n's upper bound with its simplex's sawtooth applied (valid: see groupTable_).
+  double effUpper(std::size_t n) const;
+  /// After n's upper bound fell: record it as a point of its simplex.
+  void notePoint(std::size_t n);
   KeyTable subTable_;                         // revealed-slot sub-dialog: exact values
   std::vector<double> subValue_;
   std::size_t rootIndex_ = 0;
@@ -261,7 +295,7 @@ class CertifiedDialogSolver::Impl {
   /// The room-revealed upper bound at a main key; commitLower (if given) receives the best
   /// "commit to one value of the revealed slot" plan's value (-inf if none).
   double upperRelaxation(const std::int16_t* key, const Eigen::VectorXd& b,
-                         double* commitLower = nullptr);
+                         double* commitLower = nullptr, std::uint32_t* group = nullptr);
 
   /// The node of a canonical key, created if new (hint: its belief, if known).
   std::size_t nodeFor(const std::int16_t* key, int depth, const Eigen::VectorXd* hint = nullptr);
@@ -314,7 +348,7 @@ CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::Vector
                                   int turnsUsed, CertifiedSolverOptions options)
     : d_(dialog), o_(options), nReq_(dialog.numRequests()), turnsUsed_(turnsUsed),
       horizon_(dialog.spec().turnLimit - turnsUsed), gamma_(dialog.spec().discount),
-      table_(1), subTable_(1), rng_(makeRng(options.seed, "certified-dialog-solver")) {
+      statsTable_(1), table_(1), groupTable_(1), subTable_(1), rng_(makeRng(options.seed, "certified-dialog-solver")) {
   Stopwatch setup;
   const DialogSpec& sp = d_.spec();
   if (turnsUsed < 0 || turnsUsed > sp.turnLimit)
@@ -472,6 +506,8 @@ CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::Vector
 
   table_ = KeyTable(stride_);
   subTable_ = KeyTable(stride_);
+  groupTable_ = KeyTable(stride_);
+  statsTable_ = KeyTable(stride_);
   subScratch_.resize(static_cast<std::size_t>(horizon_) + 2);
   for (SubScratch& sc : subScratch_) sc.kid.assign(stride_, 0);
   const std::size_t budget = o_.memoryBudget ? o_.memoryBudget : memoryBudget();
@@ -822,7 +858,7 @@ double CertifiedDialogSolver::Impl::subDialogValue(const std::int16_t* key,
 
 double CertifiedDialogSolver::Impl::upperRelaxation(const std::int16_t* key,
                                                     const Eigen::VectorXd& b,
-                                                    double* commitLower) {
+                                                    double* commitLower, std::uint32_t* group) {
   const SlotCode& rc = slot_[revealed_];
   Eigen::VectorXd mr = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(rc.n));
   for (std::size_t s = 0; s < nReq_; ++s) mr(static_cast<Eigen::Index>(parts_[s][revealed_])) += b(static_cast<Eigen::Index>(s));
@@ -847,7 +883,99 @@ double CertifiedDialogSolver::Impl::upperRelaxation(const std::int16_t* key,
     }
   }
   if (commitLower) *commitLower = commit;
+  if (group) {
+    // The node's simplex: created with its corners when first met (every corner's value,
+    // also those of rooms this node excludes: other nodes of the simplex may not).
+    sub[rc.offset] = 0;
+    const auto gi = groupTable_.insert(sub.data());
+    *group = static_cast<std::uint32_t>(gi.first);
+    if (gi.second) {
+      Eigen::VectorXd b0;
+      const bool ok = belief(sub.data(), b0);
+      for (std::size_t r = 0; r < rc.n; ++r) {
+        double z = 0.0;
+        if (ok)
+          for (std::size_t s = 0; s < nReq_; ++s)
+            if (parts_[s][revealed_] == r) z += b0(static_cast<Eigen::Index>(s));
+        sub[rc.offset] = static_cast<std::int16_t>(r);
+        double v = kInf;
+        if (z > 0.0) subNode(sub.data(), nullptr, &v);
+        groupZ_.push_back(z);
+        groupV_.push_back(v);
+      }
+      groupPoints_.emplace_back();
+    }
+  }
   return u;
+}
+
+double CertifiedDialogSolver::Impl::simplexWeights(std::size_t n, double* w) const {
+  const SlotCode& rc = slot_[revealed_];
+  const std::uint32_t g = nodes_[n].group;
+  const std::int16_t* e = table_.key(n) + rc.offset;
+  double l[kMaxValues], hi = -kInf;
+  for (std::size_t r = 0; r < rc.n; ++r) {
+    double x = 0.0;
+    for (int ch = 0; ch < rc.channels; ++ch) x += rc.unit[ch] * e[r * rc.width + ch];
+    if (rc.excl && e[r * rc.width + rc.channels]) x = -kInf;
+    if (!(groupZ_[g * rc.n + r] > 0.0)) x = -kInf;
+    l[r] = x;
+    hi = std::max(hi, x);
+  }
+  double sum = 0.0;
+  for (std::size_t r = 0; r < rc.n; ++r) {
+    w[r] = l[r] == -kInf ? 0.0 : groupZ_[g * rc.n + r] * std::exp(l[r] - hi);
+    sum += w[r];
+  }
+  double line = 0.0;
+  for (std::size_t r = 0; r < rc.n; ++r) {
+    w[r] /= sum;
+    if (w[r] > 0.0) line += w[r] * groupV_[g * rc.n + r];
+  }
+  return line;
+}
+
+double CertifiedDialogSolver::Impl::effUpper(std::size_t n) const {
+  const Node& nd = nodes_[n];
+  const double own = std::min(nd.upper, nodes_[nd.head].upper);
+  if (nd.group == kNoGroup) return own;
+  const std::vector<double>& pts = groupPoints_[nd.group];
+  if (pts.empty()) return own;
+  const std::size_t m = slot_[revealed_].n, width = m + 2;
+  double w[kMaxValues];
+  const double line = simplexWeights(n, w);
+  double cut = 0.0;
+  for (std::size_t j = 0; j + width <= pts.size(); j += width) {
+    if (static_cast<std::size_t>(pts[j]) == n) continue;
+    double rho = kInf;
+    for (std::size_t r = 0; r < m && rho > 0.0; ++r)
+      if (pts[j + 2 + r] > 0.0) rho = std::min(rho, w[r] / pts[j + 2 + r]);
+    if (rho < kInf) cut = std::max(cut, rho * pts[j + 1]);
+  }
+  return std::min(own, line - cut);
+}
+
+void CertifiedDialogSolver::Impl::notePoint(std::size_t n) {
+  const Node& nd = nodes_[n];
+  if (nd.group == kNoGroup) return;
+  const std::size_t m = slot_[revealed_].n, width = m + 2;
+  double w[kMaxValues];
+  const double delta = simplexWeights(n, w) - nd.upper;
+  if (!(delta > 1e-9)) return;
+  std::vector<double>& pts = groupPoints_[nd.group];
+  std::size_t at = pts.size(), weakest = pts.size();
+  for (std::size_t j = 0; j + width <= pts.size(); j += width) {
+    if (static_cast<std::size_t>(pts[j]) == n) { at = j; break; }
+    if (weakest == pts.size() || pts[j + 1] < pts[weakest + 1]) weakest = j;
+  }
+  if (at == pts.size()) {
+    if (pts.size() < kSimplexPoints * width) pts.resize(pts.size() + width);
+    else if (pts[weakest + 1] < delta) at = weakest;
+    else return;
+  }
+  pts[at] = static_cast<double>(n);
+  pts[at + 1] = delta;
+  for (std::size_t r = 0; r < m; ++r) pts[at + 2 + r] = w[r];
 }
 
 void CertifiedDialogSolver::Impl::childBelief(const Eigen::VectorXd& b, const Question& q,
@@ -884,14 +1012,36 @@ std::size_t CertifiedDialogSolver::Impl::nodeFor(const std::int16_t* key, int de
   const Eigen::VectorXd& b = *hint;
   const double serve = serveValue(b);
   double upper = serve, lower = serve;
+  std::uint32_t group = kNoGroup;
   if (depth < horizon_) {
     double commit = -kInf;
-    upper = std::max(serve, upperRelaxation(key, b, o_.commitLower ? &commit : nullptr));
+    upper = std::max(serve, upperRelaxation(key, b, o_.commitLower ? &commit : nullptr,
+                                            o_.shareUpperBounds ? &group : nullptr));
     lower = std::max(lower, commit);  // a plan the robot can run
   }
   const auto ins = table_.insert(key);
   const std::size_t n = ins.first;
-  nodes_.push_back({upper, lower, false});
+  // The same statistics reached in fewer turns: share its upper bound (never the other way).
+  std::vector<std::int16_t>& sk = statsScratch_;
+  sk.assign(key, key + stride_);
+  sk[0] = 0;
+  std::uint32_t head = static_cast<std::uint32_t>(n);
+  const auto sIns = o_.shareUpperBounds ? statsTable_.insert(sk.data())
+                                        : std::pair<std::size_t, bool>{kNone, false};
+  if (!o_.shareUpperBounds) {
+  } else if (sIns.second) {
+    statsNode_.push_back(head);
+  } else {
+    const std::uint32_t h = statsNode_[sIns.first];
+    if (table_.key(h)[0] <= depth) head = h;
+    else statsNode_[sIns.first] = head;  // this node is the shallowest now
+  }
+  nodes_.push_back({upper, lower, group, head, false});
+  if (group != kNoGroup || head != n) {
+    const double cut = effUpper(n);
+    if (cut < nodes_[n].upper) ++sharedCuts_;
+    nodes_[n].upper = std::max(cut, lower);
+  }
   return n;
 }
 
@@ -929,7 +1079,7 @@ CertifiedDialogSolver::Impl::Backup CertifiedDialogSolver::Impl::backup(std::siz
         permuteBelief(cb, perm, pb);
         c = nodeFor(kid.data(), depth + 1, &pb);
       }
-      qu += p * nodes_[c].upper;
+      qu += p * std::max(effUpper(c), nodes_[c].lower);
       ql += p * nodes_[c].lower;
       kidProb_.push_back(p);
       kidNode_.push_back(c);
@@ -945,7 +1095,9 @@ CertifiedDialogSolver::Impl::Backup CertifiedDialogSolver::Impl::backup(std::siz
   nd.expanded = true;
   nd.upper = std::min(nd.upper, bestU);
   nd.lower = std::max(nd.lower, bestL);
+  nd.upper = std::min(nd.upper, effUpper(n));
   if (nd.upper < nd.lower) nd.upper = nd.lower;  // rounding
+  notePoint(n);
   return r;
 }
 
@@ -969,7 +1121,7 @@ void CertifiedDialogSolver::Impl::trial() {
     for (std::size_t j = kidStart_[act]; j < kidStart_[act + 1]; ++j) {
       const std::size_t i = yesFirst ? kidStart_[act + 1] - 1 - (j - kidStart_[act]) : j;
       const std::size_t c = kidNode_[i];
-      const double gap = nodes_[c].upper - nodes_[c].lower;
+      const double gap = std::max(effUpper(c), nodes_[c].lower) - nodes_[c].lower;
       // HSVI's excess uncertainty, sampled (following the largest one stalls on this model)
       cand.push_back({gap > thr ? kidProb_[i] * (gap - thr) : 0.0, c});
       total += cand.back().first;
@@ -991,13 +1143,18 @@ void CertifiedDialogSolver::Impl::trial() {
 
 
 std::size_t CertifiedDialogSolver::Impl::bytes() const {
-  return table_.bytes() + subTable_.bytes() + nodes_.capacity() * sizeof(Node) +
+  std::size_t points = groupPoints_.capacity() * sizeof(std::vector<double>);
+  for (const auto& p : groupPoints_) points += p.capacity() * sizeof(double);
+  return table_.bytes() + subTable_.bytes() + groupTable_.bytes() + points + statsTable_.bytes() +
+         statsNode_.capacity() * sizeof(std::uint32_t) +
+         (groupZ_.capacity() + groupV_.capacity()) * sizeof(double) + nodes_.capacity() * sizeof(Node) +
          subValue_.capacity() * sizeof(double) + subChoice_.capacity() * sizeof(std::int16_t) +
          subAlphaAt_.capacity() * sizeof(std::uint32_t) + subAlpha_.capacity() * sizeof(double);
 }
 
 bool CertifiedDialogSolver::Impl::memoryExceeded() const {
-  return table_.size() + subTable_.size() > maxEntries_;
+  return table_.size() + subTable_.size() + 2 * groupTable_.size() + statsTable_.size() / 2 >
+         maxEntries_;
 }
 
 bool CertifiedDialogSolver::Impl::run(std::size_t maxMore) {
@@ -1304,6 +1461,7 @@ CertifiedReport CertifiedDialogSolver::report() const {
   r.expanded = impl_->expanded_;
   r.subNodes = impl_->subTable_.size();
   r.subCapped = impl_->subCapped_;
+  r.sharedCuts = impl_->sharedCuts_;
   r.bytes = impl_->bytes();
   r.stop = impl_->stop_;
   return r;

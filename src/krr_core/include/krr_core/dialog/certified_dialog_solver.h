@@ -45,6 +45,15 @@
  * Expanded nodes take the Bellman backup of their children's bounds (upper: the minimum of
  * the backup and the relaxation; both stay valid).
  *
+ * Shared upper bounds (CertifiedSolverOptions::shareUpperBounds):
+ *  - fewer turns: a node takes the upper bound of the same statistics reached in fewer turns,
+ *    since more questions left cannot be worth less (V_d <= V_d' for d' <= d);
+ *  - the room simplex: nodes with the same turn and the same item and person statistics
+ *    differ only in the room's likelihoods, so their beliefs are mixtures sum_r w_r b|r of
+ *    the same corners, whose values are the exact sub-dialog values V_r. V_t is convex in w,
+ *    so a node whose bound U' lies delta' below the line sum_r w'_r V_r lowers every node of
+ *    its simplex by rho delta', rho = min_r w_r / w'_r (HSVI's sawtooth on that simplex).
+ *
  * The policy: the greedy policy of the lower bound, exported as alpha vectors
  * (pomdp::TurnLimitedPolicy) by walking the policy's DAG from the root: each node's vector is
  * the value, per true request, of the plan the node starts (a frontier node's: serve, or its
@@ -83,6 +92,11 @@ struct CertifiedSolverOptions {
   /// room-revealed sub-dialog's optimal plan for that room (never asking about the room
   /// again), valued exactly for every true request.
   bool commitLower = true;
+  /// Nodes share upper bounds (proofs in certified_dialog_solver.cpp): a node takes the bound
+  /// of the same statistics reached in fewer turns (more questions left cannot be worth
+  /// less), and nodes that differ only in the room's statistics share one simplex of beliefs
+  /// with exact corners, where a bound lowered at one node lowers the others (a sawtooth).
+  bool shareUpperBounds = true;
 };
 
 /// @brief Why a solve stopped.
@@ -99,6 +113,7 @@ struct CertifiedReport {
   std::size_t expanded = 0;   ///< nodes backed up from their children
   std::size_t subNodes = 0;   ///< nodes of the revealed-slot sub-dialogs (upper bound)
   std::size_t subCapped = 0;  ///< sub-dialog values cut off by the memory budget or timeout
+  std::size_t sharedCuts = 0;  ///< new nodes whose upper bound another node's lowered
   std::size_t bytes = 0;      ///< memory held by the tables
   SolveStop stop = SolveStop::kRunning;
   double gap() const { return upper - lower; }
