@@ -9,11 +9,18 @@
 // <navigation_action>/status) and for ~task_hold seconds after a service request or a user
 // utterance (the dialog that precedes a delivery). Learning is interrupted between episodes;
 // what was learned so far is extracted and sent before the node pauses.
-#include <cstdlib>
-#include <cmath>
-#include <sstream>
+//
+// The robot's own moves: every krr_msgs/NavigationSample on ~sample_topic (navigation_node with
+// ~executor move_base publishes one per executed move) is pooled with the practised samples of
+// its time of day (kb::ObservedNavigation), and the area knowledge they teach is sent at most
+// every ~sample_period s. The learning from real outcomes lives here, not in navigation_node, so
+// that one node owns the pool of samples and the area knowledge of each time of day: two
+// senders would overwrite each other's statements in the reasoner. On a real robot, set
+// ~enabled false (practice in the simulator would teach the simulator's walkers): the observed
+// moves are still learned.
 #include <actionlib_msgs/GoalStatusArray.h>
 #include <krr_msgs/AddKnowledge.h>
+#include <krr_msgs/NavigationSample.h>
 #include <krr_msgs/ServiceRequest.h>
 #include <krr_msgs/UserUtterance.h>
 #include <ros/ros.h>
@@ -23,6 +30,8 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
+#include <set>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -30,13 +39,14 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/common/random.h"
 #include "krr_core/kb/free_time_learner.h"
+#include "krr_core/kb/observed_navigation.h"
 #include "krr_ros/conversions.h"
 #include "krr_ros/nav_kb.h"
 #include "krr_ros/params.h"
+#include "krr_ros/run_node.h"
 
 namespace {
 
-const char* const kLog = "learner";
 using Entry = krr::kb::NavigationKnowledge::LearnedEntry;
 
 /// @brief Validated parameters of learner_node.
@@ -57,6 +67,8 @@ struct LearnerParams {
                                       ///< than this taught (almost) nothing;
   long rest_after = 10;               ///< ~rest_after: after so many such tasks in a row ...
   double rest_period = 60;            ///< ~rest_period: ... before resting this long (s)
+  std::string sample_topic;           ///< ~sample_topic: observed moves ("" = not learned)
+  double sample_period = 1;           ///< ~sample_period: s between sends of what they taught
   krr::kb::FreeTimeOptions options;   ///< ~time, ~blocking_rate, ~max_*, ~convergence_episodes;
                                       ///< R-Max from navigation.yaml (~known_threshold, ~rmax,
                                       ///< ~discount, ~step_cost, ~replan_every override it)
@@ -82,6 +94,8 @@ struct LearnerParams {
     p.rest_threshold = r.integer("rest_threshold", 5, 0, 1000000);
     p.rest_after = r.integer("rest_after", 10, 1, 1000000);
     p.rest_period = r.number("rest_period", 60, 0, 86400);
+    p.sample_topic = r.str("sample_topic", "navigation_samples");
+    p.sample_period = r.number("sample_period", 1, 0, 86400);
     krr::kb::FreeTimeOptions& o = p.options;
     // What extraction writes back: per blocking area (the default, as in the experiments) or
     // per (cell, move) pair.
@@ -117,12 +131,18 @@ struct LearnerParams {
 
 class LearnerNode {
  public:
+  using Params = LearnerParams;
+  static constexpr const char* kLog = "learner";
+
   LearnerNode(ros::NodeHandle& nh, ros::NodeHandle& pnh, LearnerParams params)
       : p_(std::move(params)),
         dom_(p_.kb.loadDomain()),
         knowledge_(*dom_.grid, dom_.knowledge_files),
         selector_(placesOrAll(), p_.start_place),
-        rng_(krr::makeRng(p_.seed, "learner_node")) {
+        rng_(krr::makeRng(p_.seed, "learner_node")),
+        samples_(std::make_shared<krr::mdp::VisitCounts>(dom_.space->numStates(), 4)),
+        observed_(*dom_.space) {
+    observed_.share(p_.options.time, samples_);  // practice and the robot's moves: one pool
     checkParam("start_place", p_.start_place, [&] { dom_.grid->placeCell(p_.start_place); });
     for (const std::string& place : p_.places)
       checkParam("places", place, [&] { dom_.grid->placeCell(place); });
@@ -130,8 +150,7 @@ class LearnerNode {
     if (!p_.learned_file.empty() && std::filesystem::exists(p_.learned_file)) {
       knowledge_.loadLearned(p_.learned_file);
       for (const Entry& e : knowledge_.learnedEntries()) sent_[key(e)] = e;
-      const auto a = knowledge_.learnedAreas().find(p_.options.time);
-      if (a != knowledge_.learnedAreas().end()) sent_areas_ = taught_ = a->second;
+      sent_areas_ = knowledge_.learnedAreas();
     }
     client_ = nh.serviceClient<krr_msgs::AddKnowledge>(p_.knowledge_service);
     status_pub_ = pnh.advertise<std_msgs::String>("status", 10, true);
@@ -148,6 +167,8 @@ class LearnerNode {
           p_.utterance_topic, 10, [this](const krr_msgs::UserUtteranceConstPtr&) {
             hold("user utterance");
           }));
+    if (!p_.sample_topic.empty())
+      subs_.push_back(nh.subscribe(p_.sample_topic, 1000, &LearnerNode::onSample, this));
     ROS_INFO_NAMED(kLog, "%zu learned distribution(s) known at start; learning %s from %s at "
                    "time %s, up to %zu episodes per task, %s", sent_.size(),
                    p_.enabled ? "enabled" : "disabled", p_.start_place.c_str(),
@@ -156,11 +177,14 @@ class LearnerNode {
                                         : "until stopped");
   }
 
-  /// @brief The free-time loop; returns when ROS shuts down.
-  void run() {
+  /// @brief The free-time loop (callbacks on a spinner thread); returns 0 at shutdown.
+  int spin() {
+    ros::AsyncSpinner spinner(1);
+    spinner.start();
     std::size_t done = 0;
     ros::Rate wait(20);
     while (ros::ok()) {
+      learnObserved();
       if (ros::WallTime::now() < rest_until_) {
         setStatus("resting: fewer than " + std::to_string(p_.rest_threshold) +
                   " distribution(s) learned per task in " + std::to_string(p_.rest_after) +
@@ -180,8 +204,6 @@ class LearnerNode {
       krr::kb::FreeTimeOptions o = p_.options;
       if (o.max_tasks) o.max_tasks -= done;
       try {
-        if (!samples_)
-          samples_ = std::make_shared<krr::mdp::VisitCounts>(dom_.space->numStates(), 4);
         krr::kb::FreeTimeLearner learner(dom_, knowledge_, selector_, o, samples_);
         setStatus("learning");
         const krr::kb::FreeTimeReport r = learner.run(
@@ -197,6 +219,7 @@ class LearnerNode {
         ros::Duration(5).sleep();
       }
     }
+    return 0;
   }
 
  private:
@@ -260,44 +283,14 @@ class LearnerNode {
                    srv.response.total_learned);
   }
 
-  /// @brief The probabilities of area statements by statement (text before " = k/n").
-  static std::map<std::string, double> probabilities(const std::string& text) {
-    std::map<std::string, double> out;
-    std::istringstream in(text);
-    std::string line;
-    while (std::getline(in, line)) {
-      const auto eq = line.rfind(") = ");
-      if (line.rfind("pr(", 0) != 0 || eq == std::string::npos) continue;
-      const std::string v = line.substr(eq + 4);
-      const auto slash = v.find('/');
-      out[line.substr(0, eq)] = slash == std::string::npos
-                                    ? std::atof(v.c_str())
-                                    : std::atof(v.substr(0, slash).c_str()) /
-                                          std::atof(v.substr(slash + 1).c_str());
-    }
-    return out;
-  }
-  /// @brief The largest change of a probability between two texts of area knowledge (1 for a
-  /// statement only one of them has).
-  static double maxChange(const std::string& before, const std::string& after) {
-    const auto a = probabilities(before), b = probabilities(after);
-    double worst = 0.0;
-    for (const auto& [k, v] : b) {
-      const auto f = a.find(k);
-      worst = std::max(worst, f == a.end() ? 1.0 : std::fabs(f->second - v));
-    }
-    return worst;
-  }
-
   /// @brief Area extraction: send the time's area knowledge when it changed.
   void sendAreas(const krr::kb::NavTask& task) {
-    const auto& areas = knowledge_.learnedAreas();
-    const auto it = areas.find(p_.options.time);
-    const bool changed = it != areas.end() && it->second != sent_areas_;
-    // Practice teaches something while some probability moves by 0.005 or more per task.
-    const std::string now = it != areas.end() ? it->second : std::string();
-    const double moved = maxChange(taught_, now);
-    taught_ = now;
+    // Practice teaches something while some probability moves by 0.005 or more per task (the
+    // pool is the learner's samples and the observed moves of this time).
+    const std::optional<krr::kb::AreaKnowledge> now = observed_.estimate(p_.options.time);
+    const double moved = now ? krr::kb::largestChange(taught_, *now) : 0.0;
+    if (now) taught_ = now;
+    const bool changed = sendAreaKnowledge(p_.options.time, task.start + "->" + task.goal);
     setStatus("learned " + task.start + "->" + task.goal + ": area knowledge " +
               (changed ? "updated (largest change " + std::to_string(moved).substr(0, 6) + ")"
                        : "unchanged"));
@@ -306,24 +299,92 @@ class LearnerNode {
       unproductive_ = 0;
       rest_until_ = ros::WallTime::now() + ros::WallDuration(p_.rest_period);
     }
-    if (!changed) return;
+  }
+
+  /**
+   * @brief Send the area knowledge of `time` to the reasoner if it differs from what was sent.
+   * @return whether it differed (sent, or kept for the next attempt when the service failed).
+   */
+  bool sendAreaKnowledge(const std::string& time, const std::string& what) {
+    const auto& areas = knowledge_.learnedAreas();
+    const auto it = areas.find(time);
+    if (it == areas.end() || sent_areas_[time] == it->second) return false;
     krr_msgs::AddKnowledge srv;
     srv.request.update.header.stamp = ros::Time::now();
     srv.request.update.source = ros::this_node::getName();
-    srv.request.update.area_time = p_.options.time;
+    srv.request.update.area_time = time;
     srv.request.update.area_statements = it->second;
     if (!client_.waitForExistence(ros::Duration(p_.service_timeout)) || !client_.call(srv)) {
       ROS_WARN_NAMED(kLog, "service %s unavailable: area knowledge kept for the next attempt",
                      p_.knowledge_service.c_str());
-      return;
+      return true;
     }
     if (!srv.response.success) {
       ROS_ERROR_NAMED(kLog, "the reasoner refused the update: %s", srv.response.message.c_str());
+      return true;
+    }
+    sent_areas_[time] = it->second;
+    ROS_INFO_NAMED(kLog, "%s: sent area knowledge for %s", what.c_str(), time.c_str());
+    return true;
+  }
+
+  /// @brief A move the robot made (navigation_node ~executor move_base): queued for the
+  /// learning thread, which owns the pool and the knowledge.
+  void onSample(const krr_msgs::NavigationSampleConstPtr& msg) {
+    krr::kb::ObservedMove m;
+    m.cell = msg->cell;
+    m.move = -1;
+    for (int k = 0; k < krr::nav::kNumMoves; ++k)
+      if (msg->move == krr::nav::moveName(k)) m.move = k;
+    m.time = msg->time.empty() ? p_.options.time : msg->time;
+    try {
+      m.next_cell = krr::kb::moveOutcomeFromString(msg->outcome) == krr::kb::MoveOutcome::kAborted
+                        ? -1 : msg->next_cell;
+    } catch (const krr::ConfigError& e) {
+      ROS_WARN_NAMED(kLog, "navigation sample dropped: %s", e.what());
       return;
     }
-    sent_areas_ = it->second;
-    ROS_INFO_NAMED(kLog, "task %s->%s: sent area knowledge for %s", task.start.c_str(),
-                   task.goal.c_str(), p_.options.time.c_str());
+    std::lock_guard<std::mutex> lock(mutex_);
+    observed_queue_.push_back(m);
+  }
+
+  /// @brief Pool the queued moves of the robot; at most every ~sample_period s, extract the area
+  /// knowledge of each time they taught something about and send it (learning thread only).
+  void learnObserved() {
+    std::vector<krr::kb::ObservedMove> moves;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      moves.swap(observed_queue_);
+    }
+    for (const krr::kb::ObservedMove& m : moves) {
+      try {
+        observed_.add(m);
+        observed_times_.insert(m.time);
+        ++observed_count_;
+      } catch (const krr::Error& e) {
+        ROS_WARN_NAMED(kLog, "navigation sample (cell %d, move %d, time %s) dropped: %s", m.cell,
+                       m.move, m.time.c_str(), e.what());
+      }
+    }
+    const ros::WallTime now = ros::WallTime::now();
+    if (observed_times_.empty() || now < next_observed_send_) return;
+    next_observed_send_ = now + ros::WallDuration(p_.sample_period);
+    for (auto t = observed_times_.begin(); t != observed_times_.end();) {
+      try {
+        if (!observed_.extract(knowledge_, *t)) {  // no free move yet: the noise is unknown
+          ++t;
+          continue;
+        }
+      } catch (const krr::Error& e) {
+        ROS_ERROR_NAMED(kLog, "learning from the robot's moves at %s failed: %s", t->c_str(),
+                        e.what());
+        t = observed_times_.erase(t);
+        continue;
+      }
+      sendAreaKnowledge(*t, std::to_string(observed_.moves(*t)) + " observed move(s) (" +
+                                std::to_string(observed_count_) + " in all)");
+      t = observed_times_.erase(t);
+    }
   }
 
   void onGoalStatus(const actionlib_msgs::GoalStatusArrayConstPtr& msg) {
@@ -367,9 +428,14 @@ class LearnerNode {
   krr::kb::LeastKnownSelector selector_;
   krr::Rng rng_;
   std::map<std::tuple<int, int, std::string>, Entry> sent_;
-  std::string sent_areas_;                          // area knowledge last sent (its time)
-  std::string taught_;                              // area knowledge after the last task
-  std::shared_ptr<krr::mdp::VisitCounts> samples_;  // every sample, pooled across sessions
+  std::shared_ptr<krr::mdp::VisitCounts> samples_;  // every sample of ~time, pooled across
+                                                    // sessions and with the observed moves
+  krr::kb::ObservedNavigation observed_;            // the robot's moves (learning thread)
+  std::map<std::string, std::string> sent_areas_;   // area knowledge last sent, by time
+  std::optional<krr::kb::AreaKnowledge> taught_;    // area knowledge after the last task
+  std::set<std::string> observed_times_;            // times with moves not yet extracted
+  std::uint64_t observed_count_ = 0;
+  ros::WallTime next_observed_send_;
   long unproductive_ = 0;           // tasks in a row that changed nothing (learning thread)
   ros::WallTime rest_until_;        // learning thread only
   ros::ServiceClient client_;
@@ -379,27 +445,11 @@ class LearnerNode {
   bool goal_active_ = false;
   ros::WallTime hold_until_, idle_until_;
   std::string hold_reason_, status_;
+  std::vector<krr::kb::ObservedMove> observed_queue_;  // guarded by mutex_
 };
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  krr_ros::exitOnHelp(argc, argv, "learner_node");
-  ros::init(argc, argv, "learner");
-  ros::NodeHandle nh, pnh("~");
-  std::unique_ptr<LearnerNode> node;
-  try {
-    krr_ros::ParamReader reader(pnh);
-    LearnerParams params = LearnerParams::read(reader);
-    ROS_INFO_NAMED(kLog, "seed %lu, base_dir %s", static_cast<unsigned long>(params.seed),
-                   reader.baseDir().c_str());
-    node = std::make_unique<LearnerNode>(nh, pnh, std::move(params));
-  } catch (const std::exception& e) {
-    ROS_FATAL_NAMED(kLog, "cannot start: %s", e.what());
-    return 1;
-  }
-  ros::AsyncSpinner spinner(1);  // callbacks run while the main thread learns
-  spinner.start();
-  node->run();
-  return 0;
+  return krr_ros::runNode<LearnerNode>(argc, argv, "learner_node", "learner");
 }

@@ -15,10 +15,19 @@
 // after every move; a newer goal on either interface preempts the running one. Frames follow
 // REP 105: map -> odom (identity: the simulated robot does not drift) and odom -> base_link
 // (the pose), nav_msgs/Odometry on odom; the pose also goes out on robot_pose (map frame).
+//
+// ~executor move_base (issue 26): instead of the simulator, every move of the policy is sent as
+// a goal (the target cell's centre in the map frame) to an external move_base action server at
+// ~executor_action (a real robot's, or Gazebo / Stage's). The robot's cell is read from tf
+// (map -> base_link); the node publishes none of the robot's frames nor odom then. Each
+// observed move (reached / stayed / elsewhere / aborted, krr_core kb/observed_navigation.h) goes
+// out as a krr_msgs/NavigationSample on ~sample_topic, which learner_node learns from.
 #include <actionlib/server/simple_action_server.h>
 #include <geometry_msgs/TransformStamped.h>
 #include <krr_msgs/BuildTaskModel.h>
 #include <krr_msgs/NavigateAction.h>
+#include <krr_msgs/NavigationSample.h>
+#include <actionlib/client/simple_action_client.h>
 #include <move_base_msgs/MoveBaseAction.h>
 #include <nav_msgs/OccupancyGrid.h>
 #include <nav_msgs/Odometry.h>
@@ -45,18 +54,20 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/common/random.h"
 #include "krr_core/kb/navigation_knowledge.h"
+#include "krr_core/kb/observed_navigation.h"
 #include "krr_core/mdp/navigation_task.h"
 #include "krr_core/mdp/solvers.h"
 #include "krr_core/nav/ompl_planner.h"
 #include "krr_ros/conversions.h"
 #include "krr_ros/nav_kb.h"
 #include "krr_ros/params.h"
+#include "krr_ros/run_node.h"
 
 namespace {
 
-const char* const kLog = "navigation";
 using NavigateServer = actionlib::SimpleActionServer<krr_msgs::NavigateAction>;
 using MoveBaseServer = actionlib::SimpleActionServer<move_base_msgs::MoveBaseAction>;
+using MoveBaseClient = actionlib::SimpleActionClient<move_base_msgs::MoveBaseAction>;
 
 /// @brief Validated parameters of navigation_node.
 struct NavigationParams {
@@ -78,6 +89,11 @@ struct NavigationParams {
   std::string map_frame, odom_frame, base_frame;  ///< ~map_frame, ~odom_frame, ~base_frame
   std::string move_base_action;        ///< ~move_base_action: MoveBase server name ("": off)
   double tf_timeout = 0.5;             ///< ~tf_timeout: s to wait for a goal frame's transform
+  std::string executor;                ///< ~executor: simulated | move_base
+  std::string executor_action;         ///< ~executor_action: the external MoveBase server
+  double executor_timeout = 60;        ///< ~executor_timeout: s one move (goal) may take
+  double executor_wait = 5;            ///< ~executor_wait: s to wait for the server per trip
+  std::string sample_topic;            ///< ~sample_topic: observed moves ("" = not published)
   std::uint64_t seed = 1;              ///< ~seed: simulator and OMPL
 
   static NavigationParams read(krr_ros::ParamReader& r) {
@@ -113,6 +129,20 @@ struct NavigationParams {
                "(REP 105: map -> odom -> base_link)");
     p.move_base_action = r.str("move_base_action", "move_base");
     p.tf_timeout = r.number("tf_timeout", 0.5, 0.0, 60.0);
+    p.executor = r.str("executor", "simulated", {"simulated", "move_base"});
+    p.executor_action = r.str("executor_action", "move_base_external");
+    p.executor_timeout = r.number("executor_timeout", 60, 0.1, 86400);
+    p.executor_wait = r.number("executor_wait", 5, 0.0, 3600);
+    p.sample_topic = r.str("sample_topic", "navigation_samples");
+    if (p.executor == "move_base") {
+      // Goals sent to our own move_base face would come back to this node: a deadlock.
+      const std::string own = ros::names::resolve(p.move_base_action),
+                        ext = ros::names::resolve(p.executor_action);
+      if (p.executor_action.empty() || (!p.move_base_action.empty() && own == ext))
+        r.refuse("executor_action", "'" + p.executor_action + "'",
+                 "must name the external move_base server, not this node's own move_base_action "
+                 "(" + own + "); e.g. executor_action:=/move_base with move_base_action:=krr/move_base");
+    }
     if (p.step_cost >= p.rmax)
       r.refuse("step_cost", std::to_string(p.step_cost),
                "must be below rmax = " + std::to_string(p.rmax));
@@ -129,6 +159,9 @@ class GoalError : public krr::Error {
 
 class NavigationNode {
  public:
+  using Params = NavigationParams;
+  static constexpr const char* kLog = "navigation";
+
   NavigationNode(ros::NodeHandle& nh, ros::NodeHandle& pnh, NavigationParams params)
       : p_(std::move(params)),
         dom_(p_.kb.loadDomain()),
@@ -160,19 +193,28 @@ class NavigationNode {
     pose_pub_ = nh.advertise<geometry_msgs::PoseStamped>("robot_pose", 10, true);
     plan_pub_ = nh.advertise<nav_msgs::Path>("planned_path", 1, true);
     executed_pub_ = nh.advertise<nav_msgs::Path>("executed_path", 1, true);
-    odom_pub_ = nh.advertise<nav_msgs::Odometry>("odom", 10);
-    geometry_msgs::TransformStamped identity;  // REP 105: the simulated robot does not drift
-    identity.header.stamp = ros::Time::now();
-    identity.header.frame_id = p_.map_frame;
-    identity.child_frame_id = p_.odom_frame;
-    identity.transform.rotation.w = 1.0;
-    static_tf_.sendTransform(identity);
+    if (p_.executor == "move_base") {
+      // The robot (or its simulator) owns map -> odom -> base_link and odom: publish none.
+      executor_ = std::make_unique<MoveBaseClient>(nh, p_.executor_action, false);
+      if (!p_.sample_topic.empty())
+        sample_pub_ = nh.advertise<krr_msgs::NavigationSample>(p_.sample_topic, 100);
+      pose_timer_ = pnh.createTimer(ros::Duration(1.0 / p_.pose_rate),
+                                    [this](const ros::TimerEvent&) { republishObservedPose(); });
+    } else {
+      odom_pub_ = nh.advertise<nav_msgs::Odometry>("odom", 10);
+      geometry_msgs::TransformStamped identity;  // REP 105: the simulated robot does not drift
+      identity.header.stamp = ros::Time::now();
+      identity.header.frame_id = p_.map_frame;
+      identity.child_frame_id = p_.odom_frame;
+      identity.transform.rotation.w = 1.0;
+      static_tf_.sendTransform(identity);
+      publishPose();
+      pose_timer_ = pnh.createTimer(ros::Duration(1.0 / p_.pose_rate),
+                                    [this](const ros::TimerEvent&) { publishPose(); });
+    }
     const ros::Time now = ros::Time::now();
     map_pub_.publish(krr_ros::toMsg(map_, p_.map_frame, now));
     markers_pub_.publish(krr_ros::areaMarkers(*dom_.simulator, context_, p_.map_frame, now));
-    publishPose();
-    pose_timer_ = pnh.createTimer(ros::Duration(1.0 / p_.pose_rate),
-                                  [this](const ros::TimerEvent&) { publishPose(); });
     server_.start();
     if (!p_.move_base_action.empty()) {
       move_base_ = std::make_unique<MoveBaseServer>(
@@ -185,12 +227,24 @@ class NavigationNode {
       simple_goal_sub_ = nh.subscribe("move_base_simple/goal", 1, &NavigationNode::onSimpleGoal, this);
     }
     ROS_INFO_NAMED(kLog, "domain %s (%d x %d cells, %d free), robot at %s (cell %d), time %s, "
-                   "model from %s, step limit %ld, sim_rate %g", p_.kb.domain.c_str(),
+                   "model from %s, step limit %ld, sim_rate %g, executor %s", p_.kb.domain.c_str(),
                    dom_.grid->cols(), dom_.grid->rows(), dom_.grid->numFreeCells(),
                    p_.start_place.c_str(), cell_, p_.time.c_str(),
                    p_.model_source == "local" ? "the local knowledge base"
                                               : p_.model_service.c_str(),
-                   p_.step_limit, p_.sim_rate);
+                   p_.step_limit, p_.sim_rate,
+                   executor_ ? ("move_base at " + ros::names::resolve(p_.executor_action) +
+                                " (robot cell from tf " + p_.map_frame + " -> " + p_.base_frame +
+                                "; start_place, sim_rate, blocking_rate, ompl_paths unused)").c_str()
+                             : "simulated");
+  }
+
+  /// @brief Serve goals until shutdown (action execute callbacks run in their own threads).
+  int spin() {
+    ROS_INFO_NAMED(kLog, "ready: send goals to the 'navigate' action (or move_base / "
+                   "move_base_simple/goal)");
+    ros::spin();
+    return 0;
   }
 
  private:
@@ -298,8 +352,8 @@ class NavigationNode {
     std::lock_guard<std::mutex> driving(drive_mutex_);
     krr_msgs::NavigateResult result;
     Trip trip;
-    trip.final_cell = currentCell();
     try {
+      trip.final_cell = currentCell();
       const int goal_cell = resolveGoal(*goal, trip.final_cell);
       krr_msgs::NavigateFeedback fb;
       trip = runTrip(goal_cell, goal->time, goal->place.empty() ? "cell" : goal->place,
@@ -333,8 +387,8 @@ class NavigationNode {
     const unsigned gen = ++goal_gen_;
     std::lock_guard<std::mutex> driving(drive_mutex_);
     Trip trip;
-    trip.final_cell = currentCell();
     try {
+      trip.final_cell = currentCell();
       const int goal_cell = poseCell(goal->target_pose, trip.final_cell);
       move_base_msgs::MoveBaseFeedback fb;
       trip = runTrip(goal_cell, "", "pose", [&](const Step&) {
@@ -428,11 +482,11 @@ class NavigationNode {
     ctx.time_of_day = timeIndex(t, "goal time");
     ROS_INFO_NAMED(kLog, "goal: %s (cell %d) from cell %d, time %s", what.c_str(), goal_cell,
                    currentCell(), t.c_str());
-    return drive(goal_cell, model(t), ctx, onStep, preempted);
+    return drive(goal_cell, model(t), ctx, t, onStep, preempted);
   }
 
   Trip drive(int goal_cell, const krr::mdp::SparseModel& dynamics, const krr::nav::Context& ctx,
-             const std::function<void(const Step&)>& onStep,
+             const std::string& time, const std::function<void(const Step&)>& onStep,
              const std::function<bool()>& preempted) {
     const krr::kb::NavStateSpace& sp = *dom_.space;
     const krr::mdp::StateId goal = sp.stateOf(goal_cell);
@@ -460,14 +514,17 @@ class NavigationNode {
         return end("step_limit", "step limit of " + std::to_string(p_.step_limit) +
                                      " moves reached at cell " + std::to_string(cell));
       const int move = static_cast<int>(policy[sp.stateOf(cell)]);
-      const krr::nav::Outcome out = dom_.simulator->step(cell, move, ctx, rng_);
       const int expected = dom_.grid->neighbour(cell, move);
-      if (out.cell != cell) moveAlong(cell, out.cell, &executed);
+      const MoveResult out = executor_ ? moveExternally(cell, move, step, time, preempted)
+                                       : moveSimulated(cell, move, ctx, &executed);
+      if (!out.stop_outcome.empty()) return end(out.stop_outcome.c_str(), out.reason);
+      if (executor_ && out.cell != cell) executed.push_back(dom_.grid->cellCentre(out.cell));
       cell = out.cell;
       trip.final_cell = cell;
       trip.steps = static_cast<std::uint32_t>(step);
       onStep({cell, goal_cell, trip.steps, krr::nav::moveName(move), out.blocked});
       executed_pub_.publish(krr_ros::pathMsg(executed, p_.map_frame, ros::Time::now()));
+      if (out.trapped && executor_) return end("aborted", out.reason);
       if (out.trapped)
         return end("trapped", "trapped by walkers" + areasOf(expected) + " moving " +
                                   krr::nav::moveName(move) + " from cell " + std::to_string(cell) +
@@ -475,9 +532,180 @@ class NavigationNode {
       if (cell != expected && cell != goal_cell)  // slipped or blocked: show the new route
         plan_pub_.publish(krr_ros::pathMsg(intendedRoute(dynamics, policy, cell, goal_cell),
                                            p_.map_frame, ros::Time::now()));
-      if (p_.sim_rate > 0) rate.sleep();
+      if (p_.sim_rate > 0 && !executor_) rate.sleep();
     }
     return end("reached", "");
+  }
+
+  /// @brief What became of one move of the policy; a non-empty stop_outcome ends the trip
+  /// without a sample (preempted, or the executor failed).
+  struct MoveResult {
+    int cell = -1;           ///< the robot's cell after the move
+    bool blocked = false;    ///< the move did not arrive (stayed or aborted)
+    bool trapped = false;    ///< the trip cannot go on (simulated: trapped; external: aborted)
+    std::string stop_outcome, reason;
+  };
+
+  /// @brief One move in the stochastic-blockage simulator, driven along an OMPL path.
+  MoveResult moveSimulated(int cell, int move, const krr::nav::Context& ctx,
+                           std::vector<krr::nav::Point2>* executed) {
+    const krr::nav::Outcome out = dom_.simulator->step(cell, move, ctx, rng_);
+    if (out.cell != cell) moveAlong(cell, out.cell, executed);
+    MoveResult r;
+    r.cell = out.cell;
+    r.blocked = out.blocked;
+    r.trapped = out.trapped;
+    return r;
+  }
+
+  /**
+   * @brief One move through the external move_base server: the target cell's centre as a goal
+   * (facing along the move), waited for at most ~executor_timeout (then cancelled), the robot's
+   * cell then read from tf and the observed move published as a sample. A move into a wall is
+   * not sent: the robot stays, as in the knowledge base.
+   */
+  MoveResult moveExternally(int cell, int move, long step, const std::string& time,
+                            const std::function<bool()>& preempted) {
+    const krr::nav::NavGrid& g = *dom_.grid;
+    const int target = g.neighbour(cell, move);
+    const std::string leg = "move " + std::to_string(step) + " (" + krr::nav::moveName(move) +
+                            " from cell " + std::to_string(cell) +
+                            (target >= 0 ? " to cell " + std::to_string(target) : "") + ")";
+    const std::string server = "move_base server " + ros::names::resolve(p_.executor_action);
+    MoveResult r;
+    r.cell = cell;
+    if (target < 0) {
+      r.blocked = true;
+      publishSample(time, cell, move, target, cell, krr::kb::MoveOutcome::kStayed);
+      return r;
+    }
+    const auto stop = [&](const char* outcome, const std::string& why) {
+      r.stop_outcome = outcome;
+      r.reason = why;
+      return r;
+    };
+    if (!executor_->isServerConnected() &&
+        !executor_->waitForServer(ros::Duration(p_.executor_wait)))
+      return stop("error", server + " is not available (waited " +
+                               std::to_string(p_.executor_wait).substr(0, 4) + " s before " +
+                               leg + ")");
+    const krr::nav::Point2 a = g.cellCentre(cell), b = g.cellCentre(target);
+    move_base_msgs::MoveBaseGoal goal;
+    goal.target_pose = krr_ros::poseMsg(b, std::atan2(b.y - a.y, b.x - a.x), p_.map_frame,
+                                        ros::Time::now());
+    executor_->sendGoal(goal);
+    const ros::Time deadline = ros::Time::now() + ros::Duration(p_.executor_timeout);
+    bool timed_out = false;
+    ros::WallRate poll(100);
+    while (!executor_->getState().isDone()) {
+      if (preempted() || !ros::ok()) {
+        cancelAndWait();
+        return stop("preempted", "preempted during " + leg);
+      }
+      if (!executor_->isServerConnected()) {
+        executor_->stopTrackingGoal();
+        return stop("error", server + " vanished during " + leg);
+      }
+      if (ros::Time::now() > deadline) {  // too slow: cancel, then see where the robot got to
+        timed_out = true;
+        if (!cancelAndWait())
+          return stop("error", server + " did not end " + leg + " within 1 s of its cancel");
+        break;
+      }
+      poll.sleep();
+    }
+    const actionlib::SimpleClientGoalState state = executor_->getState();
+    const bool aborted = state == actionlib::SimpleClientGoalState::ABORTED ||
+                         state == actionlib::SimpleClientGoalState::REJECTED;
+    if (!aborted && state != actionlib::SimpleClientGoalState::SUCCEEDED &&
+        state != actionlib::SimpleClientGoalState::PREEMPTED &&
+        state != actionlib::SimpleClientGoalState::RECALLED)
+      return stop("error", server + " ended " + leg + " in state " + state.toString());
+    r.cell = observeCell(ros::Time::now());
+    const krr::kb::MoveOutcome o = krr::kb::classifyMove(g, cell, move, r.cell, aborted);
+    publishSample(time, cell, move, target, aborted ? -1 : r.cell, o);
+    r.blocked = o == krr::kb::MoveOutcome::kStayed || o == krr::kb::MoveOutcome::kAborted;
+    r.trapped = aborted;
+    if (aborted) {
+      const std::string text = executor_->getState().getText();
+      r.reason = server + " aborted " + leg + areasOf(target) +
+                 (text.empty() ? "" : ": " + text);
+    }
+    ROS_DEBUG_NAMED(kLog, "%s: %s%s, robot at cell %d", leg.c_str(),
+                    krr::kb::toString(o).c_str(), timed_out ? " (timed out)" : "", r.cell);
+    return r;
+  }
+
+  /// @brief Cancel the external goal and wait up to 1 s for the server to end it.
+  bool cancelAndWait() {
+    executor_->cancelGoal();
+    const ros::WallTime until = ros::WallTime::now() + ros::WallDuration(1.0);
+    while (!executor_->getState().isDone() && ros::WallTime::now() < until && ros::ok() &&
+           executor_->isServerConnected())
+      ros::WallDuration(0.01).sleep();
+    const bool done = executor_->getState().isDone();
+    if (!done) executor_->stopTrackingGoal();
+    return done;
+  }
+
+  /// @brief An observed move on ~sample_topic (learner_node learns from it).
+  void publishSample(const std::string& time, int cell, int move, int target, int next,
+                     krr::kb::MoveOutcome outcome) {
+    if (p_.sample_topic.empty()) return;
+    krr_msgs::NavigationSample m;
+    m.header.stamp = ros::Time::now();
+    m.header.frame_id = p_.map_frame;
+    m.time = time;
+    m.cell = cell;
+    m.move = krr::nav::moveName(move);
+    m.target_cell = target;
+    m.next_cell = next;
+    m.outcome = krr::kb::toString(outcome);
+    sample_pub_.publish(m);
+  }
+
+  /// @brief The robot's free cell from tf (map -> base_link) at `stamp` (the newest transform
+  /// if none that recent arrives within ~tf_timeout); updates the pose.
+  /// @throws krr::IoError when there is no transform or the pose is not in a free cell.
+  int observeCell(const ros::Time& stamp) {
+    geometry_msgs::TransformStamped t;
+    try {
+      if (stamp.isZero() ||
+          !tf_buffer_.canTransform(p_.map_frame, p_.base_frame, stamp, ros::Duration(p_.tf_timeout)))
+        t = tf_buffer_.lookupTransform(p_.map_frame, p_.base_frame, ros::Time(0),
+                                       ros::Duration(stamp.isZero() ? p_.tf_timeout : 0.0));
+      else
+        t = tf_buffer_.lookupTransform(p_.map_frame, p_.base_frame, stamp);
+    } catch (const std::exception& e) {
+      throw krr::IoError("the robot's pose: no transform " + p_.map_frame + " -> " +
+                         p_.base_frame + " (is the robot's localisation running?): " + e.what());
+    }
+    const krr::nav::Point2 p{t.transform.translation.x, t.transform.translation.y};
+    const int cell = dom_.grid->cellAt(p);
+    if (cell < 0 || !dom_.grid->isFree(cell)) {
+      char where[96];
+      std::snprintf(where, sizeof where, "the robot's pose (%.3f, %.3f) in %s", p.x, p.y,
+                    p_.map_frame.c_str());
+      throw krr::IoError(std::string(where) + (cell < 0 ? " is off the map" : " is in an obstacle cell"));
+    }
+    const auto& q = t.transform.rotation;
+    std::lock_guard<std::mutex> lock(mutex_);
+    pose_ = p;
+    yaw_ = std::atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z));
+    cell_ = cell;
+    return cell;
+  }
+
+  /// @brief ~executor move_base: robot_pose from tf (silent until the robot's tf exists).
+  void republishObservedPose() {
+    try {
+      observeCell(ros::Time(0));
+    } catch (const krr::IoError& e) {
+      ROS_DEBUG_THROTTLE_NAMED(10, kLog, "%s", e.what());
+      return;
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    pose_pub_.publish(krr_ros::poseMsg(pose_, yaw_, p_.map_frame, ros::Time::now()));
   }
 
   /// @brief " in ba1, ba2" for the blocking areas of a cell ("" if none or invalid).
@@ -512,6 +740,7 @@ class NavigationNode {
   }
 
   int currentCell() {
+    if (executor_) return observeCell(ros::Time(0));
     std::lock_guard<std::mutex> lock(mutex_);
     return cell_;
   }
@@ -565,13 +794,14 @@ class NavigationNode {
   krr::nav::Point2 pose_;
   double yaw_ = 0;
   ros::Publisher map_pub_, markers_pub_, pose_pub_, plan_pub_, executed_pub_, odom_pub_;
-  ros::Publisher simple_goal_pub_;
+  ros::Publisher simple_goal_pub_, sample_pub_;
   ros::Subscriber simple_goal_sub_;
   tf2_ros::TransformBroadcaster tf_;
   tf2_ros::StaticTransformBroadcaster static_tf_;
   ros::Timer pose_timer_;
   NavigateServer server_;
   std::unique_ptr<MoveBaseServer> move_base_;
+  std::unique_ptr<MoveBaseClient> executor_;  ///< ~executor move_base: the external server
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
   std::mutex drive_mutex_;             ///< one trip at a time (two action interfaces)
@@ -581,22 +811,5 @@ class NavigationNode {
 }  // namespace
 
 int main(int argc, char** argv) {
-  krr_ros::exitOnHelp(argc, argv, "navigation_node");
-  ros::init(argc, argv, "navigation");
-  ros::NodeHandle nh, pnh("~");
-  std::unique_ptr<NavigationNode> node;
-  try {
-    krr_ros::ParamReader reader(pnh);
-    NavigationParams params = NavigationParams::read(reader);
-    ROS_INFO_NAMED(kLog, "seed %lu (simulator and OMPL), base_dir %s",
-                   static_cast<unsigned long>(params.seed), reader.baseDir().c_str());
-    node = std::make_unique<NavigationNode>(nh, pnh, std::move(params));
-  } catch (const std::exception& e) {
-    ROS_FATAL_NAMED(kLog, "cannot start: %s", e.what());
-    return 1;
-  }
-  ROS_INFO_NAMED(kLog, "ready: send goals to the 'navigate' action (or move_base / "
-                 "move_base_simple/goal)");
-  ros::spin();
-  return 0;
+  return krr_ros::runNode<NavigationNode>(argc, argv, "navigation_node", "navigation");
 }
