@@ -107,7 +107,8 @@ double largestChange(const std::optional<AreaKnowledge>& before, const AreaKnowl
                                 [&](const AreaEstimate& x) { return x.area == e.area; });
     worst = f == before->areas.end()
                 ? 1.0
-                : std::max({worst, std::fabs(f->blocking - e.blocking), std::fabs(f->trap - e.trap)});
+                : std::max({worst, std::fabs(f->blocking - e.blocking),
+                            std::fabs(f->trap - e.trap)});
   }
   return worst;
 }

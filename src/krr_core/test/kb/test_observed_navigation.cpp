@@ -41,7 +41,8 @@ ObservedMove execute(const nav::NavGrid& g, int cell, int move, double abort_ba1
   const int target = g.neighbour(cell, move);
   ObservedMove m{cell, move, target < 0 ? cell : target, "morning"};
   if (target < 0) return m;
-  const double rate = (g.areaMask(target) & 1u) ? abort_ba1 : (g.areaMask(target) & 2u) ? abort_ba2 : 0;
+  const std::uint32_t mask = g.areaMask(target);
+  const double rate = (mask & 1u) ? abort_ba1 : (mask & 2u) ? abort_ba2 : 0.0;
   if (uniform01(rng) < rate) m.next_cell = -1;
   return m;
 }
@@ -49,10 +50,11 @@ ObservedMove execute(const nav::NavGrid& g, int cell, int move, double abort_ba1
 TEST(ObservedNavigation, ClassifiesTheFourOutcomes) {
   World w;
   const int from = w.grid.cellId(1, 1);
-  EXPECT_EQ(classifyMove(w.grid, from, nav::kRight, w.grid.cellId(2, 1), false), MoveOutcome::kReached);
+  const int right = w.grid.cellId(2, 1), below = w.grid.cellId(1, 0);
+  EXPECT_EQ(classifyMove(w.grid, from, nav::kRight, right, false), MoveOutcome::kReached);
   EXPECT_EQ(classifyMove(w.grid, from, nav::kRight, from, false), MoveOutcome::kStayed);
-  EXPECT_EQ(classifyMove(w.grid, from, nav::kRight, w.grid.cellId(1, 0), false), MoveOutcome::kElsewhere);
-  EXPECT_EQ(classifyMove(w.grid, from, nav::kRight, w.grid.cellId(2, 1), true), MoveOutcome::kAborted);
+  EXPECT_EQ(classifyMove(w.grid, from, nav::kRight, below, false), MoveOutcome::kElsewhere);
+  EXPECT_EQ(classifyMove(w.grid, from, nav::kRight, right, true), MoveOutcome::kAborted);
   for (MoveOutcome o : {MoveOutcome::kReached, MoveOutcome::kStayed, MoveOutcome::kElsewhere,
                         MoveOutcome::kAborted})
     EXPECT_EQ(moveOutcomeFromString(toString(o)), o);

@@ -21,8 +21,8 @@
 
 namespace krr_ros {
 
-/// @brief Validated parameters of learner_node (config/learner_node.yaml documents each with its
-/// default).
+/// @brief Validated parameters of learner_node (config/learner_node.yaml documents each
+/// with its default).
 struct LearnerParams {
   NavKbParams kb;                     ///< map, grid, P-log files (nav_kb.h)
   std::string learned_file;           ///< ~learned_file: knowledge to start from ("" = none)

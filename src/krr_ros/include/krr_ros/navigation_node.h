@@ -21,8 +21,8 @@
 
 namespace krr_ros {
 
-/// @brief Validated parameters of navigation_node (config/navigation_node.yaml documents each with its
-/// default).
+/// @brief Validated parameters of navigation_node (config/navigation_node.yaml documents each
+/// with its default).
 struct NavigationParams {
   NavKbParams kb;                      ///< map, grid, P-log files (nav_kb.h)
   std::string model_source;            ///< ~model_source: reasoner | local

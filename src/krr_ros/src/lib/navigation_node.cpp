@@ -125,7 +125,8 @@ NavigationParams NavigationParams::read(ParamReader& r) {
     if (p.executor_action.empty() || (!p.move_base_action.empty() && own == ext))
       r.refuse("executor_action", "'" + p.executor_action + "'",
                "must name the external move_base server, not this node's own move_base_action "
-               "(" + own + "); e.g. executor_action:=/move_base with move_base_action:=krr/move_base");
+               "(" + own + "); e.g. executor_action:=/move_base with "
+               "move_base_action:=krr/move_base");
   }
   if (p.step_cost >= p.rmax)
     r.refuse("step_cost", std::to_string(p.step_cost),
@@ -209,7 +210,8 @@ class NavigationNode::Impl {
                    p_.step_limit, p_.sim_rate,
                    executor_ ? ("move_base at " + ros::names::resolve(p_.executor_action) +
                                 " (robot cell from tf " + p_.map_frame + " -> " + p_.base_frame +
-                                "; start_place, sim_rate, blocking_rate, ompl_paths unused)").c_str()
+                                "; start_place, sim_rate, blocking_rate, ompl_paths unused)")
+                                   .c_str()
                              : "simulated");
   }
 
@@ -645,7 +647,8 @@ class NavigationNode::Impl {
     geometry_msgs::TransformStamped t;
     try {
       if (stamp.isZero() ||
-          !tf_buffer_.canTransform(p_.map_frame, p_.base_frame, stamp, ros::Duration(p_.tf_timeout)))
+          !tf_buffer_.canTransform(p_.map_frame, p_.base_frame, stamp,
+                                   ros::Duration(p_.tf_timeout)))
         t = tf_buffer_.lookupTransform(p_.map_frame, p_.base_frame, ros::Time(0),
                                        ros::Duration(stamp.isZero() ? p_.tf_timeout : 0.0));
       else
@@ -660,7 +663,8 @@ class NavigationNode::Impl {
       char where[96];
       std::snprintf(where, sizeof where, "the robot's pose (%.3f, %.3f) in %s", p.x, p.y,
                     p_.map_frame.c_str());
-      throw krr::IoError(std::string(where) + (cell < 0 ? " is off the map" : " is in an obstacle cell"));
+      throw krr::IoError(std::string(where) +
+                         (cell < 0 ? " is off the map" : " is in an obstacle cell"));
     }
     const auto& q = t.transform.rotation;
     std::lock_guard<std::mutex> lock(mutex_);
