@@ -89,6 +89,10 @@ class TestExecutor(unittest.TestCase):
         self.assertEqual(publishers, {"/fake_move_base"},
                          "the robot's frames (odom, base_link) must come from the robot only: %s"
                          % publishers)
+        pubs, _, _ = rosgraph.Master("/test_executor").getSystemState()
+        for topic, nodes in pubs:
+            if topic in ("/tf", "/tf_static", "/odom"):
+                self.assertNotIn("/navigation", nodes, "navigation_node advertises " + topic)
 
     def test_2_learned_walker_rates_converge_to_the_failure_rates(self):
         rospy.set_param("/fake_move_base/failure_rates", self.rates)  # walkers appear

@@ -29,6 +29,7 @@
 #include <std_msgs/String.h>
 
 #include <filesystem>
+#include <iterator>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -359,7 +360,9 @@ class LearnerNode::Impl {
       }
       sendAreaKnowledge(*t, std::to_string(observed_.moves(*t)) + " observed move(s) (" +
                                 std::to_string(observed_count_) + " in all)");
-      t = observed_times_.erase(t);
+      // Not delivered (the reasoner is down): kept, and tried again after sample_period.
+      const bool delivered = sent_areas_[*t] == knowledge_.learnedAreas().at(*t);
+      t = delivered ? observed_times_.erase(t) : std::next(t);
     }
   }
 

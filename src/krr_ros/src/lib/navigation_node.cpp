@@ -182,7 +182,9 @@ class NavigationNode::Impl {
       identity.header.frame_id = p_.map_frame;
       identity.child_frame_id = p_.odom_frame;
       identity.transform.rotation.w = 1.0;
-      static_tf_.sendTransform(identity);
+      tf_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+      static_tf_ = std::make_unique<tf2_ros::StaticTransformBroadcaster>();
+      static_tf_->sendTransform(identity);
       publishPose();
       pose_timer_ = pnh.createTimer(ros::Duration(1.0 / p_.pose_rate),
                                     [this](const ros::TimerEvent&) { publishPose(); });
@@ -750,7 +752,7 @@ class NavigationNode::Impl {
     tf.transform.translation.x = pose.pose.position.x;
     tf.transform.translation.y = pose.pose.position.y;
     tf.transform.rotation = pose.pose.orientation;
-    tf_.sendTransform(tf);
+    tf_->sendTransform(tf);
     nav_msgs::Odometry odom;
     odom.header = tf.header;
     odom.child_frame_id = p_.base_frame;
@@ -778,8 +780,9 @@ class NavigationNode::Impl {
   ros::Publisher map_pub_, markers_pub_, pose_pub_, plan_pub_, executed_pub_, odom_pub_;
   ros::Publisher simple_goal_pub_, sample_pub_;
   ros::Subscriber simple_goal_sub_;
-  tf2_ros::TransformBroadcaster tf_;
-  tf2_ros::StaticTransformBroadcaster static_tf_;
+  // The robot's frames, simulated executor only (not even advertised with an external one).
+  std::unique_ptr<tf2_ros::TransformBroadcaster> tf_;
+  std::unique_ptr<tf2_ros::StaticTransformBroadcaster> static_tf_;
   ros::Timer pose_timer_;
   NavigateServer server_;
   std::unique_ptr<MoveBaseServer> move_base_;
