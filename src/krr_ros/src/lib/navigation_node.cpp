@@ -562,11 +562,14 @@ class NavigationNode::Impl {
       r.reason = why;
       return r;
     };
+    // waitForServer(0) would wait for ever: executor_wait 0 means "do not wait".
     if (!executor_->isServerConnected() &&
-        !executor_->waitForServer(ros::Duration(p_.executor_wait)))
-      return stop("error", server + " is not available (waited " +
-                               std::to_string(p_.executor_wait).substr(0, 4) + " s before " +
-                               leg + ")");
+        !(p_.executor_wait > 0 && executor_->waitForServer(ros::Duration(p_.executor_wait)))) {
+      char waited[32];
+      std::snprintf(waited, sizeof waited, "%g", p_.executor_wait);
+      return stop("error", server + " is not available (waited " + waited + " s before " + leg +
+                               ")");
+    }
     const krr::nav::Point2 a = g.cellCentre(cell), b = g.cellCentre(target);
     move_base_msgs::MoveBaseGoal goal;
     goal.target_pose = krr_ros::poseMsg(b, std::atan2(b.y - a.y, b.x - a.x), p_.map_frame,
