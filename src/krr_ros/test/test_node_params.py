@@ -75,6 +75,13 @@ class TestNodeParams(unittest.TestCase):
         # The core's one blocking-rate rule and message (krr_core/nav/blocking_rate.h).
         self.refused('navigation_node', {'blocking_rate': 1.5},
                      "blocking_rate': value 1.5 must be in [0, 1] (negative: not set)")
+        self.refused('navigation_node', {'executor': 'teleport'},
+                     "executor = 'teleport': must be one of simulated, move_base")
+        # The external server cannot be the node's own move_base face: goals would loop back.
+        self.refused('navigation_node', {'executor': 'move_base', 'executor_action': '/move_base'},
+                     "executor_action = '/move_base': must name the external move_base server")
+        self.refused('navigation_node', {'executor_timeout': 0},
+                     'executor_timeout = 0: must be in [0.1, 86400]')
 
     def test_learner_node(self):
         self.refused('learner_node', {'max_episodes_per_task': 0},
@@ -86,6 +93,8 @@ class TestNodeParams(unittest.TestCase):
         self.refused('learner_node', {'step_cost': 50.0}, 'step_cost')
         self.refused('learner_node', {'blocking_rate': 1.5},
                      "blocking_rate': value 1.5 must be in [0, 1] (negative: not set)")
+        self.refused('learner_node', {'sample_period': -1},
+                     'sample_period = -1: must be in [0, 86400]')
 
     def test_help_needs_no_master_and_lists_the_parameters(self):
         import subprocess
