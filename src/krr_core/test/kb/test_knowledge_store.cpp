@@ -77,17 +77,25 @@ std::vector<krr::mdp::KnownPair> learnedCell3Right(const NavigationKnowledge& kb
   return model.knownPairs();
 }
 
-/// @brief The update prepared on a scratch navigation KB at `state` and committed.
-KnowledgeState apply(const KnowledgeStore& store, const KnowledgeState& state,
-                     const KnowledgeUpdate& u, PreparedUpdate* prepared = nullptr) {
-  std::unique_ptr<NavigationKnowledge> scratch;
-  PreparedUpdate p = store.prepare(
+/// @brief `u` prepared on a fresh navigation KB at `state` (built only when asked; kept in
+/// `scratch`, which a caller discards on refusal).
+PreparedUpdate prepareOnScratch(const KnowledgeStore& store, const KnowledgeState& state,
+                                const KnowledgeUpdate& u,
+                                std::unique_ptr<NavigationKnowledge>& scratch) {
+  return store.prepare(
       u, state,
       [&]() -> NavigationKnowledge& {
         scratch = store.buildNavigationKb(state.learned_text);
         return *scratch;
       },
       anyPhase);
+}
+
+/// @brief The update prepared on a scratch navigation KB at `state` and committed.
+KnowledgeState apply(const KnowledgeStore& store, const KnowledgeState& state,
+                     const KnowledgeUpdate& u, PreparedUpdate* prepared = nullptr) {
+  std::unique_ptr<NavigationKnowledge> scratch;
+  PreparedUpdate p = prepareOnScratch(store, state, u, scratch);
   KnowledgeState next = store.commit(p, state);
   if (prepared) *prepared = std::move(p);
   return next;
@@ -177,13 +185,7 @@ TEST(KnowledgeStore, ARefusedUpdateChangesNothingInMemoryOrOnDisk) {
   for (const Case& c : cases) {
     std::unique_ptr<NavigationKnowledge> scratch;
     try {
-      store->prepare(
-          c.update, state,
-          [&]() -> NavigationKnowledge& {
-            scratch = store->buildNavigationKb(state.learned_text);
-            return *scratch;
-          },
-          anyPhase);
+      prepareOnScratch(*store, state, c.update, scratch);
       ADD_FAILURE() << "accepted: " << c.needle;
     } catch (const krr::Error& e) {
       EXPECT_NE(std::string(e.what()).find(c.needle), std::string::npos) << e.what();
@@ -230,13 +232,7 @@ TEST(KnowledgeStore, AJournalThatCannotBeWrittenChangesNoFile) {
   u.pairs["noon"] = learnedCell3Right(*opened.nav, {4});
   std::string restore_error;
   std::unique_ptr<NavigationKnowledge> scratch;
-  const PreparedUpdate p = store->prepare(
-      u, state,
-      [&]() -> NavigationKnowledge& {
-        scratch = store->buildNavigationKb(state.learned_text);
-        return *scratch;
-      },
-      anyPhase);
+  const PreparedUpdate p = prepareOnScratch(*store, state, u, scratch);
   EXPECT_THROW(store->commit(p, state, &restore_error), krr::IoError);
   EXPECT_NE(restore_error, "");  // the write-back needs the journal too
   // Every file as it was, and no temporary left behind by the atomic writes.
@@ -268,13 +264,7 @@ TEST(KnowledgeStore, RestartRecoversExactlyTheAcknowledgedUpdates) {
     late.pairs["morning"] = learnedCell3Right(*opened.nav, {4});
     std::string restore_error;
     std::unique_ptr<NavigationKnowledge> scratch;
-    const PreparedUpdate p = store->prepare(
-        late, s,
-        [&]() -> NavigationKnowledge& {
-          scratch = store->buildNavigationKb(s.learned_text);
-          return *scratch;
-        },
-        anyPhase);
+    const PreparedUpdate p = prepareOnScratch(*store, s, late, scratch);
     EXPECT_THROW(store->commit(p, s, &restore_error), krr::IoError);
     EXPECT_NE(restore_error.find(f.added), std::string::npos) << restore_error;
     ASSERT_TRUE(fs::exists(store->journalPath()));

@@ -17,8 +17,8 @@
  *    ("<file>.corrupt-<UTC time>") and reported with its typed error, never a crash.
  *
  * The class keeps no current state: the caller holds the KnowledgeState it last committed
- * (the reasoner node publishes it as an immutable snapshot) and serialises updates; build,
- * prepare and commit are const and may run on several threads at once.
+ * (the reasoner node publishes it as an immutable snapshot) and serialises updates (prepare on
+ * the latest state, then commit). Building KBs runs on any number of threads at once.
  */
 #pragma once
 
