@@ -68,6 +68,10 @@ class Checker {
   auto load(const std::string& file, F&& f) -> std::optional<decltype(f())> {
     try {
       return f();
+    } catch (const ParseError& e) {
+      // file:line:col, the place an editor jumps to.
+      add(e.location().str(), "", "", e.message());
+      return std::nullopt;
     } catch (const Error& e) {
       std::string message = e.what();
       // The loaders start with the file's name; the finding's str() writes it once.

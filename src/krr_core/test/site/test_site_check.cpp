@@ -3,6 +3,7 @@
 // value, and all findings of a site come in one error. The bundled configuration passes.
 #include <gtest/gtest.h>
 
+#include <cctype>
 #include <cstdio>
 #include <map>
 #include <string>
@@ -235,6 +236,18 @@ TEST(SiteCheck, EveryRuleReportsInOneRunAndAnUnreadableFileIsAFinding) {
   bool named = false;
   for (const Finding& f : r2.findings) named = named || f.file == root + "/config/language.yaml";
   EXPECT_TRUE(named);
+}
+
+TEST(SiteCheck, BrokenKnowledgeIsAFindingAtItsLine) {
+  const std::string root =
+      writeSite({{"config/site.plog", "person = {ada, max}.\nroom = {lab, studio\n"}});
+  const SiteReport r = check(root);
+  ASSERT_FALSE(r.findings.empty());
+  const std::string text = r.findings.front().str();
+  const std::string file = root + "/config/site.plog:";
+  ASSERT_EQ(text.rfind(file, 0), 0u) << text;
+  EXPECT_TRUE(std::isdigit(static_cast<unsigned char>(text[file.size()]))) << text;  // its line
+  EXPECT_EQ(text.find(file, 1), std::string::npos) << "the file named once: " << text;
 }
 
 TEST(SiteCheck, TheBundledConfigurationPasses) {

@@ -27,6 +27,15 @@
  *
  * A file that cannot be read is a finding too, and the rules that need it are skipped.
  * Every finding names the file, the field and the value.
+ *
+ * A node checks at start with the files it was given (its parameters win over the defaults):
+ * @code
+ *   krr::site::SiteFiles files = krr::site::SiteFiles::inConfigDir(base_dir + "/config");
+ *   files.dialog_config = params.dialog_config;      // dialog_node
+ *   files.language_config = params.language_config;  // dialog_node
+ *   files.reasoner_domain_files = params.domain_files;  // reasoner_node (resolved paths)
+ *   krr::site::requireConsistentSite(files);  // throws one ConfigError listing every finding
+ * @endcode
  */
 #pragma once
 
