@@ -4,7 +4,7 @@ Exit 1 and list every violation.
 
 Layers of krr_core:
   generic      common, plog, mdp, nav, pomdp
-  domain       kb, dialog
+  domain       kb, dialog, site
   examples     krr_examples: toy problems (Tiger, grid world, grid programs), for tests and
                benchmarks only
   experiments  krr_experiments: the paper's experiments, for apps, benchmarks and tests only
@@ -35,7 +35,7 @@ import sys
 
 CORE = "src/krr_core"
 GENERIC = {"common", "plog", "mdp", "nav", "pomdp"}
-DOMAIN = {"kb", "dialog"}
+DOMAIN = {"kb", "dialog", "site"}
 EXPERIMENTS = "experiments"
 EXAMPLES = "examples"
 MODULES = GENERIC | DOMAIN | {EXPERIMENTS, EXAMPLES}

@@ -1,5 +1,7 @@
 #!/usr/bin/env bash
 # Every test of the stack: installs dependencies, builds, then runs
+#   0. check_site on the bundled configuration (its files agree on the site's names: a
+#      disagreement would otherwise surface as a confusing failure of some later test),
 #   1. the core gtests (no roscore),
 #   2. every rostest .test (each starts its own master; run after sourcing devel/setup.bash,
 #      because `catkin_make run_tests` leaves PYTHONPATH empty for Python test nodes),
@@ -20,6 +22,15 @@ rm -rf "$RESULTS"; mkdir -p "$RESULTS"
 set +u; source "$ROOT/catkin_ws/devel/setup.bash"; set -u
 export ROS_HOME="${ROS_HOME:-$RESULTS/ros_home}"
 export KRR_ROOT="$ROOT"
+
+echo "== site check"
+if "$ROOT/catkin_ws/devel/lib/krr_core/check_site" --root "$ROOT" > "$RESULTS/check_site.log" 2>&1; then
+  echo "  ok   check_site: $(head -c 160 "$RESULTS/check_site.log")"
+  echo '<testsuites><testsuite name="check_site" tests="1" failures="0"><testcase name="bundled"/></testsuite></testsuites>' > "$RESULTS/check_site.xml"
+else
+  echo "  FAIL check_site"; cat "$RESULTS/check_site.log"
+  echo '<testsuites><testsuite name="check_site" tests="1" failures="1"><testcase name="bundled"><failure message="see check_site.log"/></testcase></testsuite></testsuites>' > "$RESULTS/check_site.xml"
+fi
 
 echo "== core gtests"
 for t in $(find "$ROOT/catkin_ws/devel/lib" -maxdepth 2 -type f -perm -u+x -name '*_test_*' | sort); do

@@ -11,8 +11,12 @@
  * map as <domain>.yaml and <domain>_geometry.plog. A JSON summary line per domain is printed
  * (free cells, place cells, blocking-area cells, shortest routes from the shop and the blocking
  * areas they cross). The shop is the dialog config's navigation.shop (the dialog.yaml beside the
- * navigation config by default) or --shop; it must be a place of the places file, checked
- * before any domain is written.
+ * navigation config by default) or --shop.
+ *
+ * Before anything is written, the site consistency check (site/site_check.h) runs on the files
+ * beside the navigation config (dialog.yaml, language.yaml, reasoner_node.yaml, the root their
+ * parent), with the places about to be written when --generate-office is given: a shop, room,
+ * blocking area or synonym that the files disagree on stops the program with every finding.
  */
 #include <cstdio>
 #include <iostream>
@@ -25,12 +29,12 @@
 #include "krr_core/common/limits.h"
 #include "krr_core/common/main_guard.h"
 #include "krr_core/common/resource_locator.h"
-#include "krr_core/dialog/dialog_config.h"
 #include "krr_core/nav/grid_astar.h"
 #include "krr_core/nav/nav_grid.h"
 #include "krr_core/nav/navigation_config.h"
 #include "krr_core/nav/occupancy_grid.h"
 #include "krr_core/nav/office_map.h"
+#include "krr_core/site/site_check.h"
 
 using namespace krr;
 using namespace krr::nav;
@@ -46,26 +50,6 @@ std::string stem(const std::string& p) {
   std::string b = baseName(p);
   auto pos = b.find_last_of('.');
   return pos == std::string::npos ? b : b.substr(0, pos);
-}
-
-/**
- * @brief The shop the routes start from: `flag` if given, else the dialog config's
- * navigation.shop, since the dialog drives from there; refused unless it is a place of the map
- * so that nothing is written for a site whose shop the dialog could not reach.
- * @throws krr::ConfigError naming the option or the file and field, and the places there are.
- */
-std::string shopOf(const std::string& flag, const std::string& dialogConfig,
-                   const PlacesFile& places, const std::string& placesFile) {
-  const std::string shop = flag.empty() ? dialog::loadDialogConfig(dialogConfig).shop : flag;
-  std::string names;
-  for (const Place& p : places.places) {
-    if (p.name == shop) return shop;
-    names += (names.empty() ? "" : ", ") + p.name;
-  }
-  const std::string where =
-      flag.empty() ? dialogConfig + ": field 'navigation.shop'" : std::string("option --shop");
-  throw ConfigError(where + ": '" + shop + "' is not a place of " + placesFile + " (places: " +
-                    names + ")");
 }
 
 }  // namespace
@@ -90,8 +74,20 @@ static int mainBody(int argc, char** argv) {
   if (const auto status = parser.parse(argc, argv)) return *status;
   config_path = resourcePath(config_path, "config/navigation.yaml");
   NavigationConfig cfg = loadNavigationConfig(config_path);
+  site::SiteFiles site = site::SiteFiles::inConfigDir(dirName(config_path));
+  site.navigation_config = config_path;
+  if (!dialog_config.empty()) site.dialog_config = dialog_config;
+  if (!shop_flag.empty()) {
+    site.shop = shop_flag;
+    site.shop_source = "option --shop";
+  }
+  OfficeMap office;
   if (generate) {
-    OfficeMap office = makeOfficeMap();
+    office = makeOfficeMap();
+    site.places = office.places;
+  }
+  const std::string shopName = site::requireConsistentSite(site).shop;
+  if (generate) {
     saveMap(office.grid, cfg.map, stem(cfg.map) + ".pgm");
     writeFileAtomic(cfg.places,
                     "# Named places and blocking areas of the office map (metres, map frame).\n"
@@ -101,9 +97,6 @@ static int mainBody(int argc, char** argv) {
   }
   OccupancyGrid map = loadMap(cfg.map);
   PlacesFile places = loadPlaces(cfg.places);
-  const std::string shopName = shopOf(
-      shop_flag, dialog_config.empty() ? dirName(config_path) + "/dialog.yaml" : dialog_config,
-      places, cfg.places);
   const std::string dir = dirName(cfg.map);
   for (const DomainConfig& d : cfg.domains) {
     // The loader already refuses such names; this guards the file names written below.

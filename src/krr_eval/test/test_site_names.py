@@ -91,6 +91,26 @@ class MakeNavDomainShopTest(SiteCopy):
         self.assertFalse(os.path.exists(self.path("maps", "office_30x30.yaml")))
 
 
+class MakeNavDomainSiteCheckTest(SiteCopy):
+    """make_nav_domain runs the site check first: every finding, nothing written."""
+
+    def test_every_disagreement_is_reported_before_writing(self):
+        program = need("make_nav_domain")
+        os.remove(self.path("maps", "office_30x30.yaml"))
+        self.edit("config/navigation.yaml", "    ba4: {time_of_day",
+                  "    ba9: {time_of_day")
+        self.edit("config/language.yaml", "  cola: coke", "  cola: cola_zero")
+        self.edit("config/language.yaml", "  pop: soda", "  pop: lemonade")
+        res = run([program, "--config", self.path("config", "navigation.yaml")])
+        self.assertEqual(res.returncode, 1, res.stdout)
+        self.assertIn("(3 findings)", res.stderr)
+        self.assertIn("navigation.yaml: field 'simulator.areas.ba9': 'ba9' is not a blocking area",
+                      res.stderr)
+        self.assertIn("language.yaml: field 'synonyms.cola': 'cola_zero'", res.stderr)
+        self.assertIn("language.yaml: field 'synonyms.pop': 'lemonade'", res.stderr)
+        self.assertFalse(os.path.exists(self.path("maps", "office_30x30.yaml")))
+
+
 class DialogScriptNamesTest(SiteCopy):
     def setUp(self):
         super().setUp()

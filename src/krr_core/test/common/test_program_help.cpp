@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -34,6 +35,8 @@ std::string emptyDir(const std::string& name) {
 TEST(ProgramHelp, EveryProgramPrintsItsUsageOnStdoutAndExits0) {
   const std::vector<std::string> programs = krr::splitOption(KRR_PROGRAMS);
   ASSERT_GE(programs.size(), 10u);
+  // The site check is a program a new user runs first: its help must work like the others'.
+  EXPECT_NE(std::find(programs.begin(), programs.end(), "check_site"), programs.end());
   const std::string cwd = emptyDir("program_help_cwd");
   for (const std::string& p : programs) {
     for (const char* flag : {"--help", "-h"}) {
