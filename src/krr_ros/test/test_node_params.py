@@ -96,6 +96,31 @@ class TestNodeParams(unittest.TestCase):
         self.refused('learner_node', {'sample_period': -1},
                      'sample_period = -1: must be in [0, 86400]')
 
+    def test_dialog_node_refuses_an_inconsistent_site(self):
+        """A language file with two stale synonyms: dialog_node does not start, and its one
+        message names the file, the fields and the values of both (the site check)."""
+        tmp = rospy.get_param('~tmp_dir')
+        os.makedirs(tmp, exist_ok=True)
+        with open(os.path.join(ROOT, 'config', 'language.yaml')) as fh:
+            text = fh.read()  # as text: a YAML round trip would turn the key yes into true
+        self.assertIn('\nsynonyms:\n', text)
+        text = text.replace('\nsynonyms:\n', '\nsynonyms:\n  "the lab": room9\n  carol: carol\n', 1)
+        bad = os.path.join(tmp, 'stale_language.yaml')
+        with open(bad, 'w') as fh:
+            fh.write(text)
+        params = shipped('dialog_node')
+        params.pop('learned_file')  # dialog_node learns nothing
+        params['language_config'] = bad
+        proc = SpawnedNode('dialog_node', 'bad_site_dialog', params).start()
+        try:
+            rc = proc.wait_exit(30)
+        finally:
+            proc.kill()
+            proc.clear_params()
+        self.assertEqual(rc, 1, proc.output)
+        for needle in (bad, "room9", "carol", 'cannot start'):
+            self.assertIn(needle, proc.output)
+
     def test_help_needs_no_master_and_lists_the_parameters(self):
         import subprocess
         from krr_test_utils import node_binary

@@ -85,7 +85,9 @@ class DialogNode {
     std::string speech_input;      ///< ~speech_input: std_msgs/String recogniser text ("": off)
     std::string speech_output;     ///< ~speech_output: std_msgs/String of what the robot says
     std::uint64_t seed = 1;        ///< ~seed (the manager is deterministic; logged)
+    bool check_site = true;        ///< ~check_site: refuse to start on an inconsistent site
 
+    /// @brief Reads and validates; with check_site, also the site (krr_core/site/site_check.h).
     static Params read(ParamReader& r);
   };
   static constexpr const char* kLog = "dialog";
