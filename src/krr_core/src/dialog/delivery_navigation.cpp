@@ -6,6 +6,7 @@
 
 #include "krr_core/common/errors.h"
 #include "krr_core/mdp/reach_probability.h"
+#include "krr_core/mdp/trip.h"
 #include "krr_core/mdp/solvers.h"
 
 namespace krr {
@@ -195,21 +196,19 @@ TripResult DeliveryNavigation::execute(const nav::BlockageSimulator& sim, std::s
   const std::vector<mdp::ActionId>& policy = toRoom ? policy_[r] : policy_.back();
   int cell = toRoom ? shop_cell_ : room_cell_[r];
   const int goal = toRoom ? room_cell_[r] : shop_cell_;
-  TripResult t;
-  while (t.moves < options_.step_limit) {
+  const mdp::TripSummary trip = mdp::runTrip(cell == goal, options_.step_limit, [&](std::size_t) {
     const int move = static_cast<int>(policy[space_.stateOf(cell)]);
     const nav::Outcome o = sim.step(cell, move, context, rng);
-    ++t.moves;
-    if (o.trapped) {
-      t.trapped = true;
-      return t;
-    }
-    cell = o.cell;
-    if (cell == goal) {
-      t.reached = true;
-      return t;
-    }
-  }
+    mdp::TripMove m;
+    m.failed = o.trapped;
+    if (!o.trapped) cell = o.cell;
+    m.reached = !o.trapped && cell == goal;
+    return m;
+  });
+  TripResult t;
+  t.moves = trip.moves;
+  t.reached = trip.end == mdp::TripEnd::kReached;
+  t.trapped = trip.end == mdp::TripEnd::kFailed;
   return t;
 }
 

@@ -3,6 +3,7 @@
 #include <string>
 
 #include "krr_core/common/errors.h"
+#include "krr_core/mdp/trip.h"
 
 namespace krr {
 namespace mdp {
@@ -46,7 +47,7 @@ EpisodeResult runEpisode(Environment& env, Agent& agent, std::size_t step_limit,
   if (step_limit == 0) throw ConfigError("runEpisode: step_limit must be > 0, got 0");
   EpisodeResult res;
   StateId s = env.reset();
-  while (res.steps < step_limit) {
+  const TripSummary trip = runTrip(false, step_limit, [&](std::size_t) {
     const ActionId a = agent.act(s);
     if (a >= env.numActions()) {
       throw ConfigError("runEpisode: agent chose action " + std::to_string(a) + " in state " +
@@ -54,18 +55,21 @@ EpisodeResult runEpisode(Environment& env, Agent& agent, std::size_t step_limit,
                         std::to_string(env.numActions()) + ")");
     }
     const StepResult r = env.step(a, rng);
-    ++res.steps;
     res.total_reward += r.reward;
     agent.observe(s, a, r.reward, r.next, r.done);
     s = r.next;
-    if (r.done) {
-      res.failed = r.failed;
-      res.success = !r.failed;
-      return res;
-    }
+    TripMove m;
+    m.reached = r.done && !r.failed;
+    m.failed = r.done && r.failed;
+    return m;
+  });
+  res.steps = trip.moves;
+  res.success = trip.end == TripEnd::kReached;
+  res.failed = trip.end == TripEnd::kFailed;
+  if (trip.end == TripEnd::kStepLimit) {
+    res.timed_out = true;
+    res.total_reward -= timeout_penalty;
   }
-  res.timed_out = true;
-  res.total_reward -= timeout_penalty;
   return res;
 }
 

@@ -58,6 +58,7 @@
 #include "krr_core/kb/navigation_knowledge.h"
 #include "krr_core/kb/observed_navigation.h"
 #include "krr_core/mdp/navigation_task.h"
+#include "krr_core/mdp/trip.h"
 #include "krr_core/mdp/solvers.h"
 #include "krr_core/nav/ompl_planner.h"
 #include "krr_ros/conversions.h"
@@ -485,34 +486,54 @@ class NavigationNode::Impl {
     plan_pub_.publish(krr_ros::pathMsg(intendedRoute(dynamics, policy, cell, goal_cell),
                                        p_.map_frame, ros::Time::now()));
     ros::Rate rate(p_.sim_rate > 0 ? p_.sim_rate : 1.0);
-    for (long step = 1; cell != goal_cell; ++step) {
-      if (preempted() || !ros::ok())
-        return end("preempted", "preempted after " + std::to_string(step - 1) + " moves");
-      if (step > p_.step_limit)
+    // How the trip ends is the core's one rule (mdp::runTrip); the moves are this node's.
+    MoveResult last;
+    int expected = cell, moved = 0;
+    const krr::mdp::TripSummary summary = krr::mdp::runTrip(
+        cell == goal_cell, static_cast<std::size_t>(p_.step_limit),
+        [&] { return preempted() || !ros::ok(); },
+        [&](std::size_t k) {
+          const long step = static_cast<long>(k);
+          moved = static_cast<int>(policy[sp.stateOf(cell)]);
+          expected = dom_.grid->neighbour(cell, moved);
+          last = executor_ ? moveExternally(cell, moved, step, time, preempted)
+                           : moveSimulated(cell, moved, ctx, &executed);
+          krr::mdp::TripMove m;
+          m.stopped = !last.stop_outcome.empty();
+          if (m.stopped) return m;
+          if (executor_ && last.cell != cell) executed.push_back(dom_.grid->cellCentre(last.cell));
+          cell = last.cell;
+          trip.final_cell = cell;
+          trip.steps = static_cast<std::uint32_t>(step);
+          onStep({cell, goal_cell, trip.steps, krr::nav::moveName(moved), last.blocked});
+          executed_pub_.publish(krr_ros::pathMsg(executed, p_.map_frame, ros::Time::now()));
+          m.failed = last.trapped;
+          m.reached = !last.trapped && cell == goal_cell;
+          if (!m.failed) {
+            if (!m.reached && cell != expected)  // slipped or blocked: show the new route
+              plan_pub_.publish(krr_ros::pathMsg(intendedRoute(dynamics, policy, cell, goal_cell),
+                                                 p_.map_frame, ros::Time::now()));
+            if (p_.sim_rate > 0 && !executor_) rate.sleep();
+          }
+          return m;
+        });
+    switch (summary.end) {
+      case krr::mdp::TripEnd::kReached:
+        return end("reached", "");
+      case krr::mdp::TripEnd::kStepLimit:
         return end("step_limit", "step limit of " + std::to_string(p_.step_limit) +
                                      " moves reached at cell " + std::to_string(cell));
-      const int move = static_cast<int>(policy[sp.stateOf(cell)]);
-      const int expected = dom_.grid->neighbour(cell, move);
-      const MoveResult out = executor_ ? moveExternally(cell, move, step, time, preempted)
-                                       : moveSimulated(cell, move, ctx, &executed);
-      if (!out.stop_outcome.empty()) return end(out.stop_outcome.c_str(), out.reason);
-      if (executor_ && out.cell != cell) executed.push_back(dom_.grid->cellCentre(out.cell));
-      cell = out.cell;
-      trip.final_cell = cell;
-      trip.steps = static_cast<std::uint32_t>(step);
-      onStep({cell, goal_cell, trip.steps, krr::nav::moveName(move), out.blocked});
-      executed_pub_.publish(krr_ros::pathMsg(executed, p_.map_frame, ros::Time::now()));
-      if (out.trapped && executor_) return end("aborted", out.reason);
-      if (out.trapped)
+      case krr::mdp::TripEnd::kFailed:
+        if (executor_) return end("aborted", last.reason);
         return end("trapped", "trapped by walkers" + areasOf(expected) + " moving " +
-                                  krr::nav::moveName(move) + " from cell " + std::to_string(cell) +
-                                  " after " + std::to_string(step) + " moves");
-      if (cell != expected && cell != goal_cell)  // slipped or blocked: show the new route
-        plan_pub_.publish(krr_ros::pathMsg(intendedRoute(dynamics, policy, cell, goal_cell),
-                                           p_.map_frame, ros::Time::now()));
-      if (p_.sim_rate > 0 && !executor_) rate.sleep();
+                                  krr::nav::moveName(moved) + " from cell " +
+                                  std::to_string(cell) + " after " +
+                                  std::to_string(summary.moves) + " moves");
+      case krr::mdp::TripEnd::kStopped:
+        break;
     }
-    return end("reached", "");
+    if (!last.stop_outcome.empty()) return end(last.stop_outcome.c_str(), last.reason);
+    return end("preempted", "preempted after " + std::to_string(summary.moves) + " moves");
   }
 
   /// @brief What became of one move of the policy; a non-empty stop_outcome ends the trip
