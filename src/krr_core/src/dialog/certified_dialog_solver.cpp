@@ -48,9 +48,12 @@ class KeyTable {
   std::size_t size() const { return count_; }
   std::size_t stride() const { return stride_; }
   const std::int16_t* key(std::size_t i) const { return &keys_[i * stride_]; }
+  /// Resident bytes: the keys in use (their vector is reserved up front: untouched pages
+  /// cost nothing) and the slots (rehashing touches them all).
   std::size_t bytes() const {
-    return keys_.capacity() * sizeof(std::int16_t) + slots_.capacity() * 2 * sizeof(std::uint32_t);
+    return keys_.size() * sizeof(std::int16_t) + slots_.capacity() * 2 * sizeof(std::uint32_t);
   }
+  void reserve(std::size_t entries) { keys_.reserve(entries * stride_); }
   std::size_t bytesPerEntry() const { return stride_ * sizeof(std::int16_t) + 4 * sizeof(std::uint32_t); }
 
   std::size_t find(const std::int16_t* k) const {
@@ -184,14 +187,18 @@ class CertifiedDialogSolver::Impl {
   static constexpr std::uint32_t kNoGroup = std::numeric_limits<std::uint32_t>::max();
   static constexpr std::size_t kSimplexPoints = 8;
   KeyTable groupTable_;              // a node key with the revealed slot's section zeroed
-  std::vector<double> groupZ_;       // per simplex, per value r: sum over b|r's requests of
-                                     // root x the other slots' likelihoods (w_r ~ Z_r lambda_r)
-  std::vector<double> groupV_;       // per simplex, per r: the corner value (sub-dialog)
-  /// per simplex: its points, each [node, delta, w_0 .. w_{n-1}] (n = revealed slot's values)
-  std::vector<std::vector<double>> groupPoints_;
+  /// Per simplex that has points (made when its first point is noted: most never get one),
+  /// with m the revealed slot's values: Z_0..Z_{m-1} (the sum over b|r's requests of root x
+  /// the other slots' likelihoods: w_r ~ Z_r lambda_r), the corner values V_0..V_{m-1}, then
+  /// the points, each [node, delta, w_0 .. w_{m-1}].
+  std::unordered_map<std::uint32_t, std::vector<double>> groupData_;
+  std::size_t groupDataBytes_ = 0;   // their capacity, with the map's per-entry overhead
   std::size_t sharedCuts_ = 0;       // new nodes' upper bounds lowered by another node's
-  /// The room weights w of node n on its simplex, and the interpolation sum_r w_r V_r.
-  double simplexWeights(std::size_t n, double* w) const;
+  /// The room weights w of node n on its simplex (data: its groupData_ entry), and the
+  /// interpolation sum_r w_r V_r.
+  double simplexWeights(std::size_t n, const std::vector<double>& data, double* w) const;
+  /// Node n's simplex data, made (corners solved) if it has none.
+  std::vector<double>& groupDataOf(std::size_t n);
   /// Node n's upper bound with its simplex's sawtooth applied (valid: see groupTable_).
   double effUpper(std::size_t n) const;
   /// After n's upper bound fell: record it as a point of its simplex.
@@ -203,6 +210,10 @@ class CertifiedDialogSolver::Impl {
   SolveStop stop_ = SolveStop::kRunning;
   double seconds_ = 0.0;
   std::size_t maxEntries_ = 0;
+  /// The tables' bytes (bytes()) at which the search stops: 65 % of the memory budget, the
+  /// rest for the process, the tables' growth (a hash table briefly holds its old and new
+  /// slots) and the policy's export.
+  std::size_t tableBudget_ = 0;
   Rng rng_;
 
   // scratch
@@ -517,6 +528,11 @@ CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::Vector
   const std::size_t perEntry = table_.bytesPerEntry() * 2 + sizeof(Node) + sizeof(double) +
                                sizeof(std::int16_t) + sizeof(std::uint32_t);
   maxEntries_ = std::max<std::size_t>(1024, (budget - alphaBudget_) / perEntry);
+  tableBudget_ = budget / 100 * 65;
+  // Reserved, not touched: the vectors never move (no old and new copy at once) and bytes()
+  // counts what is used.
+  table_.reserve(maxEntries_);
+  nodes_.reserve(maxEntries_);
   if (maxEntries_ > std::numeric_limits<std::uint32_t>::max() / 4)
     maxEntries_ = std::numeric_limits<std::uint32_t>::max() / 4;
 
@@ -884,53 +900,61 @@ double CertifiedDialogSolver::Impl::upperRelaxation(const std::int16_t* key,
   }
   if (commitLower) *commitLower = commit;
   if (group) {
-    // The node's simplex: created with its corners when first met (every corner's value,
-    // also those of rooms this node excludes: other nodes of the simplex may not).
     sub[rc.offset] = 0;
-    const auto gi = groupTable_.insert(sub.data());
-    *group = static_cast<std::uint32_t>(gi.first);
-    if (gi.second) {
-      Eigen::VectorXd b0;
-      const bool ok = belief(sub.data(), b0);
-      for (std::size_t r = 0; r < rc.n; ++r) {
-        double z = 0.0;
-        if (ok)
-          for (std::size_t s = 0; s < nReq_; ++s)
-            if (parts_[s][revealed_] == r) z += b0(static_cast<Eigen::Index>(s));
-        sub[rc.offset] = static_cast<std::int16_t>(r);
-        double v = kInf;
-        if (z > 0.0) subNode(sub.data(), nullptr, &v);
-        groupZ_.push_back(z);
-        groupV_.push_back(v);
-      }
-      groupPoints_.emplace_back();
-    }
+    *group = static_cast<std::uint32_t>(groupTable_.insert(sub.data()).first);
   }
   return u;
 }
 
-double CertifiedDialogSolver::Impl::simplexWeights(std::size_t n, double* w) const {
+std::vector<double>& CertifiedDialogSolver::Impl::groupDataOf(std::size_t n) {
+  const auto found = groupData_.find(nodes_[n].group);
+  if (found != groupData_.end()) return found->second;
+  // The corners of n's simplex: every room's value, also those of rooms n excludes (other
+  // nodes of the simplex may not).
   const SlotCode& rc = slot_[revealed_];
-  const std::uint32_t g = nodes_[n].group;
+  std::vector<std::int16_t> sub(table_.key(n), table_.key(n) + stride_);
+  std::fill(sub.begin() + static_cast<long>(rc.offset),
+            sub.begin() + static_cast<long>(rc.offset + rc.n * rc.width), 0);
+  std::vector<double> data(2 * rc.n, kInf);
+  Eigen::VectorXd b0;
+  const bool ok = belief(sub.data(), b0);
+  for (std::size_t r = 0; r < rc.n; ++r) {
+    double z = 0.0;
+    if (ok)
+      for (std::size_t s = 0; s < nReq_; ++s)
+        if (parts_[s][revealed_] == r) z += b0(static_cast<Eigen::Index>(s));
+    data[r] = z;
+    sub[rc.offset] = static_cast<std::int16_t>(r);
+    if (z > 0.0) subNode(sub.data(), nullptr, &data[rc.n + r]);
+  }
+  groupDataBytes_ += data.capacity() * sizeof(double) + 64;
+  return groupData_.emplace(nodes_[n].group, std::move(data)).first->second;
+}
+
+double CertifiedDialogSolver::Impl::simplexWeights(std::size_t n, const std::vector<double>& data,
+                                                   double* w) const {
+  const SlotCode& rc = slot_[revealed_];
+  const double* Z = data.data();
+  const double* V = Z + rc.n;
   const std::int16_t* e = table_.key(n) + rc.offset;
   double l[kMaxValues], hi = -kInf;
   for (std::size_t r = 0; r < rc.n; ++r) {
     double x = 0.0;
     for (int ch = 0; ch < rc.channels; ++ch) x += rc.unit[ch] * e[r * rc.width + ch];
     if (rc.excl && e[r * rc.width + rc.channels]) x = -kInf;
-    if (!(groupZ_[g * rc.n + r] > 0.0)) x = -kInf;
+    if (!(Z[r] > 0.0)) x = -kInf;
     l[r] = x;
     hi = std::max(hi, x);
   }
   double sum = 0.0;
   for (std::size_t r = 0; r < rc.n; ++r) {
-    w[r] = l[r] == -kInf ? 0.0 : groupZ_[g * rc.n + r] * std::exp(l[r] - hi);
+    w[r] = l[r] == -kInf ? 0.0 : Z[r] * std::exp(l[r] - hi);
     sum += w[r];
   }
   double line = 0.0;
   for (std::size_t r = 0; r < rc.n; ++r) {
     w[r] /= sum;
-    if (w[r] > 0.0) line += w[r] * groupV_[g * rc.n + r];
+    if (w[r] > 0.0) line += w[r] * V[r];
   }
   return line;
 }
@@ -939,13 +963,15 @@ double CertifiedDialogSolver::Impl::effUpper(std::size_t n) const {
   const Node& nd = nodes_[n];
   const double own = std::min(nd.upper, nodes_[nd.head].upper);
   if (nd.group == kNoGroup) return own;
-  const std::vector<double>& pts = groupPoints_[nd.group];
-  if (pts.empty()) return own;
+  const auto found = groupData_.find(nd.group);
+  if (found == groupData_.end()) return own;
+  const std::vector<double>& pts = found->second;
   const std::size_t m = slot_[revealed_].n, width = m + 2;
+  if (pts.size() <= 2 * m) return own;  // corners known, no point yet
   double w[kMaxValues];
-  const double line = simplexWeights(n, w);
+  const double line = simplexWeights(n, pts, w);
   double cut = 0.0;
-  for (std::size_t j = 0; j + width <= pts.size(); j += width) {
+  for (std::size_t j = 2 * m; j + width <= pts.size(); j += width) {
     if (static_cast<std::size_t>(pts[j]) == n) continue;
     double rho = kInf;
     for (std::size_t r = 0; r < m && rho > 0.0; ++r)
@@ -960,22 +986,24 @@ void CertifiedDialogSolver::Impl::notePoint(std::size_t n) {
   if (nd.group == kNoGroup) return;
   const std::size_t m = slot_[revealed_].n, width = m + 2;
   double w[kMaxValues];
-  const double delta = simplexWeights(n, w) - nd.upper;
+  std::vector<double>& pts = groupDataOf(n);
+  const double delta = simplexWeights(n, pts, w) - nd.upper;
   if (!(delta > 1e-9)) return;
-  std::vector<double>& pts = groupPoints_[nd.group];
+  const std::size_t before = pts.capacity();
   std::size_t at = pts.size(), weakest = pts.size();
-  for (std::size_t j = 0; j + width <= pts.size(); j += width) {
+  for (std::size_t j = 2 * m; j + width <= pts.size(); j += width) {
     if (static_cast<std::size_t>(pts[j]) == n) { at = j; break; }
     if (weakest == pts.size() || pts[j + 1] < pts[weakest + 1]) weakest = j;
   }
   if (at == pts.size()) {
-    if (pts.size() < kSimplexPoints * width) pts.resize(pts.size() + width);
+    if (pts.size() < 2 * m + kSimplexPoints * width) pts.resize(pts.size() + width);
     else if (pts[weakest + 1] < delta) at = weakest;
     else return;
   }
   pts[at] = static_cast<double>(n);
   pts[at + 1] = delta;
   for (std::size_t r = 0; r < m; ++r) pts[at + 2 + r] = w[r];
+  groupDataBytes_ += (pts.capacity() - before) * sizeof(double);
 }
 
 void CertifiedDialogSolver::Impl::childBelief(const Eigen::VectorXd& b, const Question& q,
@@ -1143,18 +1171,16 @@ void CertifiedDialogSolver::Impl::trial() {
 
 
 std::size_t CertifiedDialogSolver::Impl::bytes() const {
-  std::size_t points = groupPoints_.capacity() * sizeof(std::vector<double>);
-  for (const auto& p : groupPoints_) points += p.capacity() * sizeof(double);
-  return table_.bytes() + subTable_.bytes() + groupTable_.bytes() + points + statsTable_.bytes() +
+  return table_.bytes() + subTable_.bytes() + groupTable_.bytes() + groupDataBytes_ +
+         groupData_.bucket_count() * sizeof(void*) + statsTable_.bytes() +
          statsNode_.capacity() * sizeof(std::uint32_t) +
-         (groupZ_.capacity() + groupV_.capacity()) * sizeof(double) + nodes_.capacity() * sizeof(Node) +
+         nodes_.size() * sizeof(Node) +
          subValue_.capacity() * sizeof(double) + subChoice_.capacity() * sizeof(std::int16_t) +
          subAlphaAt_.capacity() * sizeof(std::uint32_t) + subAlpha_.capacity() * sizeof(double);
 }
 
 bool CertifiedDialogSolver::Impl::memoryExceeded() const {
-  return table_.size() + subTable_.size() + 2 * groupTable_.size() + statsTable_.size() / 2 >
-         maxEntries_;
+  return bytes() > tableBudget_ || table_.size() + subTable_.size() > maxEntries_;
 }
 
 bool CertifiedDialogSolver::Impl::run(std::size_t maxMore) {
