@@ -48,12 +48,22 @@ class KeyTable {
   std::size_t size() const { return count_; }
   std::size_t stride() const { return stride_; }
   const std::int16_t* key(std::size_t i) const { return &keys_[i * stride_]; }
-  /// Resident bytes: the keys in use (their vector is reserved up front: untouched pages
-  /// cost nothing) and the slots (rehashing touches them all).
+  /// Resident bytes: the keys (in use when reserved up front: untouched pages cost nothing)
+  /// and the slots (rehashing touches them all).
   std::size_t bytes() const {
-    return keys_.size() * sizeof(std::int16_t) + slots_.capacity() * 2 * sizeof(std::uint32_t);
+    return (reserved_ ? keys_.size() : keys_.capacity()) * sizeof(std::int16_t) +
+           slots_.capacity() * 2 * sizeof(std::uint32_t);
   }
-  void reserve(std::size_t entries) { keys_.reserve(entries * stride_); }
+  /// @return false when the address space is refused (the keys then grow as needed).
+  bool reserve(std::size_t entries) {
+    try {
+      keys_.reserve(entries * stride_);
+      reserved_ = true;
+    } catch (const std::exception&) {  // std::bad_alloc, std::length_error
+      reserved_ = false;
+    }
+    return reserved_;
+  }
   std::size_t bytesPerEntry() const { return stride_ * sizeof(std::int16_t) + 4 * sizeof(std::uint32_t); }
 
   std::size_t find(const std::int16_t* k) const {
@@ -105,6 +115,7 @@ class KeyTable {
     tags_.swap(tags);
   }
   std::size_t stride_;
+  bool reserved_ = false;
   std::size_t count_ = 0;
   std::vector<std::int16_t> keys_;
   std::vector<std::uint32_t> slots_, tags_;
@@ -214,6 +225,7 @@ class CertifiedDialogSolver::Impl {
   /// rest for the process, the tables' growth (a hash table briefly holds its old and new
   /// slots) and the policy's export.
   std::size_t tableBudget_ = 0;
+  bool nodesReserved_ = false;  // nodes_ reserved up front (bytes() counts its size)
   Rng rng_;
 
   // scratch
@@ -528,13 +540,21 @@ CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::Vector
   const std::size_t perEntry = table_.bytesPerEntry() * 2 + sizeof(Node) + sizeof(double) +
                                sizeof(std::int16_t) + sizeof(std::uint32_t);
   maxEntries_ = std::max<std::size_t>(1024, (budget - alphaBudget_) / perEntry);
-  tableBudget_ = budget / 100 * 65;
-  // Reserved, not touched: the vectors never move (no old and new copy at once) and bytes()
-  // counts what is used.
-  table_.reserve(maxEntries_);
-  nodes_.reserve(maxEntries_);
   if (maxEntries_ > std::numeric_limits<std::uint32_t>::max() / 4)
     maxEntries_ = std::numeric_limits<std::uint32_t>::max() / 4;
+  tableBudget_ = budget / 100 * 65;
+  // Reserved for the most nodes the table budget can hold, not touched: the vectors never
+  // move (no old and new copy at once) and bytes() counts what is used.
+  const std::size_t mostNodes = std::min(
+      maxEntries_, tableBudget_ / (stride_ * sizeof(std::int16_t) + sizeof(Node)) + 1);
+  nodesReserved_ = table_.reserve(mostNodes);
+  if (nodesReserved_) {
+    try {
+      nodes_.reserve(mostNodes);
+    } catch (const std::exception&) {  // a budget beyond the machine: grow as needed
+      nodesReserved_ = false;
+    }
+  }
 
   scratch_.assign(stride_, 0);
   std::vector<std::int16_t> k0(stride_, 0);
@@ -1050,19 +1070,18 @@ std::size_t CertifiedDialogSolver::Impl::nodeFor(const std::int16_t* key, int de
   const auto ins = table_.insert(key);
   const std::size_t n = ins.first;
   // The same statistics reached in fewer turns: share its upper bound (never the other way).
-  std::vector<std::int16_t>& sk = statsScratch_;
-  sk.assign(key, key + stride_);
-  sk[0] = 0;
   std::uint32_t head = static_cast<std::uint32_t>(n);
-  const auto sIns = o_.shareUpperBounds ? statsTable_.insert(sk.data())
-                                        : std::pair<std::size_t, bool>{kNone, false};
-  if (!o_.shareUpperBounds) {
-  } else if (sIns.second) {
-    statsNode_.push_back(head);
-  } else {
-    const std::uint32_t h = statsNode_[sIns.first];
-    if (table_.key(h)[0] <= depth) head = h;
-    else statsNode_[sIns.first] = head;  // this node is the shallowest now
+  if (o_.shareUpperBounds) {
+    statsScratch_.assign(key, key + stride_);
+    statsScratch_[0] = 0;
+    const auto sIns = statsTable_.insert(statsScratch_.data());
+    if (sIns.second) {
+      statsNode_.push_back(head);
+    } else {
+      const std::uint32_t h = statsNode_[sIns.first];
+      if (table_.key(h)[0] <= depth) head = h;
+      else statsNode_[sIns.first] = head;  // this node is the shallowest now
+    }
   }
   nodes_.push_back({upper, lower, group, head, false});
   if (group != kNoGroup || head != n) {
@@ -1174,7 +1193,7 @@ std::size_t CertifiedDialogSolver::Impl::bytes() const {
   return table_.bytes() + subTable_.bytes() + groupTable_.bytes() + groupDataBytes_ +
          groupData_.bucket_count() * sizeof(void*) + statsTable_.bytes() +
          statsNode_.capacity() * sizeof(std::uint32_t) +
-         nodes_.size() * sizeof(Node) +
+         (nodesReserved_ ? nodes_.size() : nodes_.capacity()) * sizeof(Node) +
          subValue_.capacity() * sizeof(double) + subChoice_.capacity() * sizeof(std::int16_t) +
          subAlphaAt_.capacity() * sizeof(std::uint32_t) + subAlpha_.capacity() * sizeof(double);
 }
