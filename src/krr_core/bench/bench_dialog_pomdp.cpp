@@ -126,11 +126,11 @@ int main(int argc, char** argv) {
         for (int k = 0; k < 3; ++k)
           if (reached[k] < 0 && r.gap() <= marks[k]) reached[k] = r.seconds;
       };
-      std::printf("%9s %10s %10s %8s %9s %10s %10s %9s\n", "time_s", "lower", "upper", "gap",
-                  "trials", "nodes", "sub_nodes", "MiB");
+      std::printf("%9s %10s %10s %8s %9s %10s %10s %10s %9s\n", "time_s", "lower", "upper",
+                  "gap", "trials", "nodes", "expanded", "sub_nodes", "MiB");
       auto row = [&](const CertifiedReport& r) {
-        std::printf("%9.3f %10.3f %10.3f %8.3f %9zu %10zu %10zu %9.1f\n", r.seconds, r.lower,
-                    r.upper, r.gap(), r.trials, r.nodes, r.subNodes, r.bytes / 1048576.0);
+        std::printf("%9.3f %10.3f %10.3f %8.3f %9zu %10zu %10zu %10zu %9.1f\n", r.seconds, r.lower,
+                    r.upper, r.gap(), r.trials, r.nodes, r.expanded, r.subNodes, r.bytes / 1048576.0);
         std::fflush(stdout);
       };
       row(solver.report());

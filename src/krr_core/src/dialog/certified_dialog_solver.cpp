@@ -8,6 +8,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <memory>
 #include <numeric>
 #include <unordered_map>
 
@@ -36,6 +37,9 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
 constexpr int kSlots = 3;
 constexpr std::size_t kMaxValues = 64;  // values of one slot
+/// Penalty levels 1 - theta of the room-paid bound (upperRelaxation), largest first.
+constexpr int kNumPaidLevels = 10;
+constexpr double kPaidLevels[kNumPaidLevels] = {1.0, 0.5, 0.3, 0.2, 0.1, 0.05, 0.03, 0.02, 0.01, 0.005};
 
 /// @brief Open-addressing table of fixed-stride int16 keys -> dense indices (a 32-bit hash
 /// tag beside each slot spares most key comparisons).
@@ -170,16 +174,19 @@ class CertifiedDialogSolver::Impl {
   int revealed_ = 1;                          // the slot revealed by the upper bound
 
   // --- search ---
-  struct Node {
+  struct Node {  // 24 bytes: most nodes are never expanded, so they are what memory holds
     double upper, lower;
     std::uint32_t group;  ///< its simplex (see groupTable_), kNoGroup if none
-    /// The shallowest node with the same statistics when this one was created (itself if
-    /// none): the optimal value never grows with fewer questions left, V_d(s) <= V_d'(s) for
-    /// d' <= d, so that node's upper bound is this node's too (see effUpper).
+    /// The shallowest expanded node with the same statistics when this one was created
+    /// (itself if none): the optimal value never grows with fewer questions left,
+    /// V_d(s) <= V_d'(s) for d' <= d, so that node's upper bound is this node's too (see
+    /// effUpper). Only expanded nodes are registered (statsTable_): an unexpanded one's bound
+    /// is its relaxation, no better than this node's own.
     std::uint32_t head;
-    bool expanded;
   };
-  KeyTable statsTable_;                       // statistics without the turn -> shallowest node
+  std::vector<bool> expandedFlags_;           // per node: backed up from its children
+  /// statistics without the turn -> the shallowest expanded node with them
+  KeyTable statsTable_;
   std::vector<std::uint32_t> statsNode_;
   std::vector<std::int16_t> statsScratch_;
   KeyTable table_;
@@ -207,11 +214,43 @@ class CertifiedDialogSolver::Impl {
   std::size_t sharedCuts_ = 0;       // new nodes' upper bounds lowered by another node's
   /// The room weights w of node n on its simplex (data: its groupData_ entry), and the
   /// interpolation sum_r w_r V_r.
-  double simplexWeights(std::size_t n, const std::vector<double>& data, double* w) const;
+  double simplexWeights(const std::int16_t* key, const std::vector<double>& data, double* w) const;
   /// Node n's simplex data, made (corners solved) if it has none.
   std::vector<double>& groupDataOf(std::size_t n);
   /// Node n's upper bound with its simplex's sawtooth applied (valid: see groupTable_).
   double effUpper(std::size_t n) const;
+  /// The shared bounds' cut of an upper bound: the head's bound (kNoHead: none) and the
+  /// sawtooth of the simplex `group` at `key`, skipping node `self`'s own point.
+  double sharedUpper(const std::int16_t* key, double upper, std::uint32_t group,
+                     std::uint32_t head, std::size_t self) const;
+  static constexpr std::uint32_t kNoHead = std::numeric_limits<std::uint32_t>::max();
+
+  /// Children are not nodes until a trial enters them (most never are). An expanded node
+  /// keeps one slot of two words per child position (posOf_: questions_ x answers): the
+  /// child's bounds as floats rounded outwards (upper, lower; the shared bounds as they were
+  /// when it was kept), or, once the child is a node, its index and kLinked (a backup looks
+  /// up the unlinked ones: another parent may have made them nodes).
+  bool leafCache_ = false;
+  std::vector<std::size_t> posOf_;            // first position of question qi
+  std::size_t numPos_ = 0;
+  std::vector<std::uint32_t> slotChunk_, slotAt_;  // per node: where its slots are (expanded)
+  static constexpr std::uint32_t kLinked = 0xffffffffu;  // a NaN pattern: never a bound
+  static constexpr std::size_t kSlotChunkWords = std::size_t{1} << 20;
+  std::vector<std::unique_ptr<std::uint32_t[]>> slotChunks_;
+  std::size_t slotUsed_ = kSlotChunkWords;         // words used in the last chunk
+  std::vector<std::uint32_t> freshSlots_;          // a first expansion's slots
+  std::uint32_t* slotsOf(std::size_t n) const { return &slotChunks_[slotChunk_[n]][slotAt_[n]]; }
+  /// Child bounds from a slot that does not hold a node.
+  static void unpackSlot(const std::uint32_t* w, double& upper, double& lower) {
+    float fu, fl;
+    std::memcpy(&fu, &w[0], sizeof(float));
+    std::memcpy(&fl, &w[1], sizeof(float));
+    lower = fl;
+    upper = std::max(fu, fl);
+  }
+  /// Bounds of a new belief (a node's or a kept child's): serve, relaxation, commit plans.
+  void newBounds(const std::int16_t* key, int depth, const Eigen::VectorXd* hint,
+                 double& upper, double& lower, std::uint32_t& group, std::uint32_t& head);
   /// After n's upper bound fell: record it as a point of its simplex.
   void notePoint(std::size_t n);
   KeyTable subTable_;                         // revealed-slot sub-dialog: exact values
@@ -294,6 +333,7 @@ class CertifiedDialogSolver::Impl {
     std::vector<std::size_t> perm;
     Eigen::VectorXd b, cb, pb;
     std::array<Eigen::VectorXd, kSlots> m;
+    double accT[kNumPaidLevels], bestT[kNumPaidLevels];  // room-paid values (subT_)
     std::vector<std::size_t> kidIdx, bestKid;            // children of a question / the best
     std::vector<std::vector<std::size_t>> kidPerm, bestPerm;  // their canonical permutations
   };
@@ -307,6 +347,39 @@ class CertifiedDialogSolver::Impl {
   static constexpr int kSubServe = -1;
   static constexpr std::uint32_t kNoAlpha = std::numeric_limits<std::uint32_t>::max();
   std::vector<std::int16_t> subChoice_;    // per sub node: question index, or kSubServe
+  /// The room paid for (upperRelaxation, proof in the file comment): per sub node and level
+  /// k, T_k = the value of the relaxation in which the room is known but, until a question
+  /// about it is asked, serving earns the room-known serve minus kPaidLevels[k] Y+(stats).
+  /// subT_[node * kNumPaidLevels + k]; nodes made without it (none for the office) have none.
+  std::vector<double> subT_;
+  /// Gmax(r, r*): the best serve reward when the true room is r and the served request's
+  /// room r* != r (m x m, row r), bounding every wrong-room serve.
+  std::vector<double> wrongRoom_;
+  /// Requests grouped by their values of the slots other than the revealed one.
+  std::vector<std::vector<std::size_t>> otherGroups_;
+  /// Y(stats) of the file comment: min over rooms r (with mass) and r* != r of the room-known
+  /// serve at r minus Gmax(r, r*); -inf when no room pair exists.
+  double roomServeMargin(const std::int16_t* ownZeroed) const;
+  mutable Eigen::MatrixXd marginScratch_;
+  /// Y by the statistics of the slots other than the room (turn and room zeroed): the room
+  /// nodes and the turns of one statistics share it.
+  KeyTable marginTable_{1};
+  std::vector<double> marginValue_;
+  /// A question about the room (the revealed slot) and each answer's likelihood per room
+  /// value (lik[answer * m + r]): the lookahead lower bound's first step.
+  struct RoomLook {
+    std::size_t qi, answers;
+    std::vector<double> lik;
+  };
+  std::vector<RoomLook> roomLooks_;
+  /// The best plan "ask one question about the room, then commit to the room that is best
+  /// for the answer" at belief b, where A[r] is room r's commit plan vector (next turn, in b's
+  /// request order; null: room r not committed to). @return its value (-inf if none);
+  /// bestLook / bestRoom (if given) receive the roomLooks_ index and each answer's room.
+  double lookaheadValue(const Eigen::VectorXd& b, const double* const* A, std::size_t* bestLook,
+                        std::vector<std::size_t>* bestRoom) const;
+  /// theta(b): the most likely any room can become without a question about it.
+  double roomCeiling(const Eigen::VectorXd& b) const;
   std::vector<std::uint32_t> subAlphaAt_;  // per sub node: offset in subAlpha_, or kNoAlpha
   std::vector<double> subAlpha_;
   std::vector<double> alphaBuf_;
@@ -315,6 +388,14 @@ class CertifiedDialogSolver::Impl {
   std::size_t subCapped_ = 0;  // sub-dialog values replaced by the full-information bound
   bool subCut_ = false;        // the sub-dialog hit the memory budget or the timeout
   Stopwatch created_;          // the timeout counts from construction (set-up included)
+  /// upperRelaxation's last other-slots key (turn included, the room's section zero) and
+  /// its sub-dialog nodes per room, at the turn (at[r]) and the next (at[kMaxValues + r]).
+  static constexpr std::size_t kUnknownSub = kNone - 1;
+  struct SubMemo {
+    std::vector<std::int16_t> key, scratch;
+    std::size_t at[2 * kMaxValues];
+    std::uint32_t group = kNoGroup;
+  } subMemo_;
   /// The room-revealed upper bound at a main key; commitLower (if given) receives the best
   /// "commit to one value of the revealed slot" plan's value (-inf if none).
   double upperRelaxation(const std::int16_t* key, const Eigen::VectorXd& b,
@@ -334,10 +415,13 @@ class CertifiedDialogSolver::Impl {
   };
   /// The children backup() read, per question qi: kidProb_ / kidNode_ from kidStart_[qi] to
   /// kidStart_[qi + 1] (valid until the next backup()).
-  std::vector<double> kidProb_;
-  std::vector<std::size_t> kidNode_, kidStart_;
+  std::vector<double> kidProb_, kidUpper_, kidLower_;
+  std::vector<std::size_t> kidNode_, kidStart_, kidAnswer_;  // kidNode_: kNone for a kept child
+  std::vector<std::size_t> kidPos_;
   Backup backup(std::size_t n);
   void trial();
+  /// A kept child's slot: floats rounded outwards (the kept bounds stay bounds).
+  static void packSlot(double upper, double lower, std::uint32_t* w);
   bool memoryExceeded() const;
   std::size_t bytes() const;
   bool run(std::size_t maxMore);
@@ -526,9 +610,44 @@ CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::Vector
   revealed_ = 0;
   for (int k = 1; k < kSlots; ++k)
     if (slot_[k].n >= slot_[revealed_].n) revealed_ = k;
+  {
+    const std::size_t m = slot_[revealed_].n;
+    wrongRoom_.assign(m * m, -kInf);
+    for (std::size_t s = 0; s < nReq_; ++s)
+      for (std::size_t a = 0; a < nReq_; ++a) {
+        const std::size_t r = parts_[s][revealed_], r2 = parts_[a][revealed_];
+        if (r != r2) {
+          double& g = wrongRoom_[r * m + r2];
+          g = std::max(g, serveR_(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(a)));
+        }
+      }
+    std::map<std::pair<std::size_t, std::size_t>, std::vector<std::size_t>> groups;
+    for (std::size_t s = 0; s < nReq_; ++s) {
+      std::size_t o[2], j = 0;
+      for (int k = 0; k < kSlots; ++k)
+        if (k != revealed_) o[j++] = parts_[s][k];
+      groups[{o[0], o[1]}].push_back(s);
+    }
+    for (auto& g : groups) otherGroups_.push_back(std::move(g.second));
+    for (std::size_t qi = 0; qi < questions_.size(); ++qi) {
+      const Question& q = questions_[qi];
+      if (q.slot != revealed_ || q.kind == QKind::kStall) continue;
+      RoomLook L{qi, numAnswers(q), {}};
+      for (std::size_t o = 0; o < L.answers; ++o)
+        for (std::size_t r = 0; r < m; ++r) L.lik.push_back(answerLikelihood(q, o, r));
+      roomLooks_.push_back(std::move(L));
+    }
+  }
 
+  posOf_.clear();
+  for (const Question& q : questions_) {
+    posOf_.push_back(numPos_);
+    numPos_ += numAnswers(q);
+  }
+  leafCache_ = o_.keepLeaves;
   table_ = KeyTable(stride_);
   subTable_ = KeyTable(stride_);
+  marginTable_ = KeyTable(stride_);
   groupTable_ = KeyTable(stride_);
   statsTable_ = KeyTable(stride_);
   subScratch_.resize(static_cast<std::size_t>(horizon_) + 2);
@@ -537,7 +656,7 @@ CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::Vector
   // An eighth of the budget for the sub-dialog's plan vectors (the office's: 112 MB), the
   // rest for the tables.
   alphaBudget_ = o_.commitLower ? std::min<std::size_t>(budget / 8, std::size_t{1} << 34) : 0;
-  const std::size_t perEntry = table_.bytesPerEntry() * 2 + sizeof(Node) + sizeof(double) +
+  const std::size_t perEntry = table_.bytesPerEntry() + sizeof(Node) + sizeof(double) +
                                sizeof(std::int16_t) + sizeof(std::uint32_t);
   maxEntries_ = std::max<std::size_t>(1024, (budget - alphaBudget_) / perEntry);
   if (maxEntries_ > std::numeric_limits<std::uint32_t>::max() / 4)
@@ -551,6 +670,7 @@ CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::Vector
   if (nodesReserved_) {
     try {
       nodes_.reserve(mostNodes);
+      expandedFlags_.reserve(mostNodes);
     } catch (const std::exception&) {  // a budget beyond the machine: grow as needed
       nodesReserved_ = false;
     }
@@ -777,8 +897,17 @@ std::size_t CertifiedDialogSolver::Impl::subNode(const std::int16_t* key,
   std::size_t serveA = 0;
   sc.bestKid.clear();
   sc.bestPerm.clear();
+  std::fill(sc.bestT, sc.bestT + kNumPaidLevels, -kInf);
   if (ok) {
     v = serveValue(sc.b, &serveA);
+    if (o_.roomPaidBound) {
+      sc.kid.assign(sc.own.begin(), sc.own.end());  // free here: the children come later
+      sc.kid[0] = 0;
+      const auto mIns = marginTable_.insert(sc.kid.data());
+      if (mIns.second) marginValue_.push_back(std::max(0.0, roomServeMargin(sc.own.data())));
+      const double y = marginValue_[mIns.first];
+      for (int k = 0; k < kNumPaidLevels; ++k) sc.bestT[k] = v - kPaidLevels[k] * y;
+    }
     if (depth < horizon_) {
       marginals(sc.b, sc.m);
       double stallCost = kInf;  // questions on the known slot inform nothing: a stall
@@ -790,6 +919,7 @@ std::size_t CertifiedDialogSolver::Impl::subNode(const std::int16_t* key,
           continue;
         }
         double acc = 0.0;
+        std::fill(sc.accT, sc.accT + kNumPaidLevels, 0.0);
         const std::size_t na = numAnswers(q);
         sc.kidIdx.assign(na, kNone);
         sc.kidPerm.resize(na);
@@ -812,8 +942,15 @@ std::size_t CertifiedDialogSolver::Impl::subNode(const std::int16_t* key,
           sc.kidIdx[answer] = ci;
           sc.kidPerm[answer] = sc.perm;
           acc += p * cv;
+          if (o_.roomPaidBound)
+            for (int k = 0; k < kNumPaidLevels; ++k)  // a child without T: V bounds it
+              sc.accT[k] += p * (ci != kNone && ci * kNumPaidLevels < subT_.size()
+                                     ? subT_[ci * kNumPaidLevels + k] : cv);
         }
         const double qv = -q.cost + gamma_ * acc;
+        if (o_.roomPaidBound)
+          for (int k = 0; k < kNumPaidLevels; ++k)
+            sc.bestT[k] = std::max(sc.bestT[k], -q.cost + gamma_ * sc.accT[k]);
         if (qv > v) {
           v = qv;
           choice = static_cast<int>(qi);
@@ -828,6 +965,10 @@ std::size_t CertifiedDialogSolver::Impl::subNode(const std::int16_t* key,
         double cv;
         const std::size_t ci = subNode(ck.data(), &same, &cv);
         const double qv = -stallCost + gamma_ * cv;
+        // A question about the room ends the penalty (the room is known from then on: the
+        // next turn's room-known value); a true stall keeps it, and V bounds that too.
+        if (o_.roomPaidBound)
+          for (int k = 0; k < kNumPaidLevels; ++k) sc.bestT[k] = std::max(sc.bestT[k], qv);
         if (qv > v) {
           v = qv;
           choice = stallQ;
@@ -840,6 +981,10 @@ std::size_t CertifiedDialogSolver::Impl::subNode(const std::int16_t* key,
   const std::size_t idx = subTable_.insert(key).first;
   subValue_.push_back(v);
   subChoice_.push_back(static_cast<std::int16_t>(choice));
+  if (o_.roomPaidBound && subT_.size() == idx * kNumPaidLevels) {
+    for (int k = 0; k < kNumPaidLevels; ++k)
+      subT_.push_back(ok ? std::min(sc.bestT[k], v) : v);
+  }
   subAlphaAt_.push_back(ok ? subPlanAlpha(sc, choice, serveA) : kNoAlpha);
   *value = v;
   return idx;
@@ -885,6 +1030,88 @@ std::uint32_t CertifiedDialogSolver::Impl::subPlanAlpha(const SubScratch& at0, i
   return at;
 }
 
+double CertifiedDialogSolver::Impl::roomServeMargin(const std::int16_t* ownZeroed) const {
+  // The belief with the room's likelihoods all 1: b|r of every room at these statistics.
+  Eigen::VectorXd b;
+  if (!belief(ownZeroed, b)) return -kInf;
+  const std::size_t m = slot_[revealed_].n;
+  double mass[kMaxValues] = {0.0};
+  for (std::size_t s = 0; s < nReq_; ++s) mass[parts_[s][revealed_]] += b(static_cast<Eigen::Index>(s));
+  // acc(r, a) = sum_{s in r} b(s) R(s, a); the room-known serve at r is max_a acc(r, a) / mass_r
+  Eigen::MatrixXd& acc = marginScratch_;
+  acc.setZero(static_cast<Eigen::Index>(m), static_cast<Eigen::Index>(nReq_));
+  for (std::size_t s = 0; s < nReq_; ++s) {
+    const double x = b(static_cast<Eigen::Index>(s));
+    if (x > 0.0) acc.row(static_cast<Eigen::Index>(parts_[s][revealed_])) += x * serveR_.row(static_cast<Eigen::Index>(s));
+  }
+  double y = kInf;
+  for (std::size_t r = 0; r < m; ++r) {
+    if (!(mass[r] > 0.0)) continue;
+    const double serve = acc.row(static_cast<Eigen::Index>(r)).maxCoeff() / mass[r];
+    for (std::size_t r2 = 0; r2 < m; ++r2)
+      if (r2 != r) y = std::min(y, serve - wrongRoom_[r * m + r2]);
+  }
+  return y == kInf ? -kInf : y;
+}
+
+double CertifiedDialogSolver::Impl::lookaheadValue(const Eigen::VectorXd& b,
+                                                   const double* const* A, std::size_t* bestLook,
+                                                   std::vector<std::size_t>* bestRoom) const {
+  // P(r, r') = sum over requests s in room r' of A_r(s) b(s): an answer's likelihood depends
+  // on the room only, so plan r's value after answer o is sum_r' P(r, r') lik_o(r').
+  const std::size_t m = slot_[revealed_].n;
+  double P[kMaxValues * kMaxValues];
+  bool any = false;
+  for (std::size_t r = 0; r < m; ++r) {
+    double* row = P + r * m;
+    std::fill(row, row + m, 0.0);
+    if (!A[r]) continue;
+    any = true;
+    for (std::size_t s = 0; s < nReq_; ++s)
+      row[parts_[s][revealed_]] += A[r][s] * b(static_cast<Eigen::Index>(s));
+  }
+  double best = -kInf;
+  if (!any) return best;
+  std::vector<std::size_t> rooms;
+  for (std::size_t li = 0; li < roomLooks_.size(); ++li) {
+    const RoomLook& L = roomLooks_[li];
+    double tot = 0.0;
+    rooms.assign(L.answers, 0);
+    for (std::size_t o = 0; o < L.answers; ++o) {
+      const double* lik = &L.lik[o * m];
+      double hi = -kInf;
+      for (std::size_t r = 0; r < m; ++r) {
+        if (!A[r]) continue;
+        double x = 0.0;
+        for (std::size_t r2 = 0; r2 < m; ++r2) x += P[r * m + r2] * lik[r2];
+        if (x > hi) hi = x, rooms[o] = r;
+      }
+      tot += hi;
+    }
+    const double v = -questions_[L.qi].cost + gamma_ * tot;
+    if (v > best) {
+      best = v;
+      if (bestLook) *bestLook = li;
+      if (bestRoom) *bestRoom = rooms;
+    }
+  }
+  return best;
+}
+
+double CertifiedDialogSolver::Impl::roomCeiling(const Eigen::VectorXd& b) const {
+  double theta = 0.0;
+  for (const auto& g : otherGroups_) {
+    double sum = 0.0, hi = 0.0;
+    for (const std::size_t s : g) {
+      const double x = b(static_cast<Eigen::Index>(s));
+      sum += x;
+      hi = std::max(hi, x);
+    }
+    if (sum > 0.0) theta = std::max(theta, hi / sum);
+  }
+  return std::min(theta, 1.0);
+}
+
 double CertifiedDialogSolver::Impl::subDialogValue(const std::int16_t* key,
                                                    const Eigen::VectorXd* hint) {
   double v;
@@ -898,17 +1125,47 @@ double CertifiedDialogSolver::Impl::upperRelaxation(const std::int16_t* key,
   const SlotCode& rc = slot_[revealed_];
   Eigen::VectorXd mr = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(rc.n));
   for (std::size_t s = 0; s < nReq_; ++s) mr(static_cast<Eigen::Index>(parts_[s][revealed_])) += b(static_cast<Eigen::Index>(s));
-  std::vector<std::int16_t> sub(key, key + stride_);
+  std::vector<std::int16_t>& sub = subMemo_.scratch;
+  sub.assign(key, key + stride_);
   std::fill(sub.begin() + static_cast<long>(rc.offset),
             sub.begin() + static_cast<long>(rc.offset + rc.n * rc.width), 0);
+  // The children of a question about the room share their other slots and turn: their
+  // sub-dialog nodes are looked up once.
+  if (sub != subMemo_.key) {
+    subMemo_.key = sub;
+    std::fill(subMemo_.at, subMemo_.at + 2 * kMaxValues, kUnknownSub);
+    subMemo_.group = kNoGroup;
+  }
+  auto subIndex = [&](int later, std::size_t r, double* v) {
+    std::size_t& at = subMemo_.at[later * kMaxValues + r];
+    if (at != kUnknownSub) {
+      *v = subValue_[at];
+      return at;
+    }
+    sub[rc.offset] = static_cast<std::int16_t>(r);
+    sub[0] = static_cast<std::int16_t>(key[0] + later);
+    const std::size_t i = subNode(sub.data(), nullptr, v);
+    sub[0] = key[0];
+    if (i != kNone) at = i;  // a cut-off node has no index (its value is computed)
+    return i;
+  };
   double u = 0.0, commit = -kInf;
+  // The room paid for: the largest level whose penalty 1 - theta allows (kNumPaidLevels: none).
+  int level = kNumPaidLevels;
+  if (o_.roomPaidBound) {
+    const double slack = 1.0 - roomCeiling(b);
+    for (int k = 0; k < kNumPaidLevels && level == kNumPaidLevels; ++k)
+      if (kPaidLevels[k] <= slack) level = k;
+  }
+  double paid = 0.0;
   for (std::size_t r = 0; r < rc.n; ++r) {
     const double w = mr(static_cast<Eigen::Index>(r));
     if (!(w > 0.0)) continue;
-    sub[rc.offset] = static_cast<std::int16_t>(r);
     double v;
-    const std::size_t i = subNode(sub.data(), nullptr, &v);
+    const std::size_t i = subIndex(0, r, &v);
     u += w * v;
+    paid += w * (level < kNumPaidLevels && i != kNone && (i + 1) * kNumPaidLevels <= subT_.size()
+                     ? subT_[i * kNumPaidLevels + level] : v);
     // Commit to r: run r's sub-dialog plan, whatever the true value (a plan the robot can
     // run; its vector is exact for every request, the sub-key's order is this key's).
     if (commitLower && i != kNone && subAlphaAt_[i] != kNoAlpha) {
@@ -918,10 +1175,28 @@ double CertifiedDialogSolver::Impl::upperRelaxation(const std::int16_t* key,
       commit = std::max(commit, c);
     }
   }
+  u = std::min(u, paid);
+  if (commitLower && o_.roomLookahead && !roomLooks_.empty()) {
+    // Ask about the room once, then commit (valued at the next turn's plans).
+    const double* A[kMaxValues];
+    bool all = true;
+    for (std::size_t r = 0; r < rc.n && all; ++r) {
+      A[r] = nullptr;
+      if (!(mr(static_cast<Eigen::Index>(r)) > 0.0)) continue;
+      double v;
+      const std::size_t i = subIndex(1, r, &v);
+      if (i == kNone || subAlphaAt_[i] == kNoAlpha) all = false;
+      else A[r] = &subAlpha_[subAlphaAt_[i]];
+    }
+    if (all) commit = std::max(commit, lookaheadValue(b, A, nullptr, nullptr));
+  }
   if (commitLower) *commitLower = commit;
   if (group) {
-    sub[rc.offset] = 0;
-    *group = static_cast<std::uint32_t>(groupTable_.insert(sub.data()).first);
+    if (subMemo_.group == kNoGroup) {
+      sub[rc.offset] = 0;
+      subMemo_.group = static_cast<std::uint32_t>(groupTable_.insert(sub.data()).first);
+    }
+    *group = subMemo_.group;
   }
   return u;
 }
@@ -951,12 +1226,13 @@ std::vector<double>& CertifiedDialogSolver::Impl::groupDataOf(std::size_t n) {
   return groupData_.emplace(nodes_[n].group, std::move(data)).first->second;
 }
 
-double CertifiedDialogSolver::Impl::simplexWeights(std::size_t n, const std::vector<double>& data,
+double CertifiedDialogSolver::Impl::simplexWeights(const std::int16_t* key,
+                                                   const std::vector<double>& data,
                                                    double* w) const {
   const SlotCode& rc = slot_[revealed_];
   const double* Z = data.data();
   const double* V = Z + rc.n;
-  const std::int16_t* e = table_.key(n) + rc.offset;
+  const std::int16_t* e = key + rc.offset;
   double l[kMaxValues], hi = -kInf;
   for (std::size_t r = 0; r < rc.n; ++r) {
     double x = 0.0;
@@ -981,18 +1257,24 @@ double CertifiedDialogSolver::Impl::simplexWeights(std::size_t n, const std::vec
 
 double CertifiedDialogSolver::Impl::effUpper(std::size_t n) const {
   const Node& nd = nodes_[n];
-  const double own = std::min(nd.upper, nodes_[nd.head].upper);
-  if (nd.group == kNoGroup) return own;
-  const auto found = groupData_.find(nd.group);
+  return sharedUpper(table_.key(n), nd.upper, nd.group, nd.head, n);
+}
+
+double CertifiedDialogSolver::Impl::sharedUpper(const std::int16_t* key, double upper,
+                                                std::uint32_t group, std::uint32_t head,
+                                                std::size_t self) const {
+  const double own = head == kNoHead ? upper : std::min(upper, nodes_[head].upper);
+  if (group == kNoGroup) return own;
+  const auto found = groupData_.find(group);
   if (found == groupData_.end()) return own;
   const std::vector<double>& pts = found->second;
   const std::size_t m = slot_[revealed_].n, width = m + 2;
   if (pts.size() <= 2 * m) return own;  // corners known, no point yet
   double w[kMaxValues];
-  const double line = simplexWeights(n, pts, w);
+  const double line = simplexWeights(key, pts, w);
   double cut = 0.0;
   for (std::size_t j = 2 * m; j + width <= pts.size(); j += width) {
-    if (static_cast<std::size_t>(pts[j]) == n) continue;
+    if (static_cast<std::size_t>(pts[j]) == self) continue;
     double rho = kInf;
     for (std::size_t r = 0; r < m && rho > 0.0; ++r)
       if (pts[j + 2 + r] > 0.0) rho = std::min(rho, w[r] / pts[j + 2 + r]);
@@ -1007,7 +1289,7 @@ void CertifiedDialogSolver::Impl::notePoint(std::size_t n) {
   const std::size_t m = slot_[revealed_].n, width = m + 2;
   double w[kMaxValues];
   std::vector<double>& pts = groupDataOf(n);
-  const double delta = simplexWeights(n, pts, w) - nd.upper;
+  const double delta = simplexWeights(table_.key(n), pts, w) - nd.upper;
   if (!(delta > 1e-9)) return;
   const std::size_t before = pts.capacity();
   std::size_t at = pts.size(), weakest = pts.size();
@@ -1052,6 +1334,27 @@ std::size_t CertifiedDialogSolver::Impl::nodeFor(const std::int16_t* key, int de
                                                  const Eigen::VectorXd* hint) {
   const std::size_t found = table_.find(key);
   if (found != kNone) return found;
+  double upper, lower;
+  std::uint32_t group, head;
+  newBounds(key, depth, hint, upper, lower, group, head);
+  const std::size_t n = table_.insert(key).first;
+  if (head == kNoHead) head = static_cast<std::uint32_t>(n);
+  nodes_.push_back({upper, lower, group, head});
+  expandedFlags_.push_back(false);
+  slotChunk_.push_back(0);
+  slotAt_.push_back(0);
+  if (group != kNoGroup || head != n) {
+    const double cut = effUpper(n);
+    if (cut < nodes_[n].upper) ++sharedCuts_;
+    nodes_[n].upper = std::max(cut, lower);
+  }
+  return n;
+}
+
+void CertifiedDialogSolver::Impl::newBounds(const std::int16_t* key, int depth,
+                                            const Eigen::VectorXd* hint, double& upper,
+                                            double& lower, std::uint32_t& group,
+                                            std::uint32_t& head) {
   Eigen::VectorXd own;
   if (!hint) {
     if (!belief(key, own)) throw ConfigError("certified dialog solver: a reachable belief is empty");
@@ -1059,37 +1362,23 @@ std::size_t CertifiedDialogSolver::Impl::nodeFor(const std::int16_t* key, int de
   }
   const Eigen::VectorXd& b = *hint;
   const double serve = serveValue(b);
-  double upper = serve, lower = serve;
-  std::uint32_t group = kNoGroup;
+  upper = serve;
+  lower = serve;
+  group = kNoGroup;
   if (depth < horizon_) {
     double commit = -kInf;
     upper = std::max(serve, upperRelaxation(key, b, o_.commitLower ? &commit : nullptr,
                                             o_.shareUpperBounds ? &group : nullptr));
     lower = std::max(lower, commit);  // a plan the robot can run
   }
-  const auto ins = table_.insert(key);
-  const std::size_t n = ins.first;
   // The same statistics reached in fewer turns: share its upper bound (never the other way).
-  std::uint32_t head = static_cast<std::uint32_t>(n);
+  head = kNoHead;
   if (o_.shareUpperBounds) {
     statsScratch_.assign(key, key + stride_);
     statsScratch_[0] = 0;
-    const auto sIns = statsTable_.insert(statsScratch_.data());
-    if (sIns.second) {
-      statsNode_.push_back(head);
-    } else {
-      const std::uint32_t h = statsNode_[sIns.first];
-      if (table_.key(h)[0] <= depth) head = h;
-      else statsNode_[sIns.first] = head;  // this node is the shallowest now
-    }
+    const std::size_t at = statsTable_.find(statsScratch_.data());
+    if (at != kNone && table_.key(statsNode_[at])[0] <= depth) head = statsNode_[at];
   }
-  nodes_.push_back({upper, lower, group, head, false});
-  if (group != kNoGroup || head != n) {
-    const double cut = effUpper(n);
-    if (cut < nodes_[n].upper) ++sharedCuts_;
-    nodes_[n].upper = std::max(cut, lower);
-  }
-  return n;
 }
 
 CertifiedDialogSolver::Impl::Backup CertifiedDialogSolver::Impl::backup(std::size_t n) {
@@ -1101,6 +1390,10 @@ CertifiedDialogSolver::Impl::Backup CertifiedDialogSolver::Impl::backup(std::siz
   const double serve = serveValue(b);
   kidProb_.clear();
   kidNode_.clear();
+  kidUpper_.clear();
+  kidLower_.clear();
+  kidAnswer_.clear();
+  kidPos_.clear();
   kidStart_.assign(1, 0);
   if (depth >= horizon_) {
     nodes_[n].upper = nodes_[n].lower = serve;
@@ -1112,24 +1405,67 @@ CertifiedDialogSolver::Impl::Backup CertifiedDialogSolver::Impl::backup(std::siz
   std::vector<std::int16_t> kid(stride_);
   std::vector<std::size_t> perm;
   Eigen::VectorXd cb, pb;
+  // Slots (see leafCache_): read them once expanded; made at the first expansion.
+  const bool makeSlots = leafCache_ && !expandedFlags_[n];
+  std::uint32_t* slots = leafCache_ && expandedFlags_[n] ? slotsOf(n) : nullptr;
+  if (makeSlots) freshSlots_.assign(2 * numPos_, 0);
   for (std::size_t qi = 0; qi < questions_.size(); ++qi) {
     const Question& q = questions_[qi];
     double qu = 0.0, ql = 0.0;
     for (std::size_t answer = 0; answer < numAnswers(q); ++answer) {
       const double p = answerProb(m[q.slot], q, answer);
       if (!(p > 1e-300)) continue;
-      childKey(key.data(), q, answer, kid.data());
-      canonicalize(kid.data(), &perm);
-      std::size_t c = table_.find(kid.data());
-      if (c == kNone) {
-        childBelief(b, q, answer, p, cb);
-        permuteBelief(cb, perm, pb);
-        c = nodeFor(kid.data(), depth + 1, &pb);
+      const std::size_t pos = posOf_.empty() ? 0 : posOf_[qi] + answer;
+      std::size_t c = kNone;
+      double cu, cl;
+      if (slots && slots[2 * pos + 1] == kLinked) {
+        c = slots[2 * pos];
+      } else if (slots) {
+        // Another parent may have made it a node since (the same statistics by another
+        // order of questions): link it, its bounds only get better.
+        childKey(key.data(), q, answer, kid.data());
+        canonicalize(kid.data());
+        c = table_.find(kid.data());
+        if (c != kNone) {
+          slots[2 * pos] = static_cast<std::uint32_t>(c);
+          slots[2 * pos + 1] = kLinked;
+        } else {
+          unpackSlot(slots + 2 * pos, cu, cl);
+        }
+      } else {
+        childKey(key.data(), q, answer, kid.data());
+        canonicalize(kid.data(), &perm);
+        c = table_.find(kid.data());
+        if (c == kNone) {
+          childBelief(b, q, answer, p, cb);
+          permuteBelief(cb, perm, pb);
+          if (makeSlots) {
+            double u, l;
+            std::uint32_t g, h;
+            newBounds(kid.data(), depth + 1, &pb, u, l, g, h);
+            // the shared bounds as they are now (a kept child's bound is not revisited)
+            packSlot(std::max(sharedUpper(kid.data(), u, g, h, kNone), l), l, &freshSlots_[2 * pos]);
+            unpackSlot(&freshSlots_[2 * pos], cu, cl);
+          } else {
+            c = nodeFor(kid.data(), depth + 1, &pb);
+          }
+        } else if (makeSlots) {
+          freshSlots_[2 * pos] = static_cast<std::uint32_t>(c);
+          freshSlots_[2 * pos + 1] = kLinked;
+        }
       }
-      qu += p * std::max(effUpper(c), nodes_[c].lower);
-      ql += p * nodes_[c].lower;
+      if (c != kNone) {
+        cl = nodes_[c].lower;
+        cu = std::max(effUpper(c), cl);
+      }
+      qu += p * cu;
+      ql += p * cl;
       kidProb_.push_back(p);
       kidNode_.push_back(c);
+      kidUpper_.push_back(cu);
+      kidLower_.push_back(cl);
+      kidAnswer_.push_back(answer);
+      kidPos_.push_back(pos);
     }
     kidStart_.push_back(kidNode_.size());
     qu = -q.cost + gamma_ * qu;
@@ -1137,15 +1473,43 @@ CertifiedDialogSolver::Impl::Backup CertifiedDialogSolver::Impl::backup(std::siz
     if (qu > bestU) bestU = qu, r.bestUpper = qi;
     if (ql > bestL) bestL = ql, r.bestLower = qi;
   }
+  if (makeSlots) {
+    if (slotUsed_ + freshSlots_.size() > kSlotChunkWords) {
+      slotChunks_.emplace_back(new std::uint32_t[kSlotChunkWords]);
+      slotUsed_ = 0;
+    }
+    slotChunk_[n] = static_cast<std::uint32_t>(slotChunks_.size() - 1);
+    slotAt_[n] = static_cast<std::uint32_t>(slotUsed_);
+    std::copy(freshSlots_.begin(), freshSlots_.end(), &slotChunks_.back()[slotUsed_]);
+    slotUsed_ += freshSlots_.size();
+  }
   Node& nd = nodes_[n];
-  if (!nd.expanded) ++expanded_;
-  nd.expanded = true;
+  if (!expandedFlags_[n]) {
+    ++expanded_;
+    expandedFlags_[n] = true;
+    if (o_.shareUpperBounds) {  // register n as its statistics' head if it is the shallowest
+      statsScratch_.assign(key.begin(), key.end());
+      statsScratch_[0] = 0;
+      const auto sIns = statsTable_.insert(statsScratch_.data());
+      if (sIns.second) statsNode_.push_back(static_cast<std::uint32_t>(n));
+      else if (table_.key(statsNode_[sIns.first])[0] > depth)
+        statsNode_[sIns.first] = static_cast<std::uint32_t>(n);
+    }
+  }
   nd.upper = std::min(nd.upper, bestU);
   nd.lower = std::max(nd.lower, bestL);
   nd.upper = std::min(nd.upper, effUpper(n));
   if (nd.upper < nd.lower) nd.upper = nd.lower;  // rounding
   notePoint(n);
   return r;
+}
+
+void CertifiedDialogSolver::Impl::packSlot(double upper, double lower, std::uint32_t* w) {
+  float fu = static_cast<float>(upper), fl = static_cast<float>(lower);
+  if (static_cast<double>(fu) < upper) fu = std::nextafter(fu, std::numeric_limits<float>::infinity());
+  if (static_cast<double>(fl) > lower) fl = std::nextafter(fl, -std::numeric_limits<float>::infinity());
+  std::memcpy(&w[0], &fu, sizeof(float));
+  std::memcpy(&w[1], &fl, sizeof(float));
 }
 
 void CertifiedDialogSolver::Impl::trial() {
@@ -1167,10 +1531,9 @@ void CertifiedDialogSolver::Impl::trial() {
     const bool yesFirst = questions_[act].kind == QKind::kConfirm;
     for (std::size_t j = kidStart_[act]; j < kidStart_[act + 1]; ++j) {
       const std::size_t i = yesFirst ? kidStart_[act + 1] - 1 - (j - kidStart_[act]) : j;
-      const std::size_t c = kidNode_[i];
-      const double gap = std::max(effUpper(c), nodes_[c].lower) - nodes_[c].lower;
+      const double gap = kidUpper_[i] - kidLower_[i];
       // HSVI's excess uncertainty, sampled (following the largest one stalls on this model)
-      cand.push_back({gap > thr ? kidProb_[i] * (gap - thr) : 0.0, c});
+      cand.push_back({gap > thr ? kidProb_[i] * (gap - thr) : 0.0, i});
       total += cand.back().first;
     }
     if (!(total > 0.0)) break;
@@ -1182,7 +1545,18 @@ void CertifiedDialogSolver::Impl::trial() {
       if (u < cand[i].first) break;
       u -= cand[i].first;
     }
-    path.push_back(cand[pick].second);
+    const std::size_t i = cand[pick].second;
+    std::size_t c = kidNode_[i];
+    if (c == kNone) {  // a kept child: the trial enters it, so it becomes a node, linked here
+      std::vector<std::int16_t> kid(stride_);
+      childKey(table_.key(n), questions_[act], kidAnswer_[i], kid.data());
+      canonicalize(kid.data());
+      c = nodeFor(kid.data(), depth + 1);
+      std::uint32_t* w = slotsOf(n) + 2 * kidPos_[i];
+      w[0] = static_cast<std::uint32_t>(c);
+      w[1] = kLinked;
+    }
+    path.push_back(c);
   }
   for (auto it = path.rbegin(); it != path.rend(); ++it) backup(*it);
   ++trials_;
@@ -1194,7 +1568,12 @@ std::size_t CertifiedDialogSolver::Impl::bytes() const {
          groupData_.bucket_count() * sizeof(void*) + statsTable_.bytes() +
          statsNode_.capacity() * sizeof(std::uint32_t) +
          (nodesReserved_ ? nodes_.size() : nodes_.capacity()) * sizeof(Node) +
+         expandedFlags_.capacity() / 8 +
+         slotChunks_.size() * kSlotChunkWords * sizeof(std::uint32_t) +
+         (slotChunk_.capacity() + slotAt_.capacity()) * sizeof(std::uint32_t) +
          subValue_.capacity() * sizeof(double) + subChoice_.capacity() * sizeof(std::int16_t) +
+         subT_.capacity() * sizeof(double) + marginTable_.bytes() +
+         marginValue_.capacity() * sizeof(double) +
          subAlphaAt_.capacity() * sizeof(std::uint32_t) + subAlpha_.capacity() * sizeof(double);
 }
 
@@ -1256,7 +1635,7 @@ double CertifiedDialogSolver::Impl::exactValue(std::int16_t* key, int depth,
 std::size_t CertifiedDialogSolver::Impl::lowerChoice(const std::int16_t* ck) const {
   const std::size_t n = table_.find(ck);
   const int depth = ck[0];
-  if (n == kNone || !nodes_[n].expanded || depth >= horizon_) return kNone;
+  if (n == kNone || !expandedFlags_[n] || depth >= horizon_) return kNone;
   Eigen::VectorXd b;
   belief(ck, b);
   const double serve = serveValue(b);
@@ -1265,17 +1644,28 @@ std::size_t CertifiedDialogSolver::Impl::lowerChoice(const std::int16_t* ck) con
   std::size_t best = kNone;
   double bestL = serve + 1e-9 * (1.0 + std::abs(serve));
   std::vector<std::int16_t> kid(stride_);
+  const std::uint32_t* slots = leafCache_ ? slotsOf(n) : nullptr;
   for (std::size_t qi = 0; qi < questions_.size(); ++qi) {
     const Question& q = questions_[qi];
     double ql = 0.0;
     bool complete = true;
-    forEachChild(ck, m, q, [&](double p, const std::int16_t* c) {
-      std::copy(c, c + stride_, kid.begin());
+    for (std::size_t answer = 0; answer < numAnswers(q) && complete; ++answer) {
+      const double p = answerProb(m[q.slot], q, answer);
+      if (!(p > 1e-300)) continue;
+      if (slots) {
+        const std::uint32_t* w = slots + 2 * (posOf_[qi] + answer);
+        double u, l;
+        if (w[1] == kLinked) l = nodes_[w[0]].lower;
+        else unpackSlot(w, u, l);
+        ql += p * l;
+        continue;
+      }
+      childKey(ck, q, answer, kid.data());
       canonicalize(kid.data());
       const std::size_t ci = table_.find(kid.data());
-      if (ci == kNone) complete = false;
-      else ql += p * nodes_[ci].lower;
-    });
+      if (ci != kNone) ql += p * nodes_[ci].lower;
+      else complete = false;
+    }
     if (!complete) continue;
     ql = -q.cost + gamma_ * ql;
     if (ql > bestL) bestL = ql, best = qi;
@@ -1382,7 +1772,50 @@ const Eigen::VectorXd& CertifiedDialogSolver::Impl::planVector(
         }
         if (v > bestCommit) bestCommit = v, bestR = r;
       }
-      if (bestR != kNone) {
+      // Or a question about the room first, then the commit plan best for its answer (the
+      // next turn's plans, in this key's request order).
+      std::size_t look = kNone;
+      std::vector<std::size_t> lookRoom;
+      if (o_.roomLookahead && !roomLooks_.empty()) {
+        std::vector<Eigen::VectorXd> next(rc.n);
+        const double* A[kMaxValues];
+        bool all = true;
+        ++sub[0];
+        for (std::size_t r = 0; r < rc.n && all; ++r) {
+          A[r] = nullptr;
+          double w = 0.0;
+          for (std::size_t s = 0; s < nReq_; ++s)
+            if (parts_[s][revealed_] == r) w += b(static_cast<Eigen::Index>(s));
+          if (!(w > 0.0)) continue;
+          sub[rc.offset] = static_cast<std::int16_t>(r);
+          canonSub = sub;
+          canonicalize(canonSub.data(), &sperm, 1 << revealed_);
+          const std::size_t i = subTable_.find(canonSub.data());
+          if (i == kNone || subAlphaAt_[i] == kNoAlpha) { all = false; break; }
+          const double* a = &subAlpha_[subAlphaAt_[i]];
+          next[r].resize(static_cast<Eigen::Index>(nReq_));
+          for (std::size_t c = 0; c < nReq_; ++c) {
+            const auto& pt = parts_[c];
+            next[r](static_cast<Eigen::Index>(d_.requestIndex(sperm[pt[0]], sperm[o1 + pt[1]], sperm[o2 + pt[2]]))) = a[c];
+          }
+          A[r] = next[r].data();
+        }
+        --sub[0];
+        std::size_t li = kNone;
+        if (all && lookaheadValue(b, A, &li, &lookRoom) > bestCommit && li != kNone) look = li;
+      }
+      if (look != kNone) {
+        const Question& q = questions_[roomLooks_[look].qi];
+        alpha.setConstant(-q.cost);
+        action = q.action;
+        ++sub[0];
+        for (std::size_t o = 0; o < roomLooks_[look].answers; ++o) {
+          sub[rc.offset] = static_cast<std::int16_t>(lookRoom[o]);
+          const std::size_t vi = subPlanVector(sub.data(), rit->second, 0.0, memo, vectors, tags);
+          addAnswer(alpha, q, o, vectors[vi]);
+        }
+        --sub[0];
+      } else if (bestR != kNone) {
         sub[rc.offset] = static_cast<std::int16_t>(bestR);
         // Followed to its end (floor 0): the sub-dialog is finite and its plans memoised, and
         // a commit plan cut by serving early loses most of its value.
@@ -1510,6 +1943,43 @@ CertifiedReport CertifiedDialogSolver::report() const {
   r.bytes = impl_->bytes();
   r.stop = impl_->stop_;
   return r;
+}
+
+std::vector<CertifiedDialogSolver::NodeBounds> CertifiedDialogSolver::nodeBounds(
+    std::size_t maxNodes) const {
+  const Impl& m = *impl_;
+  std::vector<NodeBounds> out;
+  std::vector<std::int16_t> kid(m.stride_);
+  for (std::size_t n = 0; n < m.nodes_.size() && out.size() < maxNodes; ++n) {
+    NodeBounds nb;
+    const std::int16_t* key = m.table_.key(n);
+    if (!m.belief(key, nb.belief)) continue;
+    nb.turnsUsed = m.turnsUsed_ + key[0];
+    nb.lower = m.nodes_[n].lower;
+    nb.upper = std::max(m.effUpper(n), m.nodes_[n].lower);
+    out.push_back(std::move(nb));
+    // Its kept children (not nodes), with the bounds a backup reads.
+    if (!m.leafCache_ || !m.expandedFlags_[n] || key[0] >= m.horizon_) continue;
+    const std::uint32_t* slots = m.slotsOf(n);
+    std::array<Eigen::VectorXd, kSlots> mg;
+    m.marginals(out.back().belief, mg);
+    for (std::size_t qi = 0; qi < m.questions_.size(); ++qi)
+      for (std::size_t answer = 0; answer < m.numAnswers(m.questions_[qi]); ++answer) {
+        const Question& q = m.questions_[qi];
+        const std::uint32_t* w = slots + 2 * (m.posOf_[qi] + answer);
+        if (!(m.answerProb(mg[q.slot], q, answer) > 1e-300) || w[1] == Impl::kLinked ||
+            out.size() >= maxNodes)
+          continue;
+        m.childKey(key, q, answer, kid.data());
+        m.canonicalize(kid.data());
+        NodeBounds leaf;
+        if (!m.belief(kid.data(), leaf.belief)) continue;
+        leaf.turnsUsed = m.turnsUsed_ + kid[0];
+        m.unpackSlot(w, leaf.upper, leaf.lower);
+        out.push_back(std::move(leaf));
+      }
+  }
+  return out;
 }
 
 std::size_t CertifiedDialogSolver::rootAction() const {

@@ -24,13 +24,14 @@
  * exactly on the way back. At turnLimit the node's value is exact (serve the best request).
  *
  * Bounds at a node that has not been expanded:
- *  - lower: the best of two plans the robot can run, valued exactly: serve now, or commit to
+ *  - lower: the best of three plans the robot can run, valued exactly: serve now; commit to
  *    one room r, i.e. never ask about the room again and follow the room-revealed
- *    sub-dialog's optimal plan for r (below) on the item and person. The sub-dialog stores
- *    that plan's value per true request (all of them: the plan's serve goes to r, and its
- *    answers depend only on the true item and person), so the commit value at a belief is one
- *    dot product per room. Once the room is nearly settled this bound is nearly the upper one,
- *    and the search stops there;
+ *    sub-dialog's optimal plan for r (below) on the item and person; or ask one question
+ *    about the room, then commit to the room best for its answer (roomLookahead: the commit
+ *    plans one turn later). The sub-dialog stores each plan's value per true request (all of
+ *    them: the plan's serve goes to r, and its answers depend only on the true item and
+ *    person), so a commit value is one dot product per room. Once the room is nearly settled
+ *    this bound is nearly the upper one, and the search stops there;
  *  - upper: the room revealed for free (generally: the slot with most values). The belief
  *    is the mixture sum_r b(room = r) b(. | room = r), the finite-horizon value V_t is
  *    convex (a maximum of linear functions of the belief), so V_t(b) <= sum_r b(r) V_t(b | r).
@@ -42,8 +43,32 @@
  *    of the memory budget or the timeout (much larger models than the office's) is cut off
  *    there with the full-information value, which is larger still: the bound stays a proof,
  *    only looser.
+ *  - upper, the room paid for (roomPaidBound), the tighter of the two: a relaxation M in
+ *    which the room r is revealed at the node, but until the robot asks a question about it,
+ *    serving earns the room-known serve serve_r(x') minus pen(x') = (1 - theta) Y+(x')
+ *    (x': the other slots' statistics then); after such a question, the room-known value
+ *    V_r from the next turn on. M's value is sum_r w_r T_r, T_r an exact dynamic programme
+ *    over the sub-dialog's statistics, solved with the sub-dialog for ten levels of
+ *    1 - theta (the largest level <= 1 - theta(b) is used: a smaller penalty, valid too).
+ *    Why V <= value(M): a real policy runs in M (its room answers drawn from the revealed
+ *    room) with the same costs, and the same rewards after a question about the room. When
+ *    it serves without one, its expected reward given what it heard is the blind serve
+ *    max_a sum_s b(s) R(s, a), while in M serving the best request of the revealed room
+ *    earns, in expectation given the same information, sum_r w_r serve_r - pen. Their
+ *    difference, the value of knowing the room at that serve, is
+ *    VOI = min_{r*} sum_{r != r*} w_r (serve_r - Gmax(r, r*)) >= (1 - max_r w_r) Y, with
+ *    Gmax(r, r*) = max over requests s of room r and a of room r* != r of R(s, a) (every
+ *    wrong-room serve earns at most that) and Y = min_{r != r*} (serve_r - Gmax(r, r*)).
+ *    Without a question about the room, answers about the other slots only reweight them,
+ *    so no room's posterior exceeds theta(b) = max over the other slots' values (i, p) of
+ *    b(r | i, p). Hence pen <= VOI: in M the policy loses nothing. The proof holds for any
+ *    discount; tests: EveryNodeBracketsItsExactValue (brute force at every node).
  * Expanded nodes take the Bellman backup of their children's bounds (upper: the minimum of
  * the backup and the relaxation; both stay valid).
+ *
+ * Storage: a child becomes a node only when a trial enters it (most never do); until then
+ * its bounds are kept in its parent, as floats rounded outwards (keepLeaves: 8 bytes a
+ * child instead of about 70 for a node).
  *
  * Shared upper bounds (CertifiedSolverOptions::shareUpperBounds):
  *  - fewer turns: a node takes the upper bound of the same statistics reached in fewer turns,
@@ -97,6 +122,16 @@ struct CertifiedSolverOptions {
   /// less), and nodes that differ only in the room's statistics share one simplex of beliefs
   /// with exact corners, where a bound lowered at one node lowers the others (a sawtooth).
   bool shareUpperBounds = true;
+  /// A new node's upper bound charges for the room (proof in the file comment): with the
+  /// room revealed, serving before any question about it pays a penalty that the value of
+  /// knowing the room at that serve provably exceeds.
+  bool roomPaidBound = true;
+  /// A new node's lower bound is also the best "ask one question about the room, then commit
+  /// to the room best for its answer" plan (commitLower's plans, one turn later).
+  bool roomLookahead = true;
+  /// Children that no trial has entered are kept in their parent (16 bytes each: bounds as
+  /// floats rounded outwards) instead of as nodes (about 70 bytes each): most never are.
+  bool keepLeaves = true;
 };
 
 /// @brief Why a solve stopped.
@@ -151,6 +186,16 @@ class CertifiedDialogSolver {
   /// @brief The lower bound's policy as alpha vectors tagged with their turns (see the file
   /// comment); its value at the root belief is report().lower.
   pomdp::TurnLimitedPolicy policy() const;
+
+  /// @brief One stored belief node: its belief over requests (values of alike classes in
+  /// canonical order), questions asked, and bounds; each must bracket its exact value.
+  struct NodeBounds {
+    Eigen::VectorXd belief;
+    int turnsUsed = 0;
+    double lower = 0.0, upper = 0.0;
+  };
+  /// @brief The first `maxNodes` stored nodes (tests and diagnostics).
+  std::vector<NodeBounds> nodeBounds(std::size_t maxNodes) const;
 
   /// @brief Exact value V_t of the model at the root by exhaustive dynamic programming over
   /// the statistics (no bounds, no pruning): a reference for small models and tests.
