@@ -7,7 +7,8 @@
 #      because `catkin_make run_tests` leaves PYTHONPATH empty for Python test nodes),
 #   3. the Python unittest suites of krr_eval (src/krr_eval/test), among them test_layering.py,
 #      which runs test/check_layering.py (no experiment header in library or node code, every
-#      module header in its namespace krr::<module>).
+#      module header in its namespace krr::<module>), and test_function_length.py, which runs
+#      test/check_function_length.py (no function in src/ over 120 lines but the allowlisted).
 # Prints one summary line "tests: N passed, N failed" and exits non-zero on any failure.
 set -uo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

@@ -2,10 +2,11 @@
  * @file asp_clingo.cpp
  * @brief Running the clingo binary as a subprocess and reading its answer sets.
  *
- * clingo is started (fork + exec, and killed by the kernel if its parent dies) on a program
- * written to a private temporary directory (mkdtemp), its stdout and stderr go to files in that directory, and the parent waits for its
- * end on a pidfd with the remaining time as poll timeout, killing it when the time limit is
- * exceeded. The directory is always removed (unless AspOptions::keep_files).
+ * clingo is started through krr::Subprocess (common/subprocess.h: fork + exec, killed by the
+ * kernel if its parent dies) on a program written to a private temporary directory (mkdtemp);
+ * its stdout and stderr go to files in that directory, and the parent waits for its end on a
+ * pidfd with the remaining time as poll timeout, killing it when the time limit is exceeded.
+ * The directory is always removed (unless AspOptions::keep_files).
  * Answer sets are read from clingo's plain text output (-V0: one answer set per line, then
  * the result word), mapped into memory, split into atoms by a small term scanner that
  * respects parentheses and quoted strings, and every atom is interned: a model is a vector of
@@ -15,10 +16,6 @@
 #include "krr_core/plog/asp_backend.h"
 
 #include <fcntl.h>
-#include <poll.h>
-#include <signal.h>
-#include <sys/prctl.h>
-#include <sys/syscall.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
 #include <sys/types.h>
@@ -27,7 +24,6 @@
 
 #include <cctype>
 #include <cerrno>
-#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -38,12 +34,10 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
-#include <thread>
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
-
-extern char** environ;
+#include "krr_core/common/subprocess.h"
 
 namespace krr {
 namespace plog {
@@ -229,160 +223,52 @@ std::string pLogLocations(const std::string& message, const std::string& lp_path
   }
 }
 
-ClingoResult runClingo(const std::string& program, const AspOptions& options,
-                       const std::vector<std::string>& extra_args,
-                       const AspModelCallback& on_model) {
-  if (!(options.timeout_s > 0.0) || !std::isfinite(options.timeout_s)) {
-    throw ConfigError("AspOptions.timeout_s must be a positive number of seconds, got " +
-                      std::to_string(options.timeout_s));
-  }
-  TempDir dir;
-  if (options.keep_files) dir.keep();
-  const std::string lp = dir.path() + "/program.lp";
-  const std::string out_path = dir.path() + "/stdout.txt";
-  const std::string err_path = dir.path() + "/stderr.txt";
-  // Messages name the P-log program, not a temporary file that is gone after the call.
-  const std::string subject = options.keep_files
-                                  ? "the ASP translation (kept in " + lp + ")"
-                                  : "the ASP translation of the program";
-  {
-    std::ofstream f(lp, std::ios::binary);
-    f << program;
-    if (!f) throw IoError("AspBackend: cannot write the ASP program to '" + lp + "'");
-  }
+namespace {
 
-  std::vector<std::string> args = {options.clingo_path, "--models=0", "-V0", "--warn=none"};
-  for (const auto& a : options.extra_args) args.push_back(a);
-  for (const auto& a : extra_args) args.push_back(a);
-  args.push_back(lp);
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-
-  // fork + exec rather than posix_spawn: the child asks the kernel to kill it when this
-  // process dies (PR_SET_PDEATHSIG), so a plog or node killed mid-query (Ctrl-C, `timeout`,
-  // kill -9) leaves no clingo running past its time limit. A close-on-exec pipe carries the
-  // errno of a failed exec back.
-  int errpipe[2];
-  if (pipe2(errpipe, O_CLOEXEC) != 0)
-    throw Error(std::string("AspBackend: cannot create a pipe for clingo: ") + std::strerror(errno));
-  const pid_t parent = getpid();
-  pid_t pid = fork();
-  if (pid < 0) {
-    const int e = errno;
-    close(errpipe[0]);
-    close(errpipe[1]);
+/// @brief Runs clingo (`args`) with its stdout and stderr in files, within options.timeout_s
+/// and until options.cancel: its wait status. Every failure is an Error naming `subject`.
+int runClingoProcess(const std::vector<std::string>& args, const AspOptions& options,
+                     const std::string& out_path, const std::string& err_path,
+                     const std::string& subject) {
+  // The child is killed by the kernel when this process dies (Subprocess::killWithParent),
+  // so a plog or node killed mid-query (Ctrl-C, `timeout`, kill -9) leaves no clingo running
+  // past its time limit.
+  Subprocess clingo(args);
+  clingo.setStdin(Subprocess::Stream::null())
+      .setStdout(Subprocess::Stream::file(out_path))
+      .setStderr(Subprocess::Stream::file(err_path));
+  try {
+    clingo.start();
+  } catch (const SubprocessError& e) {
+    const std::string why = std::strerror(e.errnum());
+    if (e.step() == SubprocessError::Step::kPipe)
+      throw Error("AspBackend: cannot create a pipe for clingo: " + why);
+    if (e.step() == SubprocessError::Step::kFork)
+      throw Error("AspBackend: cannot start clingo '" + options.clingo_path + "' on " + subject +
+                  ": " + why);
     throw Error("AspBackend: cannot start clingo '" + options.clingo_path + "' on " + subject +
-                ": " + std::strerror(e));
+                ": " + why + " (install clingo >= 5.4 or set AspOptions.clingo_path)");
   }
-  if (pid == 0) {
-    // Child: async-signal-safe calls only until exec.
-    prctl(PR_SET_PDEATHSIG, SIGKILL);
-    if (getppid() != parent) _exit(127);  // the parent died before prctl took effect
-    int e = 0;
-    const int in = open("/dev/null", O_RDONLY);
-    const int out = open(out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-    const int err = open(err_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0600);
-    if (in < 0 || out < 0 || err < 0 || dup2(in, STDIN_FILENO) < 0 ||
-        dup2(out, STDOUT_FILENO) < 0 || dup2(err, STDERR_FILENO) < 0) {
-      e = errno;
-    } else {
-      execvp(argv[0], argv.data());
-      e = errno;
-    }
-    ssize_t ignored = write(errpipe[1], &e, sizeof(e));
-    (void)ignored;
-    _exit(127);
+  SubprocessResult end;
+  try {
+    end = clingo.wait(options.timeout_s, options.cancel);
+  } catch (const SubprocessError& e) {
+    throw Error("AspBackend: waiting for clingo on " + subject + " failed: " +
+                std::strerror(e.errnum()));
   }
-  close(errpipe[1]);
-  int child_errno = 0;
-  ssize_t got;
-  while ((got = read(errpipe[0], &child_errno, sizeof(child_errno))) < 0 && errno == EINTR) {
-  }
-  close(errpipe[0]);
-  if (got > 0) {
-    int st = 0;
-    while (waitpid(pid, &st, 0) < 0 && errno == EINTR) {
-    }
-    throw Error("AspBackend: cannot start clingo '" + options.clingo_path + "' on " + subject +
-                ": " + std::strerror(child_errno) +
-                " (install clingo >= 5.4 or set AspOptions.clingo_path)");
-  }
-
-  const auto start = std::chrono::steady_clock::now();
-  const auto limit = std::chrono::duration<double>(options.timeout_s);
-  auto timedOut = [&]() {
-    kill(pid, SIGKILL);
-    int st = 0;
-    while (waitpid(pid, &st, 0) < 0 && errno == EINTR) {
-    }
+  if (end.end == SubprocessResult::End::kTimedOut)
     throw Error("AspBackend: clingo on " + subject + " exceeded the time limit of " +
                 std::to_string(options.timeout_s) + " s and was killed");
-  };
-  auto cancelled = [&]() { return options.cancel && options.cancel->load(); };
-  auto abandon = [&]() {
-    kill(pid, SIGKILL);
-    int st = 0;
-    while (waitpid(pid, &st, 0) < 0 && errno == EINTR) {
-    }
+  if (end.end == SubprocessResult::End::kCancelled)
     throw CancelledError("AspBackend: clingo abandoned: another back end answered first");
-  };
-  int status = 0;
-  // Wait for the end of clingo without polling latency: a pidfd becomes readable when the
-  // process exits. Where pidfds are unavailable, fall back to polling waitpid.
-  // (Direct system call: glibc 2.36's <sys/pidfd.h> lacks C linkage for C++.)
-#ifdef SYS_pidfd_open
-  const int pidfd = static_cast<int>(syscall(SYS_pidfd_open, pid, 0));
-#else
-  const int pidfd = -1;
-#endif
-  if (pidfd >= 0) {
-    for (;;) {
-      const auto left = limit - (std::chrono::steady_clock::now() - start);
-      const long ms = static_cast<long>(
-          std::ceil(std::chrono::duration<double, std::milli>(left).count()));
-      if (ms <= 0) {
-        close(pidfd);
-        timedOut();
-      }
-      if (cancelled()) {
-        close(pidfd);
-        abandon();
-      }
-      struct pollfd pfd = {pidfd, POLLIN, 0};
-      // With a cancel flag, look at it every 10 ms.
-      const long slice = options.cancel ? std::min<long>(ms, 10L) : std::min<long>(ms, 1000000L);
-      const int r = poll(&pfd, 1, static_cast<int>(slice));
-      if (r > 0) break;
-      if (r < 0 && errno != EINTR) {
-        close(pidfd);
-        throw Error("AspBackend: waiting for clingo on " + subject + " failed: " +
-                    std::strerror(errno));
-      }
-    }
-    close(pidfd);
-    while (waitpid(pid, &status, 0) < 0) {
-      if (errno != EINTR) {
-        throw Error("AspBackend: waiting for clingo on " + subject + " failed: " +
-                    std::strerror(errno));
-      }
-    }
-  } else {
-    auto pause = std::chrono::microseconds(50);
-    for (;;) {
-      pid_t w = waitpid(pid, &status, WNOHANG);
-      if (w == pid) break;
-      if (w < 0 && errno != EINTR) {
-        throw Error("AspBackend: waiting for clingo on " + subject + " failed: " +
-                    std::strerror(errno));
-      }
-      if (std::chrono::steady_clock::now() - start > limit) timedOut();
-      if (cancelled()) abandon();
-      std::this_thread::sleep_for(pause);
-      if (pause < std::chrono::milliseconds(2)) pause *= 2;
-    }
-  }
+  return end.status;
+}
 
+/// @brief Refuses an output above options.max_output_bytes, a clingo killed by a signal and a
+/// failed run (clingo's exit code), with clingo's message placed in the P-log program.
+void checkClingoEnd(int status, const std::string& program, const AspOptions& options,
+                    const std::string& lp, const std::string& out_path,
+                    const std::string& err_path, const std::string& subject) {
   std::error_code size_error;
   const auto out_size = std::filesystem::file_size(out_path, size_error);
   if (!size_error && out_size > options.max_output_bytes) {
@@ -410,11 +296,13 @@ ClingoResult runClingo(const std::string& program, const AspOptions& options,
                 " (exit code " + std::to_string(code) + "): " +
                 (why.empty() ? std::string("no message") : why));
   }
+}
 
-  // The output is mapped, not copied, and every atom is looked up in a table of the distinct
-  // atoms seen so far: a model becomes a vector of integers without a string per atom.
-  const MappedFile mapped(out_path);
-  const std::string_view out = mapped.view();
+/// @brief The answer sets of clingo's -V0 output (one per line, then the result word).
+ClingoResult readAnswerSets(std::string_view out, const std::string& subject,
+                            const AspModelCallback& on_model) {
+  // Every atom is looked up in a table of the distinct atoms seen so far: a model becomes a
+  // vector of integers without a string per atom.
   ClingoResult result;
   std::deque<std::string> storage;  // stable addresses for the views in index
   std::unordered_map<std::string_view, std::uint32_t> index;
@@ -476,6 +364,41 @@ ClingoResult runClingo(const std::string& program, const AspOptions& options,
   // No model lines precede an UNSATISFIABLE; with a multi-shot script the result line is that
   // of the last solve only, and earlier solves' answer sets are kept.
   return result;
+}
+
+}  // namespace
+
+ClingoResult runClingo(const std::string& program, const AspOptions& options,
+                       const std::vector<std::string>& extra_args,
+                       const AspModelCallback& on_model) {
+  if (!(options.timeout_s > 0.0) || !std::isfinite(options.timeout_s)) {
+    throw ConfigError("AspOptions.timeout_s must be a positive number of seconds, got " +
+                      std::to_string(options.timeout_s));
+  }
+  TempDir dir;
+  if (options.keep_files) dir.keep();
+  const std::string lp = dir.path() + "/program.lp";
+  const std::string out_path = dir.path() + "/stdout.txt";
+  const std::string err_path = dir.path() + "/stderr.txt";
+  // Messages name the P-log program, not a temporary file that is gone after the call.
+  const std::string subject = options.keep_files
+                                  ? "the ASP translation (kept in " + lp + ")"
+                                  : "the ASP translation of the program";
+  {
+    std::ofstream f(lp, std::ios::binary);
+    f << program;
+    if (!f) throw IoError("AspBackend: cannot write the ASP program to '" + lp + "'");
+  }
+
+  std::vector<std::string> args = {options.clingo_path, "--models=0", "-V0", "--warn=none"};
+  for (const auto& a : options.extra_args) args.push_back(a);
+  for (const auto& a : extra_args) args.push_back(a);
+  args.push_back(lp);
+  const int status = runClingoProcess(args, options, out_path, err_path, subject);
+  checkClingoEnd(status, program, options, lp, out_path, err_path, subject);
+  // The output is mapped, not copied.
+  const MappedFile mapped(out_path);
+  return readAnswerSets(mapped.view(), subject, on_model);
 }
 
 std::vector<std::string> ClingoResult::atomTexts(const AspModel& model) const {

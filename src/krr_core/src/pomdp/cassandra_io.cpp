@@ -353,10 +353,19 @@ class Parser {
       checkTime(t);
     }
   }
+  /// @brief One statement, from its keyword (the statement's first token).
+  void parseStatement();
   void parseStart();
   void parseT();
   void parseO();
   void parseR();
+  /// @brief Normalises every T and O row, or fails at the statement that last wrote a row
+  /// whose probabilities do not sum to 1 (here, so that the error points at that entry).
+  void validateRows();
+  /// @brief R(s, a): the R statements, in expectation over s' and o where they depend on them.
+  Eigen::MatrixXd expectedRewards();
+  /// @brief The Model, its T and O rows moved into CSR form (the row lists are released).
+  Model buildModel(Eigen::MatrixXd r);
   void setT(Idx a, Idx s, Idx s1, double p, const Token& where);
   void setZ(Idx a, Idx s1, Idx o, double p, const Token& where);
   /// @brief The readers' shared rule (checkDistributionSum): false if sum is off by more than
@@ -613,51 +622,59 @@ void Parser::parseR() {
 }
 
 Model Parser::parse() {
-  while (!atEnd()) {
-    checkTime(peek());
-    const Token& kw = next("a keyword");
-    if (kw.text == "start" && (peek().text == "include" || peek().text == "exclude")) {
-      parseStart();
-      continue;
-    }
-    bool known = false;
-    for (const char* k : kKeywords) known = known || kw.text == k;
-    if (!known)
-      fail(kw, "expected one of discount, values, states, actions, observations, start, T, O, R; got '" +
-                   kw.text + "'");
-    expectColon();
-    if (kw.text == "discount") {
-      const Token& t = peek();
-      discount_ = number("discount");
-      if (!(discount_ > 0.0 && discount_ <= 1.0)) fail(t, "discount " + t.text + " outside (0, 1]");
-      haveDiscount_ = true;
-    } else if (kw.text == "values") {
-      const Token& t = next("reward or cost");
-      if (t.text != "reward" && t.text != "cost")
-        fail(t, "values must be 'reward' or 'cost', got '" + t.text + "'");
-      cost_ = t.text == "cost";
-    } else if (kw.text == "states") {
-      symbolList(states_, "states");
-    } else if (kw.text == "actions") {
-      symbolList(actions_, "actions");
-    } else if (kw.text == "observations") {
-      symbolList(obs_, "observations");
-    } else if (kw.text == "start") {
-      parseStart();
-    } else if (kw.text == "T") {
-      parseT();
-    } else if (kw.text == "O") {
-      parseO();
-    } else {
-      parseR();
-    }
-  }
+  while (!atEnd()) parseStatement();
   if (!haveDiscount_) fail(eof_, "missing 'discount:'");
   if (!states_.defined) fail(eof_, "missing 'states:'");
   if (!actions_.defined) fail(eof_, "missing 'actions:'");
   if (!obs_.defined) fail(eof_, "missing 'observations:'");
   requireAll(eof_);
-  // Validate rows here so that errors point at the entry that last wrote the row.
+  validateRows();
+  Eigen::MatrixXd r = expectedRewards();
+  if (cost_) r = -r;
+  return buildModel(std::move(r));
+}
+
+void Parser::parseStatement() {
+  checkTime(peek());
+  const Token& kw = next("a keyword");
+  if (kw.text == "start" && (peek().text == "include" || peek().text == "exclude")) {
+    parseStart();
+    return;
+  }
+  bool known = false;
+  for (const char* k : kKeywords) known = known || kw.text == k;
+  if (!known)
+    fail(kw, "expected one of discount, values, states, actions, observations, start, T, O, R; got '" +
+                 kw.text + "'");
+  expectColon();
+  if (kw.text == "discount") {
+    const Token& t = peek();
+    discount_ = number("discount");
+    if (!(discount_ > 0.0 && discount_ <= 1.0)) fail(t, "discount " + t.text + " outside (0, 1]");
+    haveDiscount_ = true;
+  } else if (kw.text == "values") {
+    const Token& t = next("reward or cost");
+    if (t.text != "reward" && t.text != "cost")
+      fail(t, "values must be 'reward' or 'cost', got '" + t.text + "'");
+    cost_ = t.text == "cost";
+  } else if (kw.text == "states") {
+    symbolList(states_, "states");
+  } else if (kw.text == "actions") {
+    symbolList(actions_, "actions");
+  } else if (kw.text == "observations") {
+    symbolList(obs_, "observations");
+  } else if (kw.text == "start") {
+    parseStart();
+  } else if (kw.text == "T") {
+    parseT();
+  } else if (kw.text == "O") {
+    parseO();
+  } else {
+    parseR();
+  }
+}
+
+void Parser::validateRows() {
   auto rowSum = [](const std::vector<Model::Entry>& row) {
     double sum = 0.0;
     for (const auto& e : row) sum += e.second;
@@ -699,6 +716,9 @@ Model Parser::parse() {
       scale(zrow, zDiv);
     }
   }
+}
+
+Eigen::MatrixXd Parser::expectedRewards() {
   const std::size_t S = states_.n, A = actions_.n, O = obs_.n;
   Eigen::MatrixXd r = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(S), static_cast<Eigen::Index>(A));
   bool simple = true;
@@ -707,35 +727,39 @@ Model Parser::parse() {
     for (const auto& e : r_)
       for (std::size_t a : range(e.a, A))
         for (std::size_t s : range(e.s, S)) r(s, a) = e.v;
-  } else {
-    const double cells = static_cast<double>(A) * S * S * O;
-    if (cells > 5e7 || cells * sizeof(double) + static_cast<double>(estimateModelBytes(S, A, O)) >
-                           static_cast<double>(budget_))
-      fail(eof_, "model too large for next-state/observation dependent rewards (" +
-                     formatBytes(static_cast<std::size_t>(cells * sizeof(double))) +
-                     " of reward table, memory budget " + formatBytes(budget_) + ")");
-    std::vector<double> full(static_cast<std::size_t>(cells), 0.0);
-    auto at = [&](std::size_t a, std::size_t s, std::size_t s1, std::size_t o) -> double& {
-      return full[((a * S + s) * S + s1) * O + o];
-    };
-    for (const auto& e : r_)
-      for (std::size_t a : range(e.a, A))
-        for (std::size_t s : range(e.s, S))
-          for (std::size_t s1 : range(e.s1, S))
-            for (std::size_t o : range(e.o, O)) at(a, s, s1, o) = e.v;
-    for (std::size_t a = 0; a < A; ++a)
-      for (std::size_t s = 0; s < S; ++s) {
-        if ((s & 63) == 0) checkTime(eof_);
-        double v = 0.0;
-        for (const auto& t : tRows_[a * S + s]) {
-          double w = 0.0;
-          for (const auto& z : zRows_[a * S + t.first]) w += z.second * at(a, s, t.first, z.first);
-          v += t.second * w;
-        }
-        r(s, a) = v;
-      }
+    return r;
   }
-  if (cost_) r = -r;
+  const double cells = static_cast<double>(A) * S * S * O;
+  if (cells > 5e7 || cells * sizeof(double) + static_cast<double>(estimateModelBytes(S, A, O)) >
+                         static_cast<double>(budget_))
+    fail(eof_, "model too large for next-state/observation dependent rewards (" +
+                   formatBytes(static_cast<std::size_t>(cells * sizeof(double))) +
+                   " of reward table, memory budget " + formatBytes(budget_) + ")");
+  std::vector<double> full(static_cast<std::size_t>(cells), 0.0);
+  auto at = [&](std::size_t a, std::size_t s, std::size_t s1, std::size_t o) -> double& {
+    return full[((a * S + s) * S + s1) * O + o];
+  };
+  for (const auto& e : r_)
+    for (std::size_t a : range(e.a, A))
+      for (std::size_t s : range(e.s, S))
+        for (std::size_t s1 : range(e.s1, S))
+          for (std::size_t o : range(e.o, O)) at(a, s, s1, o) = e.v;
+  for (std::size_t a = 0; a < A; ++a)
+    for (std::size_t s = 0; s < S; ++s) {
+      if ((s & 63) == 0) checkTime(eof_);
+      double v = 0.0;
+      for (const auto& t : tRows_[a * S + s]) {
+        double w = 0.0;
+        for (const auto& z : zRows_[a * S + t.first]) w += z.second * at(a, s, t.first, z.first);
+        v += t.second * w;
+      }
+      r(s, a) = v;
+    }
+  return r;
+}
+
+Model Parser::buildModel(Eigen::MatrixXd r) {
+  const std::size_t S = states_.n, A = actions_.n, O = obs_.n;
   auto names = [](const Symbols& sym, const char* prefix) {
     if (!sym.names.empty()) return sym.names;
     std::vector<std::string> out;

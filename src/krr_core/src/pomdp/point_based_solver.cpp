@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 
 #include "krr_core/common/errors.h"
@@ -159,96 +160,127 @@ void PointBasedSolver::initUpper(double mdpDeadline, double setupEnd) {
   // started). FIB gets initTimeLimit, within setupEnd.
   const Stopwatch sw;
   const double offset = setup_.lowerSeconds;
-  auto late = [&](double deadline) { return offset + sw.seconds() >= deadline; };
+  const std::function<bool(double)> late = [&](double deadline) {
+    return offset + sw.seconds() >= deadline;
+  };
+  Eigen::MatrixXd q = s_ <= kDenseSetupStates ? mdpQExact() : mdpQSweeps(late, mdpDeadline);
+  checkUpperFixedPoint(q);
+  setup_.mdpSeconds = sw.seconds();
+  const double fibDeadline = std::min(setupEnd, offset + sw.seconds() + options_.initTimeLimit);
+  const bool fibDone = fastInformedBound(q, late, fibDeadline);
+  setup_.fibConverged = fibDone;
+  setup_.timedOut = setup_.timedOut || (!fibDone && late(setupEnd));
+  setup_.fibSeconds = sw.seconds() - setup_.mdpSeconds;
+  for (std::size_t s = 0; s < s_; ++s)
+    if (m_.isTerminal(s)) q.row(static_cast<Eigen::Index>(s)).setZero();  // exactly 0
+  corner_ = q.rowwise().maxCoeff();
+  keepUndominatedFib(q);
+}
+
+Eigen::MatrixXd PointBasedSolver::mdpQExact() {
+  // Policy iteration from the greedy immediate-reward policy.
   const auto& r = m_.rewardMatrix();
   const auto S = static_cast<Eigen::Index>(s_), A = static_cast<Eigen::Index>(a_);
   Eigen::VectorXd v = Eigen::VectorXd::Zero(S);
   Eigen::MatrixXd q(S, A);
-  if (s_ <= kDenseSetupStates) {
-    std::vector<std::size_t> pol(s_, 0);
+  std::vector<std::size_t> pol(s_, 0);
+  for (std::size_t s = 0; s < s_; ++s) {
+    Eigen::Index best = 0;
+    r.row(static_cast<Eigen::Index>(s)).maxCoeff(&best);
+    pol[s] = static_cast<std::size_t>(best);
+  }
+  for (int it = 0; it < 1000; ++it) {
+    Eigen::MatrixXd lhs = Eigen::MatrixXd::Identity(S, S);
+    Eigen::VectorXd rhs(S);
+    for (std::size_t s = 0; s < s_; ++s) {
+      for (const auto& e : m_.successors(s, pol[s]))
+        lhs(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(e.first)) -=
+            gamma_ * e.second;
+      rhs(s) = r(s, pol[s]);
+    }
+    v = lhs.partialPivLu().solve(rhs);
+    bool changed = false;
+    Eigen::VectorXd tv;
+    for (std::size_t a = 0; a < a_; ++a) {
+      m_.expectNext(a, v, tv);
+      q.col(static_cast<Eigen::Index>(a)) = r.col(static_cast<Eigen::Index>(a)) + gamma_ * tv;
+    }
     for (std::size_t s = 0; s < s_; ++s) {
       Eigen::Index best = 0;
-      r.row(static_cast<Eigen::Index>(s)).maxCoeff(&best);
-      pol[s] = static_cast<std::size_t>(best);
-    }
-    for (int it = 0; it < 1000; ++it) {
-      Eigen::MatrixXd lhs = Eigen::MatrixXd::Identity(S, S);
-      Eigen::VectorXd rhs(S);
-      for (std::size_t s = 0; s < s_; ++s) {
-        for (const auto& e : m_.successors(s, pol[s]))
-          lhs(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(e.first)) -=
-              gamma_ * e.second;
-        rhs(s) = r(s, pol[s]);
+      const double bv = q.row(static_cast<Eigen::Index>(s)).maxCoeff(&best);
+      if (bv > q(s, pol[s]) + 1e-12) {
+        pol[s] = static_cast<std::size_t>(best);
+        changed = true;
       }
-      v = lhs.partialPivLu().solve(rhs);
-      bool changed = false;
-      Eigen::VectorXd tv;
+    }
+    if (!changed) break;
+  }
+  setup_.mdpExact = true;
+  return q;
+}
+
+Eigen::MatrixXd PointBasedSolver::mdpQSweeps(const std::function<bool(double)>& late,
+                                             double mdpDeadline) {
+  // Gauss-Seidel value iteration downwards from Rmax / (1 - gamma), stoppable at any sweep.
+  const auto& r = m_.rewardMatrix();
+  const auto S = static_cast<Eigen::Index>(s_), A = static_cast<Eigen::Index>(a_);
+  Eigen::VectorXd v = Eigen::VectorXd::Constant(S, r.maxCoeff() / (1.0 - gamma_));
+  Eigen::MatrixXd q(S, A);
+  bool converged = false;
+  while (!converged && !late(mdpDeadline)) {
+    double delta = 0.0, scale = 1.0;
+    bool cut = false;  // a partial sweep keeps V >= H V too
+    for (std::size_t s = 0; s < s_ && !cut; ++s) {
+      cut = (s & 255) == 255 && late(mdpDeadline);
+      double best = -kInf;
       for (std::size_t a = 0; a < a_; ++a) {
-        m_.expectNext(a, v, tv);
-        q.col(static_cast<Eigen::Index>(a)) = r.col(static_cast<Eigen::Index>(a)) + gamma_ * tv;
-      }
-      for (std::size_t s = 0; s < s_; ++s) {
-        Eigen::Index best = 0;
-        const double bv = q.row(static_cast<Eigen::Index>(s)).maxCoeff(&best);
-        if (bv > q(s, pol[s]) + 1e-12) {
-          pol[s] = static_cast<std::size_t>(best);
-          changed = true;
-        }
-      }
-      if (!changed) break;
-    }
-    setup_.mdpExact = true;
-  } else {
-    v.setConstant(r.maxCoeff() / (1.0 - gamma_));
-    bool converged = false;
-    while (!converged && !late(mdpDeadline)) {
-      double delta = 0.0, scale = 1.0;
-      bool cut = false;  // a partial sweep keeps V >= H V too
-      for (std::size_t s = 0; s < s_ && !cut; ++s) {
-        cut = (s & 255) == 255 && late(mdpDeadline);
-        double best = -kInf;
-        for (std::size_t a = 0; a < a_; ++a) {
-          double x = r(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(a));
-          for (const auto& e : m_.successors(s, a))
-            x += gamma_ * e.second * v(static_cast<Eigen::Index>(e.first));
-          best = std::max(best, x);
-        }
-        best = std::min(best, v(static_cast<Eigen::Index>(s)));  // monotone under rounding
-        delta = std::max(delta, v(static_cast<Eigen::Index>(s)) - best);
-        scale = std::max(scale, std::abs(best));
-        v(static_cast<Eigen::Index>(s)) = best;
-      }
-      ++setup_.mdpSweeps;
-      converged = !cut && delta <= 1e-12 * scale;
-    }
-    setup_.mdpExact = converged;
-    setup_.timedOut = setup_.timedOut || !converged;
-    for (std::size_t a = 0; a < a_; ++a)
-      for (std::size_t s = 0; s < s_; ++s) {
         double x = r(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(a));
         for (const auto& e : m_.successors(s, a))
           x += gamma_ * e.second * v(static_cast<Eigen::Index>(e.first));
-        q(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(a)) = x;
+        best = std::max(best, x);
       }
+      best = std::min(best, v(static_cast<Eigen::Index>(s)));  // monotone under rounding
+      delta = std::max(delta, v(static_cast<Eigen::Index>(s)) - best);
+      scale = std::max(scale, std::abs(best));
+      v(static_cast<Eigen::Index>(s)) = best;
+    }
+    ++setup_.mdpSweeps;
+    converged = !cut && delta <= 1e-12 * scale;
   }
+  setup_.mdpExact = converged;
+  setup_.timedOut = setup_.timedOut || !converged;
+  for (std::size_t a = 0; a < a_; ++a)
+    for (std::size_t s = 0; s < s_; ++s) {
+      double x = r(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(a));
+      for (const auto& e : m_.successors(s, a))
+        x += gamma_ * e.second * v(static_cast<Eigen::Index>(e.first));
+      q(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(a)) = x;
+    }
+  return q;
+}
+
+void PointBasedSolver::checkUpperFixedPoint(Eigen::MatrixXd& q) const {
   // Rounding safety margin, and a Bellman check: if the MDP values are not an upper fixed
   // point (e.g. ill-conditioned), fall back to the trivial bound Rmax / (1 - gamma).
+  const auto& r = m_.rewardMatrix();
   q.array() += 1e-9 * (1.0 + q.cwiseAbs().maxCoeff());
-  {
-    const Eigen::VectorXd qmax = q.rowwise().maxCoeff();
-    double worst = 0.0;
-    for (std::size_t a = 0; a < a_; ++a)
-      for (std::size_t s = 0; s < s_; ++s) {
-        double back = r(s, a);
-        for (const auto& e : m_.successors(s, a))
-          back += gamma_ * e.second * qmax(static_cast<Eigen::Index>(e.first));
-        worst = std::max(worst, back - q(s, a));
-      }
-    if (worst > 0.0) q.setConstant(r.maxCoeff() / (1.0 - gamma_) + 1e-9);
-  }
-  setup_.mdpSeconds = sw.seconds();
+  const Eigen::VectorXd qmax = q.rowwise().maxCoeff();
+  double worst = 0.0;
+  for (std::size_t a = 0; a < a_; ++a)
+    for (std::size_t s = 0; s < s_; ++s) {
+      double back = r(s, a);
+      for (const auto& e : m_.successors(s, a))
+        back += gamma_ * e.second * qmax(static_cast<Eigen::Index>(e.first));
+      worst = std::max(worst, back - q(s, a));
+    }
+  if (worst > 0.0) q.setConstant(r.maxCoeff() / (1.0 - gamma_) + 1e-9);
+}
+
+bool PointBasedSolver::fastInformedBound(Eigen::MatrixXd& q,
+                                         const std::function<bool(double)>& late,
+                                         double fibDeadline) {
+  const auto& r = m_.rewardMatrix();
   Eigen::MatrixXd next = q;
-  const double fibDeadline = std::min(setupEnd, offset + sw.seconds() + options_.initTimeLimit);
   bool fibDone = false, cut = false;
   // slotOf[a][o]: index of o among the possible observations of a. The sums over successors
   // run over the sparse O rows (so O need not be dense), accumulating per (slot, a2) in the
@@ -293,12 +325,10 @@ void PointBasedSolver::initUpper(double mdpDeadline, double setupEnd) {
     ++setup_.fibIterations;
     fibDone = delta < 1e-10;
   }
-  setup_.fibConverged = fibDone;
-  setup_.timedOut = setup_.timedOut || (!fibDone && late(setupEnd));
-  setup_.fibSeconds = sw.seconds() - setup_.mdpSeconds;
-  for (std::size_t s = 0; s < s_; ++s)
-    if (m_.isTerminal(s)) q.row(static_cast<Eigen::Index>(s)).setZero();  // exactly 0
-  corner_ = q.rowwise().maxCoeff();
+  return fibDone;
+}
+
+void PointBasedSolver::keepUndominatedFib(const Eigen::MatrixXd& q) {
   // Keep the FIB action vectors that are not pointwise dominated: max_a Q(., a) . b is an
   // upper bound at every belief, often much tighter than the corner interpolation.
   std::vector<char> keep(a_, 1);

@@ -273,6 +273,79 @@ class Reader {
   std::vector<std::string> flatNames(const std::vector<std::size_t>& order, std::size_t n,
                                      const char* prefix, const char* none) const;
 
+  // ---- read(), one step per section ------------------------------------------------------
+  /// The elements of <pomdpx> (each at most once; Description skipped).
+  struct Sections {
+    const XMLElement* root = nullptr;
+    const XMLElement *discount = nullptr, *variable = nullptr, *belief = nullptr,
+                     *trans = nullptr, *obs = nullptr, *reward = nullptr;
+  };
+  Sections findSections(const XMLElement* root) const;
+  double readDiscount(const XMLElement* discEl) const;
+  /// The flat orders, sizes and strides of the declared variables (fully observable state
+  /// variables first, SARSOP's order; the last varies fastest), refused above the budget.
+  void layOut(const XMLElement* varEl);
+  std::vector<Table> readSection(const XMLElement* sec, const char* name, const char* child);
+  /// Which table defines each variable of `kind` (exactly one).
+  std::vector<long> owners(const std::vector<Table>& tabs, const XMLElement* sec,
+                           const XMLElement* root, Kind kind, const char* what) const;
+  /// The order in which the state variables are drawn: their dependencies within one slice
+  /// must be acyclic.
+  std::vector<std::size_t> drawOrder(const std::vector<Table>& tabs,
+                                     const std::vector<long>& owner, Slice slice,
+                                     const XMLElement* sec) const;
+  std::size_t valueOf(std::size_t flat, std::size_t var,
+                      const std::vector<std::size_t>& stride) const {
+    return (flat / stride[var]) % vars_[var].values.size();
+  }
+  void setState(std::size_t s, bool curr) {
+    for (std::size_t v : stateOrder_) ctx_[2 * v + (curr ? 1 : 0)] = valueOf(s, v, stateStride_);
+  }
+  void setAction(std::size_t a) {
+    std::size_t rest = a;
+    for (std::size_t k = actionOrder_.size(); k-- > 0;) {
+      const std::size_t d = vars_[actionOrder_[k]].values.size();
+      ctx_[2 * actionOrder_[k]] = rest % d;
+      rest /= d;
+    }
+  }
+  /// The factors of one flat distribution: variable order[d] is drawn from
+  /// tabs[owner[order[d]]], its value counted at stride[v] in the flat index; with setCurr
+  /// each drawn value goes into the context (later factors may depend on it).
+  struct Factors {
+    const std::vector<Table>& tabs;
+    const std::vector<long>& owner;
+    const std::vector<std::size_t>& order;
+    const std::vector<std::size_t>& stride;
+    bool setCurr;
+  };
+  /// Appends to `row` the flat entries of the factors from `depth` on, in the context.
+  void drawRow(const Factors& f, std::size_t depth, double p, std::size_t flat,
+               std::vector<Model::Entry>& row);
+  /// The most entries one row can have: rows are refused before they are generated.
+  static std::size_t widest(const std::vector<Table>& tabs);
+  /// Flat T(s, a, s') rows per action; `entries` counts the T and O entries made.
+  std::vector<SparseRows> flatTransitions(const std::vector<Table>& trans,
+                                          const std::vector<long>& tOwner,
+                                          const std::vector<std::size_t>& tOrder,
+                                          const XMLElement* transEl, std::size_t* entries);
+  /// Flat O(s', a, o) rows per action, o = (x', observation variables).
+  std::vector<SparseRows> flatObservations(const std::vector<Table>& obs,
+                                           const std::vector<long>& zOwner,
+                                           const XMLElement* obsEl, std::size_t* entries);
+  /// R(s, a): the sum of the Funcs, in expectation over s' and o where they appear.
+  Eigen::MatrixXd flatRewards(const std::vector<Table>& rew, const std::vector<SparseRows>& tCsr,
+                              const std::vector<SparseRows>& zCsr);
+  /// Each Func is within the limit, their sum need not be: refused at <RewardFunction>.
+  void checkRewardSum(const Eigen::MatrixXd& r, const XMLElement* rewEl) const;
+  /// b0: the product of the InitialStateBelief factors.
+  Eigen::VectorXd initialBelief(const std::vector<Table>& belief);
+  /// The Model from the flat rows (the tables are released first).
+  Model buildModel(std::vector<SparseRows> tCsr, std::vector<SparseRows> zCsr,
+                   Eigen::MatrixXd r, double discount, const Eigen::VectorXd* b0,
+                   std::size_t entries, std::vector<Table>& trans, std::vector<Table>& obs,
+                   const XMLElement* root);
+
   const std::string& text_;
   std::string file_;
   std::size_t budget_;
@@ -286,6 +359,12 @@ class Reader {
   std::vector<Var> vars_;
   std::unordered_map<std::string, Ref> ids_;
   std::size_t S_ = 1, A_ = 1, O_ = 1, tableBytes_ = 0;
+  // The flat layout (layOut): variable orders, X = values of the fully observable state
+  // variables, Ov = of the observation variables; strides of each variable in a flat state
+  // and observation; the context, two slots (prev, curr) per variable.
+  std::vector<std::size_t> stateOrder_, actionOrder_, obsVarOrder_, xOrder_, obsOrder_;
+  std::size_t X_ = 1, Ov_ = 1;
+  std::vector<std::size_t> stateStride_, obsStride_, ctx_;
 };
 
 std::vector<std::string> Reader::readValues(const XMLElement* var, char prefix) {
@@ -657,20 +736,54 @@ Model Reader::read() {
                      std::string("not well-formed XML: ") + doc.ErrorName() +
                          (doc.ErrorStr() ? std::string(" (") + doc.ErrorStr() + ")" : ""));
   }
-  const XMLElement* root = doc.RootElement();
+  const Sections sec = findSections(doc.RootElement());
+  const double discount = readDiscount(sec.discount);
+  readVariables(sec.variable);
+  layOut(sec.variable);
+
+  // ---- tables ------------------------------------------------------------------------------
+  std::vector<Table> belief = readSection(sec.belief, "InitialStateBelief", "CondProb");
+  std::vector<Table> trans = readSection(sec.trans, "StateTransitionFunction", "CondProb");
+  std::vector<Table> obs = readSection(sec.obs, "ObsFunction", "CondProb");
+  std::vector<Table> rew = readSection(sec.reward, "RewardFunction", "Func");
+  const auto tOwner = owners(trans, sec.trans, sec.root, Kind::kState, "StateTransitionFunction");
+  const auto zOwner = owners(obs, sec.obs, sec.root, Kind::kObs, "ObsFunction");
+  std::vector<long> bOwner;
+  if (sec.belief) bOwner = owners(belief, sec.belief, sec.root, Kind::kState, "InitialStateBelief");
+  for (std::size_t i = 0; i < rew.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      if (rew[i].what == rew[j].what) fail(rew[i].elem, rew[i].what + " given twice");
+  const auto tOrder = drawOrder(trans, tOwner, Slice::kCurr, sec.trans);
+  if (sec.belief) drawOrder(belief, bOwner, Slice::kPrev, sec.belief);
+
+  // ---- flat T, O, R and b0 -----------------------------------------------------------------
+  ctx_.assign(2 * vars_.size(), 0);
+  std::size_t entries = 0;
+  std::vector<SparseRows> tCsr = flatTransitions(trans, tOwner, tOrder, sec.trans, &entries);
+  std::vector<SparseRows> zCsr =
+      flatObservations(obs, zOwner, sec.obs ? sec.obs : sec.root, &entries);
+  Eigen::MatrixXd r = flatRewards(rew, tCsr, zCsr);
+  checkRewardSum(r, sec.reward);
+  Eigen::VectorXd b0;
+  if (sec.belief) b0 = initialBelief(belief);
+  return buildModel(std::move(tCsr), std::move(zCsr), std::move(r), discount,
+                    sec.belief ? &b0 : nullptr, entries, trans, obs, sec.root);
+}
+
+Reader::Sections Reader::findSections(const XMLElement* root) const {
   if (!root) throw ParseError(SourceLocation{file_, 1, 1}, "no XML element in the file");
   if (std::string(root->Name()) != "pomdpx")
     fail(root, "the root element is <" + std::string(root->Name()) + ">, expected <pomdpx>");
-  const XMLElement *discEl = nullptr, *varEl = nullptr, *beliefEl = nullptr, *transEl = nullptr,
-                   *obsEl = nullptr, *rewEl = nullptr;
+  Sections sec;
+  sec.root = root;
   for (const XMLElement* c = root->FirstChildElement(); c; c = c->NextSiblingElement()) {
     const std::string n = c->Name();
-    const XMLElement** slot = n == "Discount"                  ? &discEl
-                              : n == "Variable"                ? &varEl
-                              : n == "InitialStateBelief"      ? &beliefEl
-                              : n == "StateTransitionFunction" ? &transEl
-                              : n == "ObsFunction"             ? &obsEl
-                              : n == "RewardFunction"          ? &rewEl
+    const XMLElement** slot = n == "Discount"                  ? &sec.discount
+                              : n == "Variable"                ? &sec.variable
+                              : n == "InitialStateBelief"      ? &sec.belief
+                              : n == "StateTransitionFunction" ? &sec.trans
+                              : n == "ObsFunction"             ? &sec.obs
+                              : n == "RewardFunction"          ? &sec.reward
                                                                : nullptr;
     if (n == "Description") continue;
     if (n == "TerminalStateRewardFunction")
@@ -682,219 +795,201 @@ Model Reader::read() {
     if (*slot) fail(c, "<" + n + "> given twice");
     *slot = c;
   }
-  if (!discEl) fail(root, "<pomdpx> has no <Discount>");
-  if (!varEl) fail(root, "<pomdpx> has no <Variable>");
-  if (!transEl) fail(root, "<pomdpx> has no <StateTransitionFunction>");
-  double discount = 0.0;
-  {
-    const auto tok = splitWs(discEl->GetText());
-    if (tok.size() != 1 || !parseDouble(tok[0], &discount) || !(discount > 0.0 && discount <= 1.0))
-      fail(discEl, "<Discount> must be one number in (0, 1], got '" +
-                       std::string(discEl->GetText() ? discEl->GetText() : "") + "'");
-  }
-  readVariables(varEl);
+  if (!sec.discount) fail(root, "<pomdpx> has no <Discount>");
+  if (!sec.variable) fail(root, "<pomdpx> has no <Variable>");
+  if (!sec.trans) fail(root, "<pomdpx> has no <StateTransitionFunction>");
+  return sec;
+}
 
+double Reader::readDiscount(const XMLElement* discEl) const {
+  double discount = 0.0;
+  const auto tok = splitWs(discEl->GetText());
+  if (tok.size() != 1 || !parseDouble(tok[0], &discount) || !(discount > 0.0 && discount <= 1.0))
+    fail(discEl, "<Discount> must be one number in (0, 1], got '" +
+                     std::string(discEl->GetText() ? discEl->GetText() : "") + "'");
+  return discount;
+}
+
+void Reader::layOut(const XMLElement* varEl) {
   // Flat orders: fully observable state variables first (SARSOP's order), last fastest.
-  std::vector<std::size_t> stateOrder, actionOrder, obsVarOrder, xOrder;
   for (std::size_t i = 0; i < vars_.size(); ++i)
-    if (vars_[i].kind == Kind::kState && vars_[i].fullyObs) xOrder.push_back(i);
-  stateOrder = xOrder;
+    if (vars_[i].kind == Kind::kState && vars_[i].fullyObs) xOrder_.push_back(i);
+  stateOrder_ = xOrder_;
   for (std::size_t i = 0; i < vars_.size(); ++i) {
-    if (vars_[i].kind == Kind::kState && !vars_[i].fullyObs) stateOrder.push_back(i);
-    if (vars_[i].kind == Kind::kAction) actionOrder.push_back(i);
-    if (vars_[i].kind == Kind::kObs) obsVarOrder.push_back(i);
+    if (vars_[i].kind == Kind::kState && !vars_[i].fullyObs) stateOrder_.push_back(i);
+    if (vars_[i].kind == Kind::kAction) actionOrder_.push_back(i);
+    if (vars_[i].kind == Kind::kObs) obsVarOrder_.push_back(i);
   }
-  if (stateOrder.empty()) fail(varEl, "<Variable> declares no <StateVar>");
-  if (actionOrder.empty()) fail(varEl, "<Variable> declares no <ActionVar>");
-  std::vector<std::size_t> obsOrder = xOrder;  // flat observation: (x', observation variables)
-  obsOrder.insert(obsOrder.end(), obsVarOrder.begin(), obsVarOrder.end());
-  std::size_t X = 1, Ov = 1;
+  if (stateOrder_.empty()) fail(varEl, "<Variable> declares no <StateVar>");
+  if (actionOrder_.empty()) fail(varEl, "<Variable> declares no <ActionVar>");
+  obsOrder_ = xOrder_;  // flat observation: (x', observation variables)
+  obsOrder_.insert(obsOrder_.end(), obsVarOrder_.begin(), obsVarOrder_.end());
+  X_ = Ov_ = 1;
   S_ = A_ = 1;
-  for (std::size_t i : stateOrder) S_ = saturatingMul(S_, vars_[i].values.size());
-  for (std::size_t i : actionOrder) A_ = saturatingMul(A_, vars_[i].values.size());
-  for (std::size_t i : xOrder) X = saturatingMul(X, vars_[i].values.size());
-  for (std::size_t i : obsVarOrder) Ov = saturatingMul(Ov, vars_[i].values.size());
-  O_ = saturatingMul(X, Ov);
+  for (std::size_t i : stateOrder_) S_ = saturatingMul(S_, vars_[i].values.size());
+  for (std::size_t i : actionOrder_) A_ = saturatingMul(A_, vars_[i].values.size());
+  for (std::size_t i : xOrder_) X_ = saturatingMul(X_, vars_[i].values.size());
+  for (std::size_t i : obsVarOrder_) Ov_ = saturatingMul(Ov_, vars_[i].values.size());
+  O_ = saturatingMul(X_, Ov_);
   // The flat sizes are known from the declarations: refuse before anything is allocated.
   checkBudget(varEl, "the declared variables", 0);
-  const std::size_t S = S_, A = A_, O = O_, Y = S / X;
-  std::vector<std::size_t> stateStride(vars_.size(), 0), obsStride(vars_.size(), 0);
-  {
-    std::size_t m = 1;
-    for (std::size_t k = stateOrder.size(); k-- > 0;) {
-      stateStride[stateOrder[k]] = m;
-      m *= vars_[stateOrder[k]].values.size();
-    }
-    m = 1;
-    for (std::size_t k = obsVarOrder.size(); k-- > 0;) {
-      obsStride[obsVarOrder[k]] = m;
-      m *= vars_[obsVarOrder[k]].values.size();
-    }
+  stateStride_.assign(vars_.size(), 0);
+  obsStride_.assign(vars_.size(), 0);
+  std::size_t m = 1;
+  for (std::size_t k = stateOrder_.size(); k-- > 0;) {
+    stateStride_[stateOrder_[k]] = m;
+    m *= vars_[stateOrder_[k]].values.size();
   }
-  auto valueOf = [&](std::size_t flat, std::size_t var, const std::vector<std::size_t>& stride) {
-    return (flat / stride[var]) % vars_[var].values.size();
-  };
+  m = 1;
+  for (std::size_t k = obsVarOrder_.size(); k-- > 0;) {
+    obsStride_[obsVarOrder_[k]] = m;
+    m *= vars_[obsVarOrder_[k]].values.size();
+  }
+}
 
-  // ---- tables ------------------------------------------------------------------------------
-  auto readSection = [&](const XMLElement* sec, const char* name, const char* child) {
-    std::vector<Table> out;
-    if (!sec) return out;
-    for (const XMLElement* c = sec->FirstChildElement(); c; c = c->NextSiblingElement()) {
-      if (std::string(c->Name()) != child)
-        fail(c, "unexpected <" + std::string(c->Name()) + "> in <" + name + "> (expected <" +
-                    child + ">)");
-      out.push_back(readTable(c, name));
-      if (out.back().probability) finishCondProb(out.back());
+std::vector<Table> Reader::readSection(const XMLElement* sec, const char* name,
+                                       const char* child) {
+  std::vector<Table> out;
+  if (!sec) return out;
+  for (const XMLElement* c = sec->FirstChildElement(); c; c = c->NextSiblingElement()) {
+    if (std::string(c->Name()) != child)
+      fail(c, "unexpected <" + std::string(c->Name()) + "> in <" + name + "> (expected <" +
+                  child + ">)");
+    out.push_back(readTable(c, name));
+    if (out.back().probability) finishCondProb(out.back());
+  }
+  if (out.empty()) fail(sec, std::string("<") + name + "> has no <" + child + ">");
+  return out;
+}
+
+std::vector<long> Reader::owners(const std::vector<Table>& tabs, const XMLElement* sec,
+                                 const XMLElement* root, Kind kind, const char* what) const {
+  std::vector<long> owner(vars_.size(), -1);
+  for (std::size_t i = 0; i < tabs.size(); ++i)
+    for (std::size_t k = tabs[i].nParents; k < tabs[i].refs.size(); ++k) {
+      const std::size_t v = tabs[i].refs[k].var;
+      if (owner[v] >= 0)
+        fail(tabs[i].elem, "'" + refName(tabs[i].refs[k]) + "' is defined by two <CondProb> in <" +
+                               what + ">");
+      owner[v] = static_cast<long>(i);
     }
-    if (out.empty()) fail(sec, std::string("<") + name + "> has no <" + child + ">");
-    return out;
-  };
-  std::vector<Table> belief = readSection(beliefEl, "InitialStateBelief", "CondProb");
-  std::vector<Table> trans = readSection(transEl, "StateTransitionFunction", "CondProb");
-  std::vector<Table> obs = readSection(obsEl, "ObsFunction", "CondProb");
-  std::vector<Table> rew = readSection(rewEl, "RewardFunction", "Func");
-  // Which table defines each variable (exactly one).
-  auto owners = [&](const std::vector<Table>& tabs, const XMLElement* sec, Kind kind,
-                    const char* what) {
-    std::vector<long> owner(vars_.size(), -1);
-    for (std::size_t i = 0; i < tabs.size(); ++i)
-      for (std::size_t k = tabs[i].nParents; k < tabs[i].refs.size(); ++k) {
-        const std::size_t v = tabs[i].refs[k].var;
-        if (owner[v] >= 0)
-          fail(tabs[i].elem, "'" + refName(tabs[i].refs[k]) + "' is defined by two <CondProb> in <" +
-                                 what + ">");
-        owner[v] = static_cast<long>(i);
-      }
-    for (std::size_t v = 0; v < vars_.size(); ++v)
-      if (vars_[v].kind == kind && owner[v] < 0)
-        fail(sec ? sec : root, std::string("<") + what + "> has no <CondProb> for '" +
-                                   (kind == Kind::kState && std::string(what) != "InitialStateBelief"
-                                        ? vars_[v].curr
-                                        : vars_[v].prev) +
-                                   "'");
-    return owner;
-  };
-  const auto tOwner = owners(trans, transEl, Kind::kState, "StateTransitionFunction");
-  const auto zOwner = owners(obs, obsEl, Kind::kObs, "ObsFunction");
-  std::vector<long> bOwner;
-  if (beliefEl) bOwner = owners(belief, beliefEl, Kind::kState, "InitialStateBelief");
-  for (std::size_t i = 0; i < rew.size(); ++i)
-    for (std::size_t j = 0; j < i; ++j)
-      if (rew[i].what == rew[j].what) fail(rew[i].elem, rew[i].what + " given twice");
+  for (std::size_t v = 0; v < vars_.size(); ++v)
+    if (vars_[v].kind == kind && owner[v] < 0)
+      fail(sec ? sec : root, std::string("<") + what + "> has no <CondProb> for '" +
+                                 (kind == Kind::kState && std::string(what) != "InitialStateBelief"
+                                      ? vars_[v].curr
+                                      : vars_[v].prev) +
+                                 "'");
+  return owner;
+}
 
-  // Dependencies within one slice must be acyclic: the order in which next-state variables
-  // (and initial-belief variables) are drawn.
-  auto orderOf = [&](const std::vector<Table>& tabs, const std::vector<long>& owner, Slice slice,
-                     const XMLElement* sec) {
-    std::vector<std::size_t> order;
-    std::vector<int> state(vars_.size(), 0);  // 0 new, 1 on the stack, 2 done
-    std::function<void(std::size_t)> visit = [&](std::size_t v) {
-      if (state[v] == 2) return;
-      if (state[v] == 1)
-        fail(sec, "the variables of <" + std::string(sec->Name()) +
-                      "> depend on each other in a cycle (through '" + vars_[v].prev + "')");
-      state[v] = 1;
-      const Table& t = tabs[static_cast<std::size_t>(owner[v])];
-      for (std::size_t k = 0; k < t.nParents; ++k)
-        if (t.refs[k].slice == slice && vars_[t.refs[k].var].kind == Kind::kState)
-          visit(t.refs[k].var);
-      state[v] = 2;
-      order.push_back(v);
-    };
-    for (std::size_t v : stateOrder) visit(v);
-    return order;
+std::vector<std::size_t> Reader::drawOrder(const std::vector<Table>& tabs,
+                                           const std::vector<long>& owner, Slice slice,
+                                           const XMLElement* sec) const {
+  std::vector<std::size_t> order;
+  std::vector<int> state(vars_.size(), 0);  // 0 new, 1 on the stack, 2 done
+  std::function<void(std::size_t)> visit = [&](std::size_t v) {
+    if (state[v] == 2) return;
+    if (state[v] == 1)
+      fail(sec, "the variables of <" + std::string(sec->Name()) +
+                    "> depend on each other in a cycle (through '" + vars_[v].prev + "')");
+    state[v] = 1;
+    const Table& t = tabs[static_cast<std::size_t>(owner[v])];
+    for (std::size_t k = 0; k < t.nParents; ++k)
+      if (t.refs[k].slice == slice && vars_[t.refs[k].var].kind == Kind::kState)
+        visit(t.refs[k].var);
+    state[v] = 2;
+    order.push_back(v);
   };
-  const auto tOrder = orderOf(trans, tOwner, Slice::kCurr, transEl);
-  if (beliefEl) orderOf(belief, bOwner, Slice::kPrev, beliefEl);
+  for (std::size_t v : stateOrder_) visit(v);
+  return order;
+}
 
-  // ---- flat T ------------------------------------------------------------------------------
-  std::vector<std::size_t> ctx(2 * vars_.size(), 0);
-  auto setState = [&](std::size_t s, bool curr) {
-    for (std::size_t v : stateOrder) ctx[2 * v + (curr ? 1 : 0)] = valueOf(s, v, stateStride);
-  };
-  auto setAction = [&](std::size_t a) {
-    std::size_t rest = a;
-    for (std::size_t k = actionOrder.size(); k-- > 0;) {
-      const std::size_t d = vars_[actionOrder[k]].values.size();
-      ctx[2 * actionOrder[k]] = rest % d;
-      rest /= d;
-    }
-  };
-  std::size_t entries = 0;
-  std::vector<SparseRows> tCsr(A), zCsr(A);
+void Reader::drawRow(const Factors& f, std::size_t depth, double p, std::size_t flat,
+                     std::vector<Model::Entry>& row) {
+  if (depth == f.order.size()) {
+    row.emplace_back(flat, p);
+    return;
+  }
+  const std::size_t v = f.order[depth];
+  const Table& t = f.tabs[static_cast<std::size_t>(f.owner[v])];
+  const std::size_t r = rowIndex(t, ctx_);
+  for (std::size_t k = t.start[r]; k < t.start[r + 1]; ++k) {
+    if (f.setCurr) ctx_[2 * v + 1] = t.nz[k].first;
+    drawRow(f, depth + 1, p * t.nz[k].second, flat + t.nz[k].first * f.stride[v], row);
+  }
+}
+
+std::size_t Reader::widest(const std::vector<Table>& tabs) {
+  std::size_t w = 1;
+  for (const Table& t : tabs) {
+    std::size_t most = 0;
+    for (std::size_t r = 0; r < t.rows; ++r) most = std::max(most, t.start[r + 1] - t.start[r]);
+    w = saturatingMul(w, most);
+  }
+  return w;
+}
+
+std::vector<SparseRows> Reader::flatTransitions(const std::vector<Table>& trans,
+                                                const std::vector<long>& tOwner,
+                                                const std::vector<std::size_t>& tOrder,
+                                                const XMLElement* transEl,
+                                                std::size_t* entries) {
+  const std::size_t S = S_, A = A_;
+  std::vector<SparseRows> tCsr(A);
   std::vector<Model::Entry> row;
-  std::function<void(std::size_t, double, std::size_t)> drawNext = [&](std::size_t depth, double p,
-                                                                       std::size_t flat) {
-    if (depth == tOrder.size()) {
-      row.emplace_back(flat, p);
-      return;
-    }
-    const std::size_t v = tOrder[depth];
-    const Table& t = trans[static_cast<std::size_t>(tOwner[v])];
-    const std::size_t r = rowIndex(t, ctx);
-    for (std::size_t k = t.start[r]; k < t.start[r + 1]; ++k) {
-      ctx[2 * v + 1] = t.nz[k].first;
-      drawNext(depth + 1, p * t.nz[k].second, flat + t.nz[k].first * stateStride[v]);
-    }
-  };
-  // The most entries one row can have: rows are refused before they are generated.
-  auto widest = [](const std::vector<Table>& tabs) {
-    std::size_t w = 1;
-    for (const Table& t : tabs) {
-      std::size_t most = 0;
-      for (std::size_t r = 0; r < t.rows; ++r) most = std::max(most, t.start[r + 1] - t.start[r]);
-      w = saturatingMul(w, most);
-    }
-    return w;
-  };
-  const std::size_t widestT = widest(trans), widestZ = widest(obs);
+  const Factors next{trans, tOwner, tOrder, stateStride_, true};
+  const std::size_t widestT = widest(trans);
   for (std::size_t a = 0; a < A; ++a) {
     setAction(a);
     tCsr[a].cols = S;
     tCsr[a].start.reserve(S + 1);
     for (std::size_t s = 0; s < S; ++s) {
-      checkBudget(transEl, "StateTransitionFunction", saturatingAdd(entries, widestT));
+      checkBudget(transEl, "StateTransitionFunction", saturatingAdd(*entries, widestT));
       if ((s & 1023) == 0) checkTime(transEl);
       setState(s, false);
       row.clear();
-      drawNext(0, 1.0, 0);
+      drawRow(next, 0, 1.0, 0, row);
       std::sort(row.begin(), row.end());
-      entries += row.size();
+      *entries += row.size();
       tCsr[a].pushRow(row);
     }
   }
-  checkBudget(transEl, "StateTransitionFunction", entries);
+  checkBudget(transEl, "StateTransitionFunction", *entries);
+  return tCsr;
+}
 
-  // ---- flat O: (x', observation variables) ---------------------------------------------------
-  std::function<void(std::size_t, double, std::size_t)> drawObs = [&](std::size_t depth, double p,
-                                                                      std::size_t flat) {
-    if (depth == obsVarOrder.size()) {
-      row.emplace_back(flat, p);
-      return;
-    }
-    const std::size_t v = obsVarOrder[depth];
-    const Table& t = obs[static_cast<std::size_t>(zOwner[v])];
-    const std::size_t r = rowIndex(t, ctx);
-    for (std::size_t k = t.start[r]; k < t.start[r + 1]; ++k)
-      drawObs(depth + 1, p * t.nz[k].second, flat + t.nz[k].first * obsStride[v]);
-  };
+std::vector<SparseRows> Reader::flatObservations(const std::vector<Table>& obs,
+                                                 const std::vector<long>& zOwner,
+                                                 const XMLElement* obsEl, std::size_t* entries) {
+  const std::size_t S = S_, A = A_, O = O_, Y = S / X_;
+  std::vector<SparseRows> zCsr(A);
+  std::vector<Model::Entry> row;
+  const Factors draw{obs, zOwner, obsVarOrder_, obsStride_, false};
+  const std::size_t widestZ = widest(obs);
   for (std::size_t a = 0; a < A; ++a) {
     setAction(a);
     zCsr[a].cols = O;
     zCsr[a].start.reserve(S + 1);
     for (std::size_t s1 = 0; s1 < S; ++s1) {
-      checkBudget(obsEl ? obsEl : root, "ObsFunction", saturatingAdd(entries, widestZ));
-      if ((s1 & 1023) == 0) checkTime(obsEl ? obsEl : root);
+      checkBudget(obsEl, "ObsFunction", saturatingAdd(*entries, widestZ));
+      if ((s1 & 1023) == 0) checkTime(obsEl);
       setState(s1, true);
       row.clear();
-      drawObs(0, 1.0, (s1 / Y) * Ov);  // fully observable variables come first in s1
-      entries += row.size();
+      drawRow(draw, 0, 1.0, (s1 / Y) * Ov_, row);  // fully observable variables come first in s1
+      *entries += row.size();
       zCsr[a].pushRow(row);
     }
   }
+  return zCsr;
+}
 
-  // ---- R: the sum of the Funcs, in expectation over s' and o where they appear ----------------
-  Eigen::MatrixXd r = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(S), static_cast<Eigen::Index>(A));
+Eigen::MatrixXd Reader::flatRewards(const std::vector<Table>& rew,
+                                    const std::vector<SparseRows>& tCsr,
+                                    const std::vector<SparseRows>& zCsr) {
+  const std::size_t S = S_, A = A_;
+  Eigen::MatrixXd r =
+      Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(S), static_cast<Eigen::Index>(A));
   for (const Table& f : rew) {
     bool next = false, observed = false;
     for (std::size_t k = 0; k < f.nParents; ++k) {
@@ -908,18 +1003,19 @@ Model Reader::read() {
         setState(s, false);
         double value = 0.0;
         if (!next && !observed) {
-          value = f.v[rowIndex(f, ctx)];
+          value = f.v[rowIndex(f, ctx_)];
         } else {
           for (const auto& t : tCsr[a].row(s)) {
             setState(t.first, true);
             if (!observed) {
-              value += t.second * f.v[rowIndex(f, ctx)];
+              value += t.second * f.v[rowIndex(f, ctx_)];
               continue;
             }
             double w = 0.0;
             for (const auto& z : zCsr[a].row(t.first)) {
-              for (std::size_t v : obsVarOrder) ctx[2 * v] = valueOf(z.first % Ov, v, obsStride);
-              w += z.second * f.v[rowIndex(f, ctx)];
+              for (std::size_t v : obsVarOrder_)
+                ctx_[2 * v] = valueOf(z.first % Ov_, v, obsStride_);
+              w += z.second * f.v[rowIndex(f, ctx_)];
             }
             value += t.second * w;
           }
@@ -928,38 +1024,43 @@ Model Reader::read() {
       }
     }
   }
+  return r;
+}
 
-  // Each Func is within the limit, their sum need not be: refused at <RewardFunction>.
-  if (r.size() > 0) {
-    Eigen::Index ws = 0, wa = 0;
-    if (r.cwiseAbs().maxCoeff(&ws, &wa) > Model::kMaxAbsReward)
-      fail(rewEl, "the reward functions add up to " + formatNumber(r(ws, wa), 6) + " in state " +
-                      std::to_string(ws) + " under action " + std::to_string(wa) +
-                      ", outside [-" + formatNumber(Model::kMaxAbsReward, 6) + ", " +
-                      formatNumber(Model::kMaxAbsReward, 6) + "], the limit that keeps "
-                      "|R| / (1 - discount) and |R| * horizon finite");
-  }
+void Reader::checkRewardSum(const Eigen::MatrixXd& r, const XMLElement* rewEl) const {
+  if (r.size() == 0) return;
+  Eigen::Index ws = 0, wa = 0;
+  if (r.cwiseAbs().maxCoeff(&ws, &wa) > Model::kMaxAbsReward)
+    fail(rewEl, "the reward functions add up to " + formatNumber(r(ws, wa), 6) + " in state " +
+                    std::to_string(ws) + " under action " + std::to_string(wa) +
+                    ", outside [-" + formatNumber(Model::kMaxAbsReward, 6) + ", " +
+                    formatNumber(Model::kMaxAbsReward, 6) + "], the limit that keeps "
+                    "|R| / (1 - discount) and |R| * horizon finite");
+}
 
-  // ---- b0: the product of the InitialStateBelief factors ------------------------------------
-  Eigen::VectorXd b0;
-  if (beliefEl) {
-    b0.resize(static_cast<Eigen::Index>(S));
-    for (std::size_t s = 0; s < S; ++s) {
-      setState(s, false);
-      double p = 1.0;
-      for (const Table& t : belief) {
-        std::size_t cell = rowIndex(t, ctx) * t.rowLen, m = t.rowLen;
-        for (std::size_t k = t.nParents; k < t.refs.size(); ++k) {
-          m /= t.dims[k];
-          cell += ctx[t.slots[k]] * m;
-        }
-        p *= t.v[cell];
+Eigen::VectorXd Reader::initialBelief(const std::vector<Table>& belief) {
+  Eigen::VectorXd b0(static_cast<Eigen::Index>(S_));
+  for (std::size_t s = 0; s < S_; ++s) {
+    setState(s, false);
+    double p = 1.0;
+    for (const Table& t : belief) {
+      std::size_t cell = rowIndex(t, ctx_) * t.rowLen, m = t.rowLen;
+      for (std::size_t k = t.nParents; k < t.refs.size(); ++k) {
+        m /= t.dims[k];
+        cell += ctx_[t.slots[k]] * m;
       }
-      b0(static_cast<Eigen::Index>(s)) = p;
+      p *= t.v[cell];
     }
+    b0(static_cast<Eigen::Index>(s)) = p;
   }
+  return b0;
+}
 
-  // ---- the Model -----------------------------------------------------------------------------
+Model Reader::buildModel(std::vector<SparseRows> tCsr, std::vector<SparseRows> zCsr,
+                         Eigen::MatrixXd r, double discount, const Eigen::VectorXd* b0,
+                         std::size_t entries, std::vector<Table>& trans,
+                         std::vector<Table>& obs, const XMLElement* root) {
+  const std::size_t S = S_, A = A_, O = O_;
   std::size_t nnzT = 0;
   for (const auto& t : tCsr) nnzT += t.entries.size();
   const double cells = static_cast<double>(A) * S * S;
@@ -970,9 +1071,9 @@ Model Reader::read() {
       saturatingAdd(needBytes(entries), static_cast<std::size_t>(2.0 * cells * sizeof(double))) >
           budget_)
     storage = ModelStorage::kSparse;
-  std::vector<std::string> sNames = flatNames(stateOrder, S, "s", "s0");
-  std::vector<std::string> aNames = flatNames(actionOrder, A, "a", "a0");
-  std::vector<std::string> oNames = flatNames(obsOrder, O, "o", "none");
+  std::vector<std::string> sNames = flatNames(stateOrder_, S, "s", "s0");
+  std::vector<std::string> aNames = flatNames(actionOrder_, A, "a", "a0");
+  std::vector<std::string> oNames = flatNames(obsOrder_, O, "o", "none");
   // Tables are no longer needed: release them before the Model copies T and O.
   std::vector<Table>().swap(trans);
   std::vector<Table>().swap(obs);
@@ -980,7 +1081,7 @@ Model Reader::read() {
     const double left = timeout_ > 0.0 ? std::max(1e-9, timeout_ - clock_.seconds()) : 0.0;
     Model m(std::move(tCsr), std::move(zCsr), std::move(r), discount, left, storage);
     m.setNames(std::move(sNames), std::move(aNames), std::move(oNames));
-    if (beliefEl) m.setInitialBelief(b0);
+    if (b0) m.setInitialBelief(*b0);
     return m;
   } catch (const ConfigError& e) {
     if (timeout_ > 0.0 && clock_.seconds() > timeout_)

@@ -31,6 +31,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <unordered_map>
 #include <vector>
 
@@ -194,6 +195,19 @@ class PointBasedSolver {
   };
   void initLower(double deadline);
   void initUpper(double mdpDeadline, double setupEnd);
+  // initUpper's steps; late(d): whether the constructor's clock has reached d seconds.
+  /// Q_MDP by policy iteration (small models).
+  Eigen::MatrixXd mdpQExact();
+  /// Q = R + gamma T V after Gauss-Seidel sweeps down to V_MDP until mdpDeadline (large
+  /// models): an upper bound wherever they stop.
+  Eigen::MatrixXd mdpQSweeps(const std::function<bool(double)>& late, double mdpDeadline);
+  /// Rounding margin; the trivial bound Rmax / (1 - gamma) if q is not an upper fixed point.
+  void checkUpperFixedPoint(Eigen::MatrixXd& q) const;
+  /// The fast informed bound iterated down from q until fibDeadline: whether it converged.
+  bool fastInformedBound(Eigen::MatrixXd& q, const std::function<bool(double)>& late,
+                         double fibDeadline);
+  /// fib_: the columns of q no other column dominates pointwise.
+  void keepUndominatedFib(const Eigen::MatrixXd& q);
   void trial();
   /// Per trial node: Q_U per action, and P(o | b, a) and U(b_ao) per (action, observation).
   struct NodeCache {
