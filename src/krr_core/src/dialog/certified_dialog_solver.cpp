@@ -290,6 +290,13 @@ class CertifiedDialogSolver::Impl {
                                     std::unordered_map<std::string, std::size_t>& memo,
                                     std::vector<Eigen::VectorXd>& vectors,
                                     std::vector<std::pair<std::size_t, int>>& tags) const;
+  /// A frontier node's plan when it beats serving (alpha, action: serving's on entry): its
+  /// commit plan, or a question about the room and then commit plans (see upperRelaxation).
+  void frontierPlan(const std::int16_t* key, const Eigen::VectorXd& b, double reach,
+                    Eigen::VectorXd& alpha, std::size_t& action,
+                    std::unordered_map<std::string, std::size_t>& memo,
+                    std::vector<Eigen::VectorXd>& vectors,
+                    std::vector<std::pair<std::size_t, int>>& tags) const;
   /// A commit plan's vectors (see upperRelaxation): r's sub-dialog plan from an actual sub
   /// key (revealed section {r, 0, ...}, the other slots in actual order, shifted), each node's
   /// vector added with its action and turn (the executor needs them all); plans end by
@@ -337,6 +344,9 @@ class CertifiedDialogSolver::Impl {
     std::vector<std::size_t> kidIdx, bestKid;            // children of a question / the best
     std::vector<std::vector<std::size_t>> kidPerm, bestPerm;  // their canonical permutations
   };
+  /// One question of the sub-dialog node in sc (its value; the children in sc.kidIdx /
+  /// kidPerm, the room-paid sums in sc.accT).
+  double subQuestion(SubScratch& sc, const Question& q, std::size_t fixed);
   /// subDialogValue's node: its index in subTable_, or kNone when cut off (then *value is
   /// the full-information bound).
   std::size_t subNode(const std::int16_t* key, const Eigen::VectorXd* hint, double* value);
@@ -420,6 +430,17 @@ class CertifiedDialogSolver::Impl {
   std::vector<std::size_t> kidPos_;
   Backup backup(std::size_t n);
   void trial();
+  /// Bounds of the child of n (key, belief b) after `answer` (probability p) to q, at slot
+  /// position pos: from n's slots (linking a child that is now a node), or made (kept in
+  /// freshSlots_ at a first expansion, else a node). @return the child's node, or kNone.
+  std::size_t childBounds(const std::int16_t* key, const Eigen::VectorXd& b, const Question& q,
+                          std::size_t answer, double p, std::size_t pos, std::uint32_t* slots,
+                          bool makeSlots, double& cu, double& cl);
+  struct {
+    std::vector<std::int16_t> key;
+    std::vector<std::size_t> perm;
+    Eigen::VectorXd cb, pb;
+  } childScratch_;
   /// A kept child's slot: floats rounded outwards (the kept bounds stay bounds).
   static void packSlot(double upper, double lower, std::uint32_t* w);
   bool memoryExceeded() const;
@@ -918,36 +939,7 @@ std::size_t CertifiedDialogSolver::Impl::subNode(const std::int16_t* key,
           if (q.cost < stallCost) stallCost = q.cost, stallQ = static_cast<int>(qi);
           continue;
         }
-        double acc = 0.0;
-        std::fill(sc.accT, sc.accT + kNumPaidLevels, 0.0);
-        const std::size_t na = numAnswers(q);
-        sc.kidIdx.assign(na, kNone);
-        sc.kidPerm.resize(na);
-        for (std::size_t answer = 0; answer < na; ++answer) {
-          const double p = answerProb(sc.m[q.slot], q, answer);
-          if (!(p > 1e-300)) continue;
-          childKey(sc.own.data(), q, answer, sc.kid.data());
-          canonicalize(sc.kid.data(), &sc.perm, 1 << revealed_);
-          sc.kid[rc.offset] = static_cast<std::int16_t>(fixed);
-          double cv;
-          std::size_t ci = subTable_.find(sc.kid.data());
-          if (ci != kNone) {
-            cv = subValue_[ci];
-          } else {
-            childBelief(sc.b, q, answer, p, sc.cb);
-            permuteBelief(sc.cb, sc.perm, sc.pb);
-            const std::vector<std::int16_t> kid = sc.kid;  // the recursion reuses deeper buffers only
-            ci = subNode(kid.data(), &sc.pb, &cv);
-          }
-          sc.kidIdx[answer] = ci;
-          sc.kidPerm[answer] = sc.perm;
-          acc += p * cv;
-          if (o_.roomPaidBound)
-            for (int k = 0; k < kNumPaidLevels; ++k)  // a child without T: V bounds it
-              sc.accT[k] += p * (ci != kNone && ci * kNumPaidLevels < subT_.size()
-                                     ? subT_[ci * kNumPaidLevels + k] : cv);
-        }
-        const double qv = -q.cost + gamma_ * acc;
+        const double qv = subQuestion(sc, q, fixed);
         if (o_.roomPaidBound)
           for (int k = 0; k < kNumPaidLevels; ++k)
             sc.bestT[k] = std::max(sc.bestT[k], -q.cost + gamma_ * sc.accT[k]);
@@ -988,6 +980,41 @@ std::size_t CertifiedDialogSolver::Impl::subNode(const std::int16_t* key,
   subAlphaAt_.push_back(ok ? subPlanAlpha(sc, choice, serveA) : kNoAlpha);
   *value = v;
   return idx;
+}
+
+double CertifiedDialogSolver::Impl::subQuestion(SubScratch& sc, const Question& q,
+                                                std::size_t fixed) {
+  const SlotCode& rc = slot_[revealed_];
+  double acc = 0.0;
+  std::fill(sc.accT, sc.accT + kNumPaidLevels, 0.0);
+  const std::size_t na = numAnswers(q);
+  sc.kidIdx.assign(na, kNone);
+  sc.kidPerm.resize(na);
+  for (std::size_t answer = 0; answer < na; ++answer) {
+    const double p = answerProb(sc.m[q.slot], q, answer);
+    if (!(p > 1e-300)) continue;
+    childKey(sc.own.data(), q, answer, sc.kid.data());
+    canonicalize(sc.kid.data(), &sc.perm, 1 << revealed_);
+    sc.kid[rc.offset] = static_cast<std::int16_t>(fixed);
+    double cv;
+    std::size_t ci = subTable_.find(sc.kid.data());
+    if (ci != kNone) {
+      cv = subValue_[ci];
+    } else {
+      childBelief(sc.b, q, answer, p, sc.cb);
+      permuteBelief(sc.cb, sc.perm, sc.pb);
+      const std::vector<std::int16_t> kid = sc.kid;  // the recursion reuses deeper buffers only
+      ci = subNode(kid.data(), &sc.pb, &cv);
+    }
+    sc.kidIdx[answer] = ci;
+    sc.kidPerm[answer] = sc.perm;
+    acc += p * cv;
+    if (o_.roomPaidBound)
+      for (int k = 0; k < kNumPaidLevels; ++k)  // a child without T: V bounds it
+        sc.accT[k] += p * (ci != kNone && ci * kNumPaidLevels < subT_.size()
+                               ? subT_[ci * kNumPaidLevels + k] : cv);
+  }
+  return -q.cost + gamma_ * acc;
 }
 
 std::uint32_t CertifiedDialogSolver::Impl::subPlanAlpha(const SubScratch& at0, int choice,
@@ -1402,9 +1429,6 @@ CertifiedDialogSolver::Impl::Backup CertifiedDialogSolver::Impl::backup(std::siz
   std::array<Eigen::VectorXd, kSlots> m;
   marginals(b, m);
   double bestU = serve, bestL = serve;
-  std::vector<std::int16_t> kid(stride_);
-  std::vector<std::size_t> perm;
-  Eigen::VectorXd cb, pb;
   // Slots (see leafCache_): read them once expanded; made at the first expansion.
   const bool makeSlots = leafCache_ && !expandedFlags_[n];
   std::uint32_t* slots = leafCache_ && expandedFlags_[n] ? slotsOf(n) : nullptr;
@@ -1416,48 +1440,8 @@ CertifiedDialogSolver::Impl::Backup CertifiedDialogSolver::Impl::backup(std::siz
       const double p = answerProb(m[q.slot], q, answer);
       if (!(p > 1e-300)) continue;
       const std::size_t pos = posOf_.empty() ? 0 : posOf_[qi] + answer;
-      std::size_t c = kNone;
-      double cu, cl;
-      if (slots && slots[2 * pos + 1] == kLinked) {
-        c = slots[2 * pos];
-      } else if (slots) {
-        // Another parent may have made it a node since (the same statistics by another
-        // order of questions): link it, its bounds only get better.
-        childKey(key.data(), q, answer, kid.data());
-        canonicalize(kid.data());
-        c = table_.find(kid.data());
-        if (c != kNone) {
-          slots[2 * pos] = static_cast<std::uint32_t>(c);
-          slots[2 * pos + 1] = kLinked;
-        } else {
-          unpackSlot(slots + 2 * pos, cu, cl);
-        }
-      } else {
-        childKey(key.data(), q, answer, kid.data());
-        canonicalize(kid.data(), &perm);
-        c = table_.find(kid.data());
-        if (c == kNone) {
-          childBelief(b, q, answer, p, cb);
-          permuteBelief(cb, perm, pb);
-          if (makeSlots) {
-            double u, l;
-            std::uint32_t g, h;
-            newBounds(kid.data(), depth + 1, &pb, u, l, g, h);
-            // the shared bounds as they are now (a kept child's bound is not revisited)
-            packSlot(std::max(sharedUpper(kid.data(), u, g, h, kNone), l), l, &freshSlots_[2 * pos]);
-            unpackSlot(&freshSlots_[2 * pos], cu, cl);
-          } else {
-            c = nodeFor(kid.data(), depth + 1, &pb);
-          }
-        } else if (makeSlots) {
-          freshSlots_[2 * pos] = static_cast<std::uint32_t>(c);
-          freshSlots_[2 * pos + 1] = kLinked;
-        }
-      }
-      if (c != kNone) {
-        cl = nodes_[c].lower;
-        cu = std::max(effUpper(c), cl);
-      }
+      double cu = 0.0, cl = 0.0;
+      const std::size_t c = childBounds(key.data(), b, q, answer, p, pos, slots, makeSlots, cu, cl);
       qu += p * cu;
       ql += p * cl;
       kidProb_.push_back(p);
@@ -1502,6 +1486,61 @@ CertifiedDialogSolver::Impl::Backup CertifiedDialogSolver::Impl::backup(std::siz
   if (nd.upper < nd.lower) nd.upper = nd.lower;  // rounding
   notePoint(n);
   return r;
+}
+
+std::size_t CertifiedDialogSolver::Impl::childBounds(const std::int16_t* key,
+                                                    const Eigen::VectorXd& b, const Question& q,
+                                                    std::size_t answer, double p, std::size_t pos,
+                                                    std::uint32_t* slots, bool makeSlots,
+                                                    double& cu, double& cl) {
+  std::size_t c = kNone;
+  std::vector<std::int16_t>& kid = childScratch_.key;
+  std::vector<std::size_t>& perm = childScratch_.perm;
+  Eigen::VectorXd& cb = childScratch_.cb;
+  Eigen::VectorXd& pb = childScratch_.pb;
+  kid.resize(stride_);
+  const int depth = key[0];
+  if (slots && slots[2 * pos + 1] == kLinked) {
+    c = slots[2 * pos];
+  } else if (slots) {
+    // Another parent may have made it a node since (the same statistics by another
+    // order of questions): link it, its bounds only get better.
+    childKey(key, q, answer, kid.data());
+    canonicalize(kid.data());
+    c = table_.find(kid.data());
+    if (c != kNone) {
+      slots[2 * pos] = static_cast<std::uint32_t>(c);
+      slots[2 * pos + 1] = kLinked;
+    } else {
+      unpackSlot(slots + 2 * pos, cu, cl);
+    }
+  } else {
+    childKey(key, q, answer, kid.data());
+    canonicalize(kid.data(), &perm);
+    c = table_.find(kid.data());
+    if (c == kNone) {
+      childBelief(b, q, answer, p, cb);
+      permuteBelief(cb, perm, pb);
+      if (makeSlots) {
+        double u, l;
+        std::uint32_t g, h;
+        newBounds(kid.data(), depth + 1, &pb, u, l, g, h);
+        // the shared bounds as they are now (a kept child's bound is not revisited)
+        packSlot(std::max(sharedUpper(kid.data(), u, g, h, kNone), l), l, &freshSlots_[2 * pos]);
+        unpackSlot(&freshSlots_[2 * pos], cu, cl);
+      } else {
+        c = nodeFor(kid.data(), depth + 1, &pb);
+      }
+    } else if (makeSlots) {
+      freshSlots_[2 * pos] = static_cast<std::uint32_t>(c);
+      freshSlots_[2 * pos + 1] = kLinked;
+    }
+  }
+  if (c != kNone) {
+    cl = nodes_[c].lower;
+    cu = std::max(effUpper(c), cl);
+  }
+  return c;
 }
 
 void CertifiedDialogSolver::Impl::packSlot(double upper, double lower, std::uint32_t* w) {
@@ -1747,83 +1786,8 @@ const Eigen::VectorXd& CertifiedDialogSolver::Impl::planVector(
   alpha = serveR_.col(static_cast<Eigen::Index>(serveA));  // serve now
   action = d_.serveAction(serveA);
   if (choice == kNone) {
-    if (o_.commitLower && !truncated && depth < horizon_) {
-      // The plan behind a commit lower bound, when it beats serving now.
-      const SlotCode& rc = slot_[revealed_];
-      std::vector<std::int16_t> sub(key, key + stride_), canonSub(stride_);
-      std::fill(sub.begin() + static_cast<long>(rc.offset),
-                sub.begin() + static_cast<long>(rc.offset + rc.n * rc.width), 0);
-      std::vector<std::size_t> sperm;
-      const std::size_t o1 = slot_[0].n, o2 = o1 + slot_[1].n;
-      double bestCommit = alpha.dot(b) + 1e-9 * (1.0 + std::abs(alpha.dot(b)));
-      std::size_t bestR = kNone;
-      for (std::size_t r = 0; r < rc.n; ++r) {
-        sub[rc.offset] = static_cast<std::int16_t>(r);
-        canonSub = sub;
-        canonicalize(canonSub.data(), &sperm, 1 << revealed_);
-        const std::size_t i = subTable_.find(canonSub.data());
-        if (i == kNone || subAlphaAt_[i] == kNoAlpha) continue;
-        const double* a = &subAlpha_[subAlphaAt_[i]];
-        double v = 0.0;
-        for (std::size_t c = 0; c < nReq_; ++c) {
-          const auto& pt = parts_[c];
-          v += a[c] * b(static_cast<Eigen::Index>(
-                          d_.requestIndex(sperm[pt[0]], sperm[o1 + pt[1]], sperm[o2 + pt[2]])));
-        }
-        if (v > bestCommit) bestCommit = v, bestR = r;
-      }
-      // Or a question about the room first, then the commit plan best for its answer (the
-      // next turn's plans, in this key's request order).
-      std::size_t look = kNone;
-      std::vector<std::size_t> lookRoom;
-      if (o_.roomLookahead && !roomLooks_.empty()) {
-        std::vector<Eigen::VectorXd> next(rc.n);
-        const double* A[kMaxValues];
-        bool all = true;
-        ++sub[0];
-        for (std::size_t r = 0; r < rc.n && all; ++r) {
-          A[r] = nullptr;
-          double w = 0.0;
-          for (std::size_t s = 0; s < nReq_; ++s)
-            if (parts_[s][revealed_] == r) w += b(static_cast<Eigen::Index>(s));
-          if (!(w > 0.0)) continue;
-          sub[rc.offset] = static_cast<std::int16_t>(r);
-          canonSub = sub;
-          canonicalize(canonSub.data(), &sperm, 1 << revealed_);
-          const std::size_t i = subTable_.find(canonSub.data());
-          if (i == kNone || subAlphaAt_[i] == kNoAlpha) { all = false; break; }
-          const double* a = &subAlpha_[subAlphaAt_[i]];
-          next[r].resize(static_cast<Eigen::Index>(nReq_));
-          for (std::size_t c = 0; c < nReq_; ++c) {
-            const auto& pt = parts_[c];
-            next[r](static_cast<Eigen::Index>(d_.requestIndex(sperm[pt[0]], sperm[o1 + pt[1]], sperm[o2 + pt[2]]))) = a[c];
-          }
-          A[r] = next[r].data();
-        }
-        --sub[0];
-        std::size_t li = kNone;
-        if (all && lookaheadValue(b, A, &li, &lookRoom) > bestCommit && li != kNone) look = li;
-      }
-      if (look != kNone) {
-        const Question& q = questions_[roomLooks_[look].qi];
-        alpha.setConstant(-q.cost);
-        action = q.action;
-        ++sub[0];
-        for (std::size_t o = 0; o < roomLooks_[look].answers; ++o) {
-          sub[rc.offset] = static_cast<std::int16_t>(lookRoom[o]);
-          const std::size_t vi = subPlanVector(sub.data(), rit->second, 0.0, memo, vectors, tags);
-          addAnswer(alpha, q, o, vectors[vi]);
-        }
-        --sub[0];
-      } else if (bestR != kNone) {
-        sub[rc.offset] = static_cast<std::int16_t>(bestR);
-        // Followed to its end (floor 0): the sub-dialog is finite and its plans memoised, and
-        // a commit plan cut by serving early loses most of its value.
-        const std::size_t vi = subPlanVector(sub.data(), rit->second, 0.0, memo, vectors, tags);
-        alpha = vectors[vi];
-        action = tags[vi].first;
-      }
-    }
+    if (o_.commitLower && !truncated && depth < horizon_)
+      frontierPlan(key, b, rit->second, alpha, action, memo, vectors, tags);
   } else {
     const Question q = actualQuestion(choice, perm);
     action = q.action;
@@ -1844,6 +1808,87 @@ const Eigen::VectorXd& CertifiedDialogSolver::Impl::planVector(
     }
   }
   return vectors[addVector(alpha, action, depth, mk, memo, vectors, tags)];
+}
+
+void CertifiedDialogSolver::Impl::frontierPlan(
+    const std::int16_t* key, const Eigen::VectorXd& b, double reach, Eigen::VectorXd& alpha,
+    std::size_t& action, std::unordered_map<std::string, std::size_t>& memo,
+    std::vector<Eigen::VectorXd>& vectors, std::vector<std::pair<std::size_t, int>>& tags) const {
+  // The plan behind a commit lower bound, when it beats serving now.
+  const SlotCode& rc = slot_[revealed_];
+  std::vector<std::int16_t> sub(key, key + stride_), canonSub(stride_);
+  std::fill(sub.begin() + static_cast<long>(rc.offset),
+            sub.begin() + static_cast<long>(rc.offset + rc.n * rc.width), 0);
+  std::vector<std::size_t> sperm;
+  const std::size_t o1 = slot_[0].n, o2 = o1 + slot_[1].n;
+  double bestCommit = alpha.dot(b) + 1e-9 * (1.0 + std::abs(alpha.dot(b)));
+  std::size_t bestR = kNone;
+  for (std::size_t r = 0; r < rc.n; ++r) {
+    sub[rc.offset] = static_cast<std::int16_t>(r);
+    canonSub = sub;
+    canonicalize(canonSub.data(), &sperm, 1 << revealed_);
+    const std::size_t i = subTable_.find(canonSub.data());
+    if (i == kNone || subAlphaAt_[i] == kNoAlpha) continue;
+    const double* a = &subAlpha_[subAlphaAt_[i]];
+    double v = 0.0;
+    for (std::size_t c = 0; c < nReq_; ++c) {
+      const auto& pt = parts_[c];
+      v += a[c] * b(static_cast<Eigen::Index>(
+                      d_.requestIndex(sperm[pt[0]], sperm[o1 + pt[1]], sperm[o2 + pt[2]])));
+    }
+    if (v > bestCommit) bestCommit = v, bestR = r;
+  }
+  // Or a question about the room first, then the commit plan best for its answer (the
+  // next turn's plans, in this key's request order).
+  std::size_t look = kNone;
+  std::vector<std::size_t> lookRoom;
+  if (o_.roomLookahead && !roomLooks_.empty()) {
+    std::vector<Eigen::VectorXd> next(rc.n);
+    const double* A[kMaxValues];
+    bool all = true;
+    ++sub[0];
+    for (std::size_t r = 0; r < rc.n && all; ++r) {
+      A[r] = nullptr;
+      double w = 0.0;
+      for (std::size_t s = 0; s < nReq_; ++s)
+        if (parts_[s][revealed_] == r) w += b(static_cast<Eigen::Index>(s));
+      if (!(w > 0.0)) continue;
+      sub[rc.offset] = static_cast<std::int16_t>(r);
+      canonSub = sub;
+      canonicalize(canonSub.data(), &sperm, 1 << revealed_);
+      const std::size_t i = subTable_.find(canonSub.data());
+      if (i == kNone || subAlphaAt_[i] == kNoAlpha) { all = false; break; }
+      const double* a = &subAlpha_[subAlphaAt_[i]];
+      next[r].resize(static_cast<Eigen::Index>(nReq_));
+      for (std::size_t c = 0; c < nReq_; ++c) {
+        const auto& pt = parts_[c];
+        next[r](static_cast<Eigen::Index>(d_.requestIndex(sperm[pt[0]], sperm[o1 + pt[1]], sperm[o2 + pt[2]]))) = a[c];
+      }
+      A[r] = next[r].data();
+    }
+    --sub[0];
+    std::size_t li = kNone;
+    if (all && lookaheadValue(b, A, &li, &lookRoom) > bestCommit && li != kNone) look = li;
+  }
+  if (look != kNone) {
+    const Question& q = questions_[roomLooks_[look].qi];
+    alpha.setConstant(-q.cost);
+    action = q.action;
+    ++sub[0];
+    for (std::size_t o = 0; o < roomLooks_[look].answers; ++o) {
+      sub[rc.offset] = static_cast<std::int16_t>(lookRoom[o]);
+      const std::size_t vi = subPlanVector(sub.data(), reach, 0.0, memo, vectors, tags);
+      addAnswer(alpha, q, o, vectors[vi]);
+    }
+    --sub[0];
+  } else if (bestR != kNone) {
+    sub[rc.offset] = static_cast<std::int16_t>(bestR);
+    // Followed to its end (floor 0): the sub-dialog is finite and its plans memoised, and
+    // a commit plan cut by serving early loses most of its value.
+    const std::size_t vi = subPlanVector(sub.data(), reach, 0.0, memo, vectors, tags);
+    alpha = vectors[vi];
+    action = tags[vi].first;
+  }
 }
 
 std::size_t CertifiedDialogSolver::Impl::subPlanVector(
