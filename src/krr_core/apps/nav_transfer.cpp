@@ -1,7 +1,9 @@
-// nav_transfer: the paper's navigation experiment (learn shop-room1, apply to shop-room2),
-// headless. Prints a summary and writes per-episode means as CSV (--out) and, optionally, one
-// row per (trial, episode, condition) (--trials-out) for an evaluator that splits trial ranges
-// over processes (--trial-begin) and concatenates them: trial i depends only on (seed, i).
+// nav_transfer: the paper's navigation experiment (learn start -> source, apply the extracted
+// knowledge to start -> target; the places: the options file, the start defaulting to the
+// site's shop), headless. Prints a summary and writes per-episode means as CSV (--out) and,
+// optionally, one row per (trial, episode, condition) (--trials-out) for an evaluator that
+// splits trial ranges over processes (--trial-begin) and concatenates them: trial i depends
+// only on (seed, i).
 #include <cstdio>
 #include <iostream>
 #include <sstream>
@@ -20,9 +22,10 @@
 namespace {
 
 const char* kSummary =
-    "The paper's navigation experiment: learn shop-room1, extract, apply to shop-room2.\n"
-    "Experiment defaults come from the options file; flags override them. Default paths are\n"
-    "under ROOT (see --root).";
+    "The paper's navigation experiment: learn start -> source, extract the knowledge, apply it\n"
+    "to start -> target. Experiment defaults come from the options file (the start: the site's\n"
+    "shop, navigation.shop of the dialog.yaml beside the navigation config, unless the file\n"
+    "names one); flags override them. Default paths are under ROOT (see --root).";
 const char* kEpilog =
     "--out: episode, mean and 95% CI of the reward with/without extraction, success rates.\n"
     "--trials-out: trial, episode, condition (with/without), reward, success.\n";
@@ -108,11 +111,15 @@ void checkPlaces(const krr::nav::NavGrid& grid, const krr::experiments::NavTrans
     const std::string flag = std::string("--") + field;
     bool fromFlag = false;
     for (const auto& ov : a.overrides) fromFlag = fromFlag || ov.first == flag;
+    const bool start = field == std::string("start");
+    const std::string site =
+        "the site's shop, " + a.files.dialogConfig() + ": field 'navigation.shop'";
     const std::string where =
         fromFlag ? "option " + flag
-                 : (optionsFile.empty() ? std::string("built-in default")
-                                        : optionsFile + ": field 'nav_transfer." + field + "'") +
-                       (field == std::string("start") ? "" : " (or " + flag + ")");
+        : optionsFile.empty()
+            ? (start ? site : "no options file: option " + flag)
+            : optionsFile + ": field 'nav_transfer." + field + "'" +
+                  (start ? " (default: " + site + ")" : " (or " + flag + ")");
     throw krr::ConfigError(where + ": unknown place '" + *value + "' (places of domain '" +
                            a.domain + "': " + places + ")");
   }
@@ -135,9 +142,11 @@ static int mainBody(int argc, char** argv) {
   const bool givenOptions = !a.files.options.empty();
   a.files.resolveRoot();
   if (a.domain.empty()) a.domain = a.files.defaultDomain();
+  // The start is the site's shop unless the options file names another.
   krr::experiments::NavTransferOptions o;
+  o.start = a.files.siteShop();
   const bool loadedOptions = givenOptions || std::ifstream(a.files.options).good();
-  if (loadedOptions) o = krr::experiments::loadNavTransferOptions(a.files.options);
+  if (loadedOptions) o = krr::experiments::loadNavTransferOptions(a.files.options, o);
   for (const auto& [f, v] : a.overrides) applyOverride(o, f, v);
   o.validate();
   a.files.resolveInputs(a.domain);

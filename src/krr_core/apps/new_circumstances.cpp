@@ -72,8 +72,11 @@ static int mainBody(int argc, char** argv) {
   };
   if (const auto status = parser.parse(argc, argv, check)) return *status;
   files.resolveRoot();
+  // The start is the site's shop unless the options file names another.
+  krr::experiments::NewCircumstancesOptions defaults;
+  defaults.start = files.siteShop();
   krr::experiments::NewCircumstancesOptions o =
-      krr::experiments::loadNewCircumstancesOptions(files.options);
+      krr::experiments::loadNewCircumstancesOptions(files.options, defaults);
   for (const auto& [f, v] : overrides) {
     if (f == "--goal") o.goal = v;
     else if (f == "--br") o.blocking_rate = krr::parseNumberOption(f, v);

@@ -1,9 +1,13 @@
 /**
  * @file bench_planning.cpp
- * @brief Speed of grid A* and OMPL planning on the office domains, simulator throughput, and
+ * @brief Speed of grid A* and OMPL planning on the site's domains, simulator throughput, and
  * the calibration table of navigation success rates (shortest-path policy) per blocking rate.
  *
- *   bench_planning [--config ROOT/config/navigation.yaml] [--seed N] [--episodes N]
+ *   bench_planning [--config ROOT/config/navigation.yaml] [--dialog-config FILE] [--seed N]
+ *                  [--episodes N]
+ *
+ * Routes start at the site's shop (the dialog config's navigation.shop) and go to every other
+ * place of the places file, in its order.
  *
  * Targets: A* and OMPL queries well under a millisecond each.
  */
@@ -15,9 +19,11 @@
 
 #include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
+#include "krr_core/common/files.h"
 #include "krr_core/common/random.h"
 #include "krr_core/common/resource_locator.h"
 #include "krr_core/common/resources.h"
+#include "krr_core/dialog/dialog_config.h"
 #include "krr_core/nav/blockage_simulator.h"
 #include "krr_core/nav/grid_astar.h"
 #include "krr_core/nav/navigation_config.h"
@@ -27,24 +33,35 @@ using namespace krr;
 using namespace krr::nav;
 
 int main(int argc, char** argv) {
-  std::string config_path;
+  std::string config_path, dialog_path;
   std::uint64_t seed = 1;
   std::size_t episodes = 10000;
   OptionParser cli("bench_planning",
-                   "Speed of grid A* and OMPL planning on the office domains, simulator\n"
+                   "Speed of grid A* and OMPL planning on the site's domains, simulator\n"
                    "throughput, and the success rates of the shortest-path policy per blocking\n"
                    "rate.");
   cli.add("--config", "FILE", "navigation config", &config_path)
       .defaultText("ROOT/config/navigation.yaml");
+  cli.add("--dialog-config", "FILE", "dialog config whose navigation.shop routes start from",
+          &dialog_path)
+      .defaultText("dialog.yaml beside the navigation config");
   cli.add("--seed", "N", "seed of the planner and the simulator", &seed);
   cli.add("--episodes", "N", "episodes per success rate", &episodes);
   if (const auto status = cli.parse(argc, argv)) return *status;
   try {
-    NavigationConfig cfg = loadNavigationConfig(resourcePath(config_path, "config/navigation.yaml"));
+    config_path = resourcePath(config_path, "config/navigation.yaml");
+    NavigationConfig cfg = loadNavigationConfig(config_path);
     OccupancyGrid map = loadMap(cfg.map);
     PlacesFile places = loadPlaces(cfg.places);
     OmplPlanner planner(map, cfg.planner, seed);
-    const char* rooms[] = {"room1", "room2", "room3", "room4", "room5"};
+    // The site's shop and every other place (the rooms), in the places file's order.
+    const std::string shopName =
+        dialog::loadDialogConfig(dialog_path.empty() ? dirName(config_path) + "/dialog.yaml"
+                                                     : dialog_path)
+            .shop;
+    std::vector<std::string> rooms;
+    for (const Place& p : places.places)
+      if (p.name != shopName) rooms.push_back(p.name);
     for (const DomainConfig& d : cfg.domains) {
       NavGridOptions opt;
       opt.cols = d.cols;
@@ -52,33 +69,35 @@ int main(int argc, char** argv) {
       opt.max_blocked_fraction = cfg.max_blocked_fraction;
       NavGrid grid = NavGrid::fromMap(map, places, opt);
       GridAStar astar(grid);
-      const int shop = grid.placeCell("shop");
+      const int shop = grid.placeCell(shopName);
       std::printf("== domain %s (%d free cells, step limit %d)\n", d.name.c_str(),
                   grid.numFreeCells(), d.step_limit);
-      // Grid A*: shop -> each room.
-      for (const char* room : rooms) {
+      // Grid A*: the shop -> each room.
+      for (const std::string& room : rooms) {
         const int goal = grid.placeCell(room);
         const int reps = 2000;
         size_t len = 0;
         Stopwatch sw;
         for (int k = 0; k < reps; ++k) len = astar.plan(shop, goal).moves.size();
-        std::printf("grid A*      shop->%s: %3zu moves, %8.2f us/query\n", room, len,
+        std::printf("grid A*      %s->%s: %3zu moves, %8.2f us/query\n", shopName.c_str(),
+                    room.c_str(), len,
                     1e6 * sw.seconds() / reps);
       }
-      // OMPL: shop -> each room.
-      for (const char* room : rooms) {
+      // OMPL: the shop -> each room.
+      for (const std::string& room : rooms) {
         const int reps = 200;
         size_t pts = 0;
         long calls0 = planner.plannerCalls();
         Stopwatch sw;
-        for (int k = 0; k < reps; ++k) pts = planner.planRoute(grid, "shop", room).size();
-        std::printf("OMPL route   shop->%s: %3zu waypoints, %8.2f us/query (%ld planner calls)\n",
-                    room, pts, 1e6 * sw.seconds() / reps, planner.plannerCalls() - calls0);
+        for (int k = 0; k < reps; ++k) pts = planner.planRoute(grid, shopName, room).size();
+        std::printf("OMPL route   %s->%s: %3zu waypoints, %8.2f us/query (%ld planner calls)\n",
+                    shopName.c_str(), room.c_str(), pts, 1e6 * sw.seconds() / reps,
+                    planner.plannerCalls() - calls0);
       }
-      // OMPL per executed grid move: every move along the A* routes shop -> rooms.
+      // OMPL per executed grid move: every move along the A* routes from the shop to the rooms.
       {
         std::vector<std::pair<int, int>> moves;
-        for (const char* room : rooms) {
+        for (const std::string& room : rooms) {
           GridRoute r = astar.plan(shop, grid.placeCell(room));
           for (size_t i = 0; i + 1 < r.cells.size(); ++i) moves.emplace_back(r.cells[i], r.cells[i + 1]);
         }
@@ -116,11 +135,11 @@ int main(int argc, char** argv) {
                     cfg.simulator.blocking_mode == BlockingMode::kOnEntry ? "on_entry" : "per_cell",
                     sim.trapProbability());
         std::printf("   br ");
-        for (const char* room : rooms) std::printf("  %6s", room);
+        for (const std::string& room : rooms) std::printf("  %6s", room.c_str());
         std::printf("\n");
         for (double br : {0.1, 0.3, 0.5, 0.7}) {
           std::printf("  %.1f ", br);
-          for (const char* room : rooms) {
+          for (const std::string& room : rooms) {
             const int goal = grid.placeCell(room);
             Context ctx;
             ctx.blocking_rate = br;

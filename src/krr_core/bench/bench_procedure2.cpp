@@ -1,15 +1,18 @@
 /**
  * @file bench_procedure2.cpp
- * @brief Benchmark of Procedure 2 on the real knowledge base: the office geometry
- * (maps/office_<N>x<N>_geometry.plog) plus config/navigation.plog, built into the navigation
+ * @brief Benchmark of Procedure 2 on the real knowledge base: the site's geometry
+ * (maps/<domain>_geometry.plog) plus config/navigation.plog, built into the navigation
  * MDP by NavigationKnowledge::buildModel, before and after knowledge extraction.
  *
  * For each domain (in a child process, so the peak memory is the domain's own):
  *  - construct: load and parse the knowledge files;
  *  - first build: buildModel({time}) on the human knowledge (grounding + table query);
- *  - rebuild after extraction: R-Max learns shop -> room1, its known pairs are extracted with
- *    addLearned, and the model is rebuilt (the paper's loop: learn, update the KB, rebuild);
- *  - a second extraction + rebuild (re-learning replaces pairs), and a "morning or noon" build;
+ *  - rebuild after extraction: R-Max learns the navigation experiment's source task (start ->
+ *    source of ROOT/config/experiments/nav_transfer.yaml, the start defaulting to the site's
+ *    shop), its known pairs are extracted with addLearned, and the model is rebuilt (the
+ *    paper's loop: learn, update the KB, rebuild);
+ *  - a second extraction + rebuild on the target task (re-learning replaces pairs), and a
+ *    "morning or noon" build;
  *  - peak RSS of the child.
  *
  * Usage: bench_procedure2 [--root DIR] [--time morning] [--repeat 3] [DOMAIN...]
@@ -31,6 +34,8 @@
 #include "krr_core/common/random.h"
 #include "krr_core/common/resource_locator.h"
 #include "krr_core/common/resources.h"
+#include "krr_core/dialog/dialog_config.h"
+#include "krr_core/experiments/nav_transfer.h"
 #include "krr_core/kb/nav_domain.h"
 #include "krr_core/kb/navigation_knowledge.h"
 #include "krr_core/kb/navigation_learning.h"
@@ -73,7 +78,12 @@ struct Figure {
 
 int runDomain(const std::string& repo, const std::string& name, const std::string& time,
               int repeat) {
-
+  // The tasks: the navigation experiment's (start, source, target), the start the site's shop
+  // unless the experiment names another.
+  krr::experiments::NavTransferOptions tasks;
+  tasks.start = krr::dialog::loadDialogConfig(repo + "/config/dialog.yaml").shop;
+  tasks = krr::experiments::loadNavTransferOptions(
+      repo + "/config/experiments/nav_transfer.yaml", tasks);
   krr::kb::NavDomain dom = krr::kb::NavDomain::load(
       repo + "/config/navigation.yaml", name, repo + "/maps/" + name + "_geometry.plog",
       repo + "/config/navigation.plog");
@@ -91,13 +101,14 @@ int runDomain(const std::string& repo, const std::string& name, const std::strin
     g_first.push_back(kb.reasoner().stats().ground_seconds);
     rows = m0.dynamics.getS();
 
-    // Learn shop -> room1 with R-Max (not timed), extract, rebuild.
+    // Learn start -> source with R-Max (not timed), extract, rebuild.
     krr::mdp::RMaxParams p;
     p.step_limit = static_cast<std::uint32_t>(dom.domain.step_limit);
     krr::nav::Context ctx;
     ctx.time_of_day = dom.simulator->timeOfDayIndex(time);
-    krr::kb::SimulatedNavigation env(*dom.simulator, *dom.space, dom.grid->placeCell("shop"),
-                                     {dom.grid->placeCell("room1")}, ctx, p.navigationReward());
+    krr::kb::SimulatedNavigation env(*dom.simulator, *dom.space, dom.grid->placeCell(tasks.start),
+                                     {dom.grid->placeCell(tasks.source)}, ctx,
+                                     p.navigationReward());
     krr::mdp::RMaxAgent agent = krr::kb::makeNavigationAgent(dom, env, p, nullptr);
     krr::Rng rng = krr::makeRng(1, "bench_procedure2", static_cast<std::uint64_t>(r));
     krr::kb::learnUntilConverged(env, agent, 200, 20, rng, {}, nullptr);
@@ -111,9 +122,10 @@ int runDomain(const std::string& repo, const std::string& name, const std::strin
     g_rebuild.push_back(kb.reasoner().stats().ground_seconds);
     learned_rows = m1.numLearned();
 
-    // More learning on shop -> room2 (from the KB's model), extraction, rebuild.
-    krr::kb::SimulatedNavigation env2(*dom.simulator, *dom.space, dom.grid->placeCell("shop"),
-                                      {dom.grid->placeCell("room2")}, ctx, p.navigationReward());
+    // More learning on start -> target (from the KB's model), extraction, rebuild.
+    krr::kb::SimulatedNavigation env2(*dom.simulator, *dom.space, dom.grid->placeCell(tasks.start),
+                                      {dom.grid->placeCell(tasks.target)}, ctx,
+                                      p.navigationReward());
     krr::mdp::RMaxAgent agent2 = krr::kb::makeNavigationAgent(dom, env2, p, &m1);
     krr::kb::learnUntilConverged(env2, agent2, 100, 20, rng, {}, nullptr);
     sw.reset();
@@ -153,10 +165,10 @@ int main(int argc, char** argv) {
   int repeat = 3;
   std::vector<std::string> domains;
   krr::OptionParser cli("bench_procedure2",
-                        "Procedure 2 on the real knowledge base (office geometry +\n"
+                        "Procedure 2 on the real knowledge base (the site's geometry +\n"
                         "config/navigation.plog), before and after knowledge extraction; one child\n"
                         "process per domain, so the peak memory is the domain's own.");
-  cli.add("--root", "DIR", krr::kRepositoryRootHelp, &repo);
+  cli.add("--root", "DIR", krr::kRepositoryRootHelp, &repo).deprecatedAlias("--repo");
   cli.add("--time", "TIME", "time of day of the builds", &time);
   cli.add("--repeat", "N", "runs per figure (the best is printed)", &repeat);
   cli.positional("DOMAIN", "domains (default: every domain of ROOT/config/navigation.yaml)",

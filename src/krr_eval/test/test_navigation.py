@@ -35,6 +35,10 @@ class TableTest(unittest.TestCase):
             navigation.plot({"small": t, "large": t}, png)
             with open(png, "rb") as f:
                 self.assertEqual(f.read(8), b"\x89PNG\r\n\x1a\n")
+            # A site's own domain by its name (rosrun krr_eval nav_transfer --domains NAME).
+            one = os.path.join(d, "one.png")
+            navigation.plot({"office_50x50": t}, one)
+            self.assertTrue(os.path.getsize(one) > 0)
 
     def test_empty_table_is_an_error(self):
         with tempfile.TemporaryDirectory() as d:

@@ -161,6 +161,22 @@ class NavTransferNamesTest(SiteCopy):
         help_text = run([self.program, "--help"]).stdout
         self.assertIn("--root DIR", help_text)
         self.assertNotIn("--repo", help_text)
+        # The old name still works, with one line on stderr saying so.
+        res = run([self.program, "--repo", ROOT, "--trials", "1", "--source", "kitchen"])
+        self.assertEqual(res.returncode, 1, res.stdout)
+        self.assertIn("nav_transfer: option --repo is deprecated: use --root\n", res.stderr)
+        self.assertIn("option --source: unknown place 'kitchen'", res.stderr)
+
+    def test_the_start_defaults_to_the_sites_shop(self):
+        # An options file without a start: the episodes start at the dialog config's shop, and
+        # a shop the map lacks names that file and field.
+        self.edit("config/experiments/nav_transfer.yaml", "  start: shop\n", "")
+        self.edit("config/dialog.yaml", "  shop: shop ", "  shop: mailroom ")
+        res = run([self.program, "--root", self.root, "--trials", "1"])
+        self.assertEqual(res.returncode, 1, res.stdout)
+        self.assertIn("unknown place 'mailroom'", res.stderr)
+        self.assertIn("the site's shop, %s: field 'navigation.shop'"
+                      % self.path("config", "dialog.yaml"), res.stderr)
 
 
 class NavTransferDomainsTest(unittest.TestCase):
@@ -186,6 +202,17 @@ class NavTransferDomainsTest(unittest.TestCase):
                              ("building_40x24", 250))
             with self.assertRaisesRegex(navigation.UnknownDomainError, re.escape(cfg)):
                 navigation.resolve_domain("office_7x7", cfg)
+            # The paper's small / large need two domains...
+            with self.assertRaisesRegex(navigation.UnknownDomainError,
+                                        "'large' is the paper's name for the larger of two"):
+                navigation.resolve_domain("large", cfg)
+            # ... and are the site's smallest and largest, whatever their names and order.
+            with open(cfg, "w") as f:
+                f.write("domains:\n  hall_fine: {cols: 60, rows: 36, step_limit: 400}\n"
+                        "  hall_coarse: {cols: 20, rows: 12, step_limit: 150}\n")
+            self.assertEqual(navigation.resolve_domain("small", cfg), ("hall_coarse", 150))
+            self.assertEqual(navigation.resolve_domain("large", cfg), ("hall_fine", 400))
+            self.assertEqual(navigation.grid_size("hall_fine", cfg), "60x36")
 
 
 if __name__ == "__main__":

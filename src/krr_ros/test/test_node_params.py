@@ -121,6 +121,40 @@ class TestNodeParams(unittest.TestCase):
         for needle in (bad, "room9", "carol", 'cannot start'):
             self.assertIn(needle, proc.output)
 
+    def test_reasoner_node_refuses_a_site_with_other_knowledge(self):
+        """A reasoner given another building's knowledge (domain_files without the dialog's
+        config/office.plog): it does not start, and its one message names the parameter, the
+        value and the dialog config's knowledge.office it disagrees with (the site check)."""
+        tmp = rospy.get_param('~tmp_dir')
+        os.makedirs(tmp, exist_ok=True)
+        other = os.path.join(tmp, 'other_building.plog')
+        with open(os.path.join(ROOT, 'config', 'office.plog')) as fh:
+            text = fh.read()
+        with open(other, 'w') as fh:
+            fh.write(text)  # the same content, another file: a copy left behind by a new site
+        params = shipped('reasoner_node')
+        params['domain_files'] = [other]
+        proc = SpawnedNode('reasoner_node', 'bad_site_reasoner', params).start()
+        try:
+            rc = proc.wait_exit(30)
+        finally:
+            proc.kill()
+            proc.clear_params()
+        self.assertEqual(rc, 1, proc.output)
+        for needle in ('cannot start', "parameters of /bad_site_reasoner: field 'domain_files'",
+                       "value '[%s]'" % other,
+                       os.path.join(ROOT, 'config', 'dialog.yaml') + "'s knowledge.office",
+                       os.path.join(ROOT, 'config', 'office.plog')):
+            self.assertIn(needle, proc.output)
+        # The same knowledge with check_site: false starts (a test's own files on purpose).
+        params['check_site'] = False
+        proc = SpawnedNode('reasoner_node', 'unchecked_site_reasoner', params).start()
+        try:
+            rospy.wait_for_service('/unchecked_site_reasoner/query_probability', timeout=60)
+        finally:
+            proc.kill()
+            proc.clear_params()
+
     def test_help_needs_no_master_and_lists_the_parameters(self):
         import subprocess
         from krr_test_utils import node_binary

@@ -81,9 +81,12 @@ OptionParser& OptionParser::declare(Option o) {
 }
 
 OptionParser::Option* OptionParser::find(const std::string& name) {
-  for (Option& o : options_)
+  for (Option& o : options_) {
     for (const std::string& n : o.names)
       if (n == name) return &o;
+    for (const std::string& n : o.deprecated_names)
+      if (n == name) return &o;
+  }
   return nullptr;
 }
 
@@ -178,6 +181,14 @@ OptionParser& OptionParser::alias(const std::string& name) {
   if (find(name) || isHelp(name))
     throw std::logic_error(program_ + ": option " + name + " declared twice");
   options_.back().names.push_back(name);
+  return *this;
+}
+
+OptionParser& OptionParser::deprecatedAlias(const std::string& name) {
+  if (!last_is_option_) return *this;
+  if (find(name) || isHelp(name))
+    throw std::logic_error(program_ + ": option " + name + " declared twice");
+  options_.back().deprecated_names.push_back(name);
   return *this;
 }
 
@@ -289,6 +300,10 @@ void OptionParser::parseArguments(int argc, const char* const* argv, bool* help)
     const std::string name = a.substr(0, eq);
     Option* o = find(name);
     if (!o) throw ConfigError("unknown option " + name);
+    for (const std::string& old : o->deprecated_names)
+      if (old == name)
+        std::cerr << program_ << ": option " << name << " is deprecated: use " << o->names[0]
+                  << "\n";
     o->given = true;
     if (!o->setter) {
       if (eq != std::string::npos) throw ConfigError("option " + name + " takes no value");

@@ -181,6 +181,10 @@ DialogConfig loadDialogConfig(const std::string& path) {
     c.time = n.time;
     c.setRMaxParams(nav::rmaxParamsOf(n.planning, n.rmax_learning));
   }
+  // The shop has no default name: it is the site's.
+  if (c.shop.empty())
+    throw ConfigError(path + ": field 'navigation.shop': missing: the place every delivery "
+                      "starts from (a place of the navigation config's places file)");
   c.validate();
   return c;
 }

@@ -2,6 +2,7 @@
 
 #include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
+#include "krr_core/common/files.h"
 #include "krr_core/common/resource_locator.h"
 #include "krr_core/common/yaml_section.h"
 #include "krr_core/nav/navigation_config.h"
@@ -82,7 +83,7 @@ DialogConfig ExperimentCli::config(const ExperimentPaths& paths) const {
 void NavExperimentFiles::declare(OptionParser& p, const std::string& options_file,
                                  const std::string& options_note) {
   options_file_ = options_file;
-  p.add("--root", "DIR", kRepositoryRootHelp, &root);
+  p.add("--root", "DIR", kRepositoryRootHelp, &root).deprecatedAlias("--repo");  // its old name
   p.add("--options", "FILE", "experiment options", &options)
       .defaultText("ROOT/" + options_file + options_note);
   p.add("--config", "FILE", "navigation config", &config).defaultText("ROOT/config/navigation.yaml");
@@ -101,6 +102,14 @@ std::string NavExperimentFiles::defaultDomain() const {
   return nav::loadNavigationConfig(config.empty() ? root + "/config/navigation.yaml" : config)
       .defaultDomain()
       .name;
+}
+
+std::string NavExperimentFiles::dialogConfig() const {
+  return dirName(config.empty() ? root + "/config/navigation.yaml" : config) + "/dialog.yaml";
+}
+
+std::string NavExperimentFiles::siteShop() const {
+  return dialog::loadDialogConfig(dialogConfig()).shop;
 }
 
 void NavExperimentFiles::resolveInputs(const std::string& domain) {

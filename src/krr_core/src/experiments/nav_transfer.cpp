@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <exception>
+#include <utility>
 
 #include "experiment_yaml.h"
 #include "krr_core/common/errors.h"
@@ -24,6 +25,10 @@ void NavTransferOptions::validate() const {
     throw ConfigError("nav transfer: field '" + f + "' has invalid value " + v);
   };
   nav::checkBlockingRate(blocking_rate, "nav transfer");
+  const std::pair<const char*, const std::string*> places[] = {
+      {"start", &start}, {"source", &source}, {"target", &target}};
+  for (const auto& [field, value] : places)
+    if (value->empty()) bad(field, "'' (no place: name one of the map's places)");
   if (source_episodes == 0) bad("source_episodes", "0");
   if (target_episodes == 0) bad("target_episodes", "0");
   if (convergence_episodes == 0) bad("convergence_episodes", "0");

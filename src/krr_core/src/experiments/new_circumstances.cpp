@@ -37,6 +37,8 @@ void NewCircumstancesOptions::validate() const {
   auto bad = [](const std::string& f, const std::string& v) {
     throw ConfigError("new circumstances: field '" + f + "' has invalid value " + v);
   };
+  if (start.empty()) bad("start", "'' (no place: name one of the map's places)");
+  if (goal.empty()) bad("goal", "'' (no place: name one of the map's places)");
   if (start == goal) bad("goal", goal + " (same as start)");
   if (learn_times.size() < 2)
     bad("learn_times", "of " + std::to_string(learn_times.size()) +
@@ -55,7 +57,6 @@ void NewCircumstancesOptions::validate() const {
                          nav::RateUnset::kAllowed);
   if (selector != "fixed" && selector != "least_known")
     bad("selector", "'" + selector + "' (expected fixed or least_known)");
-  if (selector == "least_known" && places.empty()) bad("places", "[]");
   if (extraction != "pairs" && extraction != "areas")
     bad("extraction", "'" + extraction + "' (expected pairs or areas)");
   if (learn_tasks == 0) bad("learn_tasks", "0");
@@ -218,6 +219,9 @@ LearnedControllers learnControllers(const NavDomain& dom, NavigationKnowledge& k
       selector = std::make_unique<FixedTaskSelector>(NavTask{o.start, o.goal});
     } else {
       std::vector<std::string> places = o.places;
+      if (places.empty())  // every place of the site's map but the start
+        for (const nav::Place& p : dom.grid->places())
+          if (p.name != o.start) places.push_back(p.name);
       places.push_back(o.start);
       selector = std::make_unique<LeastKnownSelector>(places, o.start);
     }

@@ -279,7 +279,9 @@ SiteReport checkSite(const SiteFiles& files) {
       found = found || resolved(against(files.root, f)) == office;
     if (!found) {
       const std::string file =
-          files.reasoner_domain_files ? std::string("reasoner parameters") : files.reasoner_config;
+          !files.reasoner_domain_files ? files.reasoner_config
+          : files.reasoner_source.empty() ? std::string("reasoner parameters")
+                                          : files.reasoner_source;
       const std::string value = "[" + join(*domainFiles) + "]";
       const std::string base = files.root.empty() ? "" : " (resolved against " + files.root + ")";
       check.add(file, "domain_files", value,

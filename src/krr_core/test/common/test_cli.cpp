@@ -153,6 +153,34 @@ TEST(OptionParser, GivenReportsWhatWasOnTheCommandLine) {
   EXPECT_FALSE(p.given("--br"));
 }
 
+TEST(OptionParser, ADeprecatedNameStillWorksWarnsOnceAndIsNotListed) {
+  std::string root;
+  krr::OptionParser p("prog");
+  p.add("--root", "DIR", "repository root", &root).deprecatedAlias("--repo");
+  const char* argv[] = {"prog", "--repo", "/tmp/x"};
+  testing::internal::CaptureStdout();
+  testing::internal::CaptureStderr();
+  EXPECT_FALSE(p.parse(3, argv));
+  EXPECT_EQ(testing::internal::GetCapturedStdout(), "");
+  EXPECT_EQ(testing::internal::GetCapturedStderr(),
+            "prog: option --repo is deprecated: use --root\n");
+  EXPECT_EQ(root, "/tmp/x");
+  EXPECT_TRUE(p.given("--root"));
+  // --repo=DIR too, and the new name says nothing.
+  const char* eq[] = {"prog", "--repo=/tmp/y"};
+  testing::internal::CaptureStderr();
+  EXPECT_FALSE(p.parse(2, eq));
+  EXPECT_EQ(testing::internal::GetCapturedStderr(),
+            "prog: option --repo is deprecated: use --root\n");
+  EXPECT_EQ(root, "/tmp/y");
+  const char* now[] = {"prog", "--root", "/tmp/z"};
+  testing::internal::CaptureStderr();
+  EXPECT_FALSE(p.parse(3, now));
+  EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+  EXPECT_EQ(p.usage().find("--repo"), std::string::npos) << p.usage();
+  EXPECT_THROW(p.add("--repo", "DIR", "again", &root), std::logic_error);
+}
+
 TEST(OptionParser, ListsAndDeclarationMistakes) {
   EXPECT_EQ(krr::parseNumberListOption("--reach", "0.5,1,2e-1"), (std::vector<double>{0.5, 1, 0.2}));
   EXPECT_EQ(krr::parseCountListOption("--sizes", "30,50"), (std::vector<std::size_t>{30, 50}));

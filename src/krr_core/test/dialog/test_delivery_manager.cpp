@@ -25,6 +25,7 @@ struct Fixture {
 
   explicit Fixture(int turnLimit = 6)
       : dialog(spec(turnLimit)), policy(solve(dialog)), language(dialog, LanguageConfig()) {
+    config.shop = "shop";
     config.turn_limit = turnLimit;
   }
   static DialogSpec spec(int turnLimit) {
@@ -221,6 +222,7 @@ TEST(DeliveryManager, TheCorrectionHintUsesTheModelsOwnNames) {
   const pomdp::TurnLimitedPolicy policy = Fixture::solve(dialog);
   const LanguageFrontEnd language(dialog, LanguageConfig());
   DialogConfig config;
+  config.shop = "shop";
   config.turn_limit = 6;
   DeliveryManager m(dialog, policy, &language, config);
   Person p(dialog, dialog.requestIndex(1, 1, 0), "a juice to studio", {});

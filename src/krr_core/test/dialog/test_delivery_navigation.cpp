@@ -21,6 +21,7 @@ using delivery_test::chainModel;
 
 DeliveryNavigationOptions options() {
   DeliveryNavigationOptions o;
+  o.shop = "shop";  // the test grids' place names
   o.rooms = {"room1", "room2"};
   o.step_limit = 10;
   o.failure_penalty = 40.0;
@@ -174,13 +175,15 @@ TEST(DeliveryNavigation, OptionsFromTheDialogConfig) {
   // move, the room across the blocking area needs six.
   const kb::NavDomain d = delivery_test::corridor(40);
   kb::NavigationKnowledge knowledge(*d.grid, d.knowledge_files);
-  const auto nav = dialog::deliveryNavigationFromKnowledge(d, knowledge, dialog::DialogConfig(),
+  dialog::DialogConfig config;
+  config.shop = "shop";
+  const auto nav = dialog::deliveryNavigationFromKnowledge(d, knowledge, config,
                                                            {"room1", "room2"});
   ASSERT_EQ(nav->numRooms(), 2u);
   EXPECT_EQ(nav->options().step_limit, 40u);
   EXPECT_GT(nav->toRoom(0).reach, nav->toRoom(1).reach);
   EXPECT_GT(nav->toRoom(1).moves, nav->toRoom(0).moves);
-  EXPECT_THROW(dialog::deliveryNavigationFromKnowledge(d, knowledge, dialog::DialogConfig(),
+  EXPECT_THROW(dialog::deliveryNavigationFromKnowledge(d, knowledge, config,
                                                        {"room1", "room9"}),
                UnknownSymbolError);
 }

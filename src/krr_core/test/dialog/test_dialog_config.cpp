@@ -40,9 +40,10 @@ TEST(DialogConfig, BundledConfigHasThePapersNumbers) {
 
 TEST(DialogConfig, DefaultsWhenSectionsAreMissing) {
   const std::string dir = delivery_test::tempDir("dialog_cfg");
-  krr::writeFileAtomic(dir + "/d.yaml", "dialog: {turn_limit: 7}\n");
+  krr::writeFileAtomic(dir + "/d.yaml", "dialog: {turn_limit: 7}\nnavigation: {shop: hall}\n");
   const DialogConfig c = loadDialogConfig(dir + "/d.yaml");
   EXPECT_EQ(c.turn_limit, 7);
+  EXPECT_EQ(c.shop, "hall");
   EXPECT_DOUBLE_EQ(c.general_cost, 2.0);
   EXPECT_EQ(c.office_plog, dir + "/office.plog");
   // The struct's defaults for the fields not given.
@@ -55,13 +56,15 @@ TEST(DialogConfig, NewFieldsAreRead) {
   const std::string dir = delivery_test::tempDir("dialog_cfg");
   krr::writeFileAtomic(dir + "/d.yaml",
                        "dialog: {discount: 1.0, max_redeliveries: 0}\n"
-                       "serve_cost: {mode: none, wrong_delivery_penalty: 35.5}\n");
+                       "serve_cost: {mode: none, wrong_delivery_penalty: 35.5}\n"
+                       "navigation: {shop: hall}\n");
   const DialogConfig c = loadDialogConfig(dir + "/d.yaml");
   EXPECT_DOUBLE_EQ(c.discount, 1.0);  // undiscounted dialogs are allowed (finite horizon)
   EXPECT_EQ(c.max_redeliveries, 0);
   EXPECT_EQ(c.serve_cost_mode, ServeCostMode::kNone);
   EXPECT_DOUBLE_EQ(c.wrong_delivery_penalty, 35.5);
-  krr::writeFileAtomic(dir + "/d.yaml", "dialog: {max_redeliveries: 3}\n");
+  krr::writeFileAtomic(dir + "/d.yaml",
+                       "dialog: {max_redeliveries: 3}\nnavigation: {shop: hall}\n");
   EXPECT_EQ(loadDialogConfig(dir + "/d.yaml").max_redeliveries, 3);
 }
 
@@ -88,6 +91,9 @@ TEST(DialogConfig, BadValuesNameTheField) {
       {"navigation: {discount: 0}\n", "navigation.discount"},
       {"navigation: {failure_penalty: -3}\n", "navigation.failure_penalty"},
       {"navigation: {shop: [a, b]}\n", "navigation.shop"},
+      // No built-in shop name: a config that names none is refused, naming the field.
+      {"navigation: {failure_penalty: 40}\n", "field 'navigation.shop': missing"},
+      {"dialog: {turn_limit: 7}\n", "field 'navigation.shop': missing"},
       {"solver: {precision: 0}\n", "solver.precision"},
       {"solver: {max_trials: -5}\n", "solver.max_trials"},
       // R-Max's M and the time of day have one home, navigation.yaml: not fields here.
@@ -118,6 +124,8 @@ TEST(DialogConfig, BadValuesNameTheField) {
 
 TEST(DialogConfig, ValidateChecksConfigsBuiltInCode) {
   DialogConfig c;
+  EXPECT_THROW(c.validate(), krr::ConfigError);  // no shop: a site's place, no default name
+  c.shop = "hall";
   EXPECT_NO_THROW(c.validate());
   c.discount = 1.5;
   EXPECT_THROW(c.validate(), krr::ConfigError);

@@ -28,6 +28,7 @@ using delivery_test::repo;
 
 DeliveryNavigation chainNavigation(const kb::NavStateSpace& sp) {
   DeliveryNavigationOptions o;
+  o.shop = "shop";  // the chain grid's place names
   o.rooms = {"room1", "room2"};
   o.step_limit = 10;
   o.failure_penalty = 40.0;
@@ -66,6 +67,7 @@ TEST(DialogKnowledge, SpeechModelComesFromPlog) {
   const kb::NavStateSpace sp(grid);
   const DeliveryNavigation nav = chainNavigation(sp);
   DialogConfig cfg;
+  cfg.shop = "shop";  // the chain grid's place names
   const DialogPomdp d(k.buildSpec(nav.trips(), cfg));
   const std::size_t s = d.requestIndex(1, 0, 1);  // soda, room1, ben
   EXPECT_NEAR(d.model().getObservationProbability(s, d.askItem(), d.obsItem(1)), 0.9, 1e-12);
@@ -93,6 +95,7 @@ TEST(DialogKnowledge, DeliveryEquationAndServeRewardMatchHandComputation) {
   // P^N(shop, room1) = P^N(room1, shop) = 0.9; P^N(shop, room2) = P^N(room2, shop) = 0.729.
   // C(shop, room1) = 1 + 40 * 0.1 = 5; C(shop, room2) = 2.71 + 40 * 0.271 = 13.55.
   DialogConfig cfg;
+  cfg.shop = "shop";  // the chain grid's place names
   cfg.serve_cost_mode = ServeCostMode::kNone;  // the paper's formula alone
   cfg.wrong_delivery_penalty = 0.0;
   const DialogPomdp paper(k.buildSpec(trips, cfg));

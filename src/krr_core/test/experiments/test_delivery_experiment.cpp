@@ -23,6 +23,7 @@ using delivery_test::repo;
 /// set it: penalisedConfig()).
 DialogConfig config() {
   DialogConfig c;
+  c.shop = "shop";  // the test domains' place names
   c.wrong_delivery_penalty = 0.0;
   c.office_plog = data("tiny_office.plog");
   c.speech_plog = repo("config/dialog.plog");

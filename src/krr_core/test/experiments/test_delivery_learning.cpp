@@ -22,6 +22,7 @@ using namespace krr::experiments;
 
 DialogConfig fastLearning() {
   DialogConfig c;
+  c.shop = "shop";  // the test domains' place names
   c.known_threshold = 3;
   c.max_episodes_per_task = 30;
   c.convergence_episodes = 5;

@@ -15,8 +15,17 @@ using krr::kb::NavDomain;
 
 NavDomain tinyDomain() { return krr_test::corridor8x3("tiny"); }
 
-NavTransferOptions tinyOptions() {
+/// The tasks of the paper's office, which the test domains name alike (no default places).
+NavTransferOptions officeTasks() {
   NavTransferOptions o;
+  o.start = "shop";
+  o.source = "room1";
+  o.target = "room2";
+  return o;
+}
+
+NavTransferOptions tinyOptions() {
+  NavTransferOptions o = officeTasks();
   o.source_episodes = 60;
   o.convergence_episodes = 10;
   o.target_episodes = 15;
@@ -97,7 +106,7 @@ TEST(NavTransfer, OptionsFileIsReadAndValidated) {
   const std::string dir = ::mkdtemp(tmpl);
   auto load = [&](const std::string& text) {
     krr::writeFileAtomic(dir + "/o.yaml", text);
-    return loadNavTransferOptions(dir + "/o.yaml");
+    return loadNavTransferOptions(dir + "/o.yaml", officeTasks());
   };
   const auto o = load("nav_transfer: {target: room5, target_episodes: 40}\n"
                       "rmax_learning: {known_threshold: 3}\nplanning: {step_cost: 0.5}\n");
@@ -125,6 +134,15 @@ TEST(NavTransfer, OptionsFileIsReadAndValidated) {
       EXPECT_NE(std::string(e.what()).find("o.yaml"), std::string::npos) << e.what();
     }
   }
+  // No place has a default name: a file and defaults naming none are refused, naming the field.
+  krr::writeFileAtomic(dir + "/o.yaml", "nav_transfer: {start: shop, target: room5}\n");
+  try {
+    loadNavTransferOptions(dir + "/o.yaml");
+    ADD_FAILURE() << "no ConfigError without a source";
+  } catch (const krr::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("field 'source' has invalid value '' (no place"),
+              std::string::npos) << e.what();
+  }
   // The shipped experiment loads over its base, config/navigation.yaml (reward, R-Max, br),
   // changing only M.
   const auto shipped = loadNavTransferOptions(
@@ -136,6 +154,7 @@ TEST(NavTransfer, OptionsFileIsReadAndValidated) {
   EXPECT_EQ(shipped.rmax.replan_every, 10u);
   EXPECT_EQ(shipped.blocking_rate, 0.3);
   EXPECT_EQ(shipped.time, "morning");  // navigation.yaml's context.time
+  EXPECT_EQ(shipped.start + " " + shipped.source + " " + shipped.target, "shop room1 room2");
   EXPECT_EQ(load("context: {time: noon}\n").time, "noon");
 }
 

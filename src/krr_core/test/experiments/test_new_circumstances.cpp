@@ -123,8 +123,17 @@ NavDomain corridors() {
   return krr_test::makeNavDomain(krr_test::makeGrid(9, 5, named, walls), "corridors", 60, sim);
 }
 
-NewCircumstancesOptions smallOptions() {
+/// The places of the paper's office experiment, which the test domains name alike (no default
+/// places).
+NewCircumstancesOptions officePlaces() {
   NewCircumstancesOptions o;
+  o.start = "shop";
+  o.goal = "room2";
+  return o;
+}
+
+NewCircumstancesOptions smallOptions() {
+  NewCircumstancesOptions o = officePlaces();
   o.goal = "room1";
   o.learn_times = {"morning", "noon"};
   o.learning_runs = 0;
@@ -138,7 +147,7 @@ NewCircumstancesOptions smallOptions() {
 }
 
 TEST(NewCircumstances, PossibleSetsAreEveryCombination) {
-  NewCircumstancesOptions o;  // morning, noon, afternoon; pairs
+  NewCircumstancesOptions o = officePlaces();  // morning, noon, afternoon; pairs
   using Sets = std::vector<std::vector<std::size_t>>;
   EXPECT_EQ(possibleSettingSets(o), (Sets{{0, 1}, {0, 2}, {1, 2}}));
   o.unknown_count = 3;
@@ -151,7 +160,7 @@ TEST(NewCircumstances, PossibleSetsAreEveryCombination) {
 }
 
 TEST(NewCircumstances, PairTruthAndPickAreDrawnUniformlyPerTrial) {
-  NewCircumstancesOptions o;
+  NewCircumstancesOptions o = officePlaces();
   const auto sets = possibleSettingSets(o);
   const std::size_t n = 6000;
   std::vector<double> per_set(sets.size(), 0);
@@ -361,6 +370,11 @@ TEST(NewCircumstances, LeastKnownSelectorLearnsThroughProcedureOne) {
   EXPECT_GT(t.learned_pairs[0], 0u);
   EXPECT_GE(t.p_merged, 0.0);
   EXPECT_LE(t.p_merged, 1.0);
+  // No places named: every place of the map but the start (here room1 alone), the same run.
+  o.places.clear();
+  const auto all = runNewCircumstancesTrial(d, kb, o, 3, 0);
+  EXPECT_EQ(all.learned_pairs, t.learned_pairs);
+  EXPECT_EQ(all.p_merged, t.p_merged);
 }
 
 TEST(NewCircumstances, OptionsFileIsValidated) {
@@ -368,7 +382,7 @@ TEST(NewCircumstances, OptionsFileIsValidated) {
   const std::string dir = ::mkdtemp(tmpl);
   auto load = [&](const std::string& text) {
     krr::writeFileAtomic(dir + "/o.yaml", text);
-    return loadNewCircumstancesOptions(dir + "/o.yaml");
+    return loadNewCircumstancesOptions(dir + "/o.yaml", officePlaces());
   };
   auto o = load("new_circumstances: {goal: room5, unknown_count: 3, learning_runs: 0, extraction: areas}\n"
                 "rmax_learning: {known_threshold: 7}\nplanning: {discount: 1}\n");
@@ -407,6 +421,15 @@ TEST(NewCircumstances, OptionsFileIsValidated) {
   expectError("new_circumstances: {selector: [a]}\n", "selector");
   expectError("simulator: {blocking_rate: 1.5}\n", "blocking_rate");
   EXPECT_THROW(loadNewCircumstancesOptions(dir + "/missing.yaml"), krr::IoError);
+  // No place has a default name: a file and defaults naming no start are refused.
+  krr::writeFileAtomic(dir + "/o.yaml", "new_circumstances: {goal: room5}\n");
+  try {
+    loadNewCircumstancesOptions(dir + "/o.yaml");
+    ADD_FAILURE() << "no ConfigError without a start";
+  } catch (const krr::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("field 'start' has invalid value '' (no place"),
+              std::string::npos) << e.what();
+  }
   // The shipped experiment loads over its base, config/navigation.yaml, changing only what the
   // experiment changes (br, R-Max optimism / refinement, the controllers' step cost).
   const auto shipped = loadNewCircumstancesOptions(
@@ -423,6 +446,7 @@ TEST(NewCircumstances, OptionsFileIsValidated) {
   EXPECT_EQ(shipped.plan_step_cost, 0.2);
   EXPECT_EQ(shipped.plan_rmax, 40.0);
   EXPECT_EQ(shipped.learning_runs, 5u);
+  EXPECT_EQ(shipped.start + " " + shipped.goal, "shop room2");
 }
 
 TEST(NewCircumstances, BadValuesAtRunTimeAreTypedErrors) {

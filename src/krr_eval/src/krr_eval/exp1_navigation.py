@@ -14,21 +14,22 @@ from .runner import TrialSpec
 NAV_COLUMNS = "trial, episode, condition (with/without), reward[, success]"
 
 
-# Relative CPU per nav_transfer trial (measured 2026-12-01: 0.06 s on 30x30, 0.18 s on 50x50),
-# so the runner splits the two sets into chunks of equal work.
-NAV_TRIAL_COST = {"office_30x30": 1.0, "office_50x50": 3.0}
+# Relative CPU per nav_transfer trial on the paper's two domains (measured 2026-12-01 on the
+# office: 0.06 s on 30x30, 0.18 s on 50x50), so the runner splits the two sets into chunks of
+# equal work.
+NAV_TRIAL_COST = {"small": 1.0, "large": 3.0}
 
 
 def nav_spec(ctx, domain, trials, episodes=None):
     """nav_transfer for one domain; everything else (M, Rmax, episodes, br, ...) comes from
     config/experiments/nav_transfer.yaml unless `episodes` is given."""
-    grid, _ = navigation.DOMAINS[domain]
+    grid, _ = navigation.resolve_domain(domain)
     args = ["--domain", grid]
     if episodes:
         args += ["--target-episodes", str(episodes)]
     return TrialSpec("nav_transfer_%s" % domain, "nav_transfer", args, ctx.seed, trials,
                      trials_flag="--trials-out", scratch_flags=("--out",),
-                     cost=NAV_TRIAL_COST.get(grid, 1.0))
+                     cost=NAV_TRIAL_COST.get(domain, 1.0))
 
 
 def exp1_specs(ctx):
@@ -60,10 +61,10 @@ def exp1_nav_transfer(ctx):
         e = min(early, len(episodes))
         early_gain = rew["with"][:, :e].mean(axis=1) - rew["without"][:, :e].mean(axis=1)
         pt = stats.paired_t_test(w, wo)
-        grid, limit = navigation.DOMAINS[d]
+        grid, limit = navigation.resolve_domain(d)
         g = stats.mean_ci(gains[d])
         n_eps = len(episodes)
-        rows.append([d, grid.split("_")[1], limit, n, n_eps,
+        rows.append([d, navigation.grid_size(grid), limit, n, n_eps,
                      Est(*stats.mean_ci(w)[:2]), Est(*stats.mean_ci(wo)[:2]), Est(g.mean, g.half),
                      P(pt.p), Est(*stats.mean_ci(early_gain)[:2])])
         c = Claim("1 nav", "with extraction the robot learns faster (%s domain)" % d,

@@ -1,5 +1,6 @@
-"""Reproduce the paper's navigation figure: learning curves in shop-room2 with and without
-knowledge extracted from shop-room1, small (30x30) and large (50x50) domain.
+"""Reproduce the paper's navigation figure: learning curves of the target task with and without
+knowledge extracted from the source task (config/experiments/nav_transfer.yaml), on the paper's
+small and large domains (the navigation config's domains with the fewest and the most cells).
 
     rosrun krr_eval nav_transfer --out out/nav [--trials 1000] [--episodes 100] [--seed 1]
 
@@ -21,8 +22,9 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--threads", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--domains", default="small,large",
-                    help="comma-separated: small, large (the paper's office domains) or domains "
-                         "of config/navigation.yaml")
+                    help="comma-separated: small, large (the paper's names: the navigation "
+                         "config's domains with the fewest and the most cells) or domains of "
+                         "config/navigation.yaml")
     a = ap.parse_args(argv)
     if a.trials < 1 or a.episodes < 1:
         ap.error("--trials and --episodes must be at least 1")
@@ -32,7 +34,9 @@ def main(argv=None):
         except (navigation.UnknownDomainError, OSError) as e:
             ap.error("--domains: %s" % e)
     os.makedirs(a.out, exist_ok=True)
-    tables, lines = {}, ["# Navigation transfer (shop-room1 -> shop-room2)", "",
+    start, source, target = navigation.transfer_tasks()
+    tables, lines = {}, ["# Navigation transfer (%s-%s -> %s-%s)" % (start, source, start, target),
+                         "",
                          "seed %d, %d trials per point, %d episodes, 10-episode smoothing" %
                          (a.seed, a.trials, a.episodes), "",
                          "| domain | mean reward with | without | gain, first 30 episodes | gain, all |",

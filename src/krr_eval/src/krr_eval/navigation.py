@@ -1,7 +1,8 @@
-"""Experiment 1 of the paper: navigation transfer (learn shop-room1, apply to shop-room2).
+"""Experiment 1 of the paper: navigation transfer (learn the source task, apply to the target
+task of config/experiments/nav_transfer.yaml).
 
 `run_domain` runs the C++ `nav_transfer` program for one domain and returns its per-episode
-table; `smooth` is the paper's 10-episode moving window; `plot` draws both domains side by side
+table; `smooth` is the paper's 10-episode moving window; `plot` draws the domains side by side
 (solid: without extraction, dashed: with extraction, as in the paper's figure).
 """
 import csv
@@ -13,12 +14,10 @@ import yaml
 
 from . import paths
 
-DOMAINS = {
-    # The paper's office domains under the names its figure uses.
-    # name: (grid, step limit) -- paper: 30x30 with 200 steps, 50x50 with 300 steps
-    "small": ("office_30x30", 200),
-    "large": ("office_50x50", 300),
-}
+# The names the paper's figure gives its two domains: the navigation config's domains with the
+# fewest and the most cells (the bundled office: 30x30 with 200 steps, 50x50 with 300 steps, as
+# in the paper), so that every site has them.
+PAPER_NAMES = ("small", "large")
 
 
 class UnknownDomainError(ValueError):
@@ -26,33 +25,77 @@ class UnknownDomainError(ValueError):
     config; the message names the domain and where the known ones come from."""
 
 
-def config_domains(config=None):
-    """(name, step limit) of every domain of the navigation config (default: the repository's
-    config/navigation.yaml), in the file's order."""
-    config = config or paths.repo("config", "navigation.yaml")
+def _domain_table(config):
+    """{name: (cols, rows, step limit)} of the navigation config's domains, in the file's
+    order."""
     with open(config) as f:
         data = yaml.safe_load(f) or {}
     domains = data.get("domains") or {}
     if not isinstance(domains, dict):
         raise UnknownDomainError("%s: field 'domains' must map names to {cols, rows, step_limit}"
                                  % config)
-    return [(name, (d or {}).get("step_limit")) for name, d in domains.items()]
+    table = {}
+    for name, d in domains.items():
+        d = d if isinstance(d, dict) else {}
+        table[name] = (d.get("cols"), d.get("rows"), d.get("step_limit"))
+    return table
+
+
+def config_domains(config=None):
+    """(name, step limit) of every domain of the navigation config (default: the repository's
+    config/navigation.yaml), in the file's order."""
+    config = config or paths.repo("config", "navigation.yaml")
+    return [(name, d[2]) for name, d in _domain_table(config).items()]
+
+
+def _cells(dims):
+    cols, rows, _ = dims
+    return (cols or 0) * (rows or 0)
 
 
 def resolve_domain(name, config=None):
-    """(grid, step limit) of `name`: one of DOMAINS (the paper's small / large) or a domain of
-    the navigation config, so that a site's own domains run too. Raises UnknownDomainError."""
-    if name in DOMAINS:
-        return DOMAINS[name]
+    """(grid, step limit) of `name`: a domain of the navigation config, or one of the paper's
+    names small / large (its domains with the fewest / the most cells; a config needs two
+    domains for them), so that a site's own domains run too. Raises UnknownDomainError."""
     config = config or paths.repo("config", "navigation.yaml")
-    known = config_domains(config)
-    for grid, limit in known:
-        if grid == name:
-            return grid, limit
+    table = _domain_table(config)
+    if name in table:
+        return name, table[name][2]
+    if name in PAPER_NAMES:
+        if len(table) < 2:
+            raise UnknownDomainError(
+                "navigation domain '%s' is the paper's name for the %s of two domains, but %s has "
+                "%d: %s" % (name, "smaller" if name == "small" else "larger", config, len(table),
+                            ", ".join(table) or "none"))
+        pick = min if name == "small" else max
+        grid = pick(table, key=lambda g: _cells(table[g]))
+        return grid, table[grid][2]
     raise UnknownDomainError(
-        "unknown navigation domain '%s': the known ones are %s (the paper's) and the domains of "
-        "%s: %s" % (name, ", ".join(sorted(DOMAINS)), config,
-                    ", ".join(g for g, _ in known) or "none"))
+        "unknown navigation domain '%s': the known ones are the domains of %s: %s, and %s (the "
+        "paper's names for its domains with the fewest and the most cells)"
+        % (name, config, ", ".join(table) or "none", ", ".join(PAPER_NAMES)))
+
+
+def grid_size(grid, config=None):
+    """'COLSxROWS' of a domain of the navigation config (e.g. '30x30')."""
+    config = config or paths.repo("config", "navigation.yaml")
+    cols, rows, _ = _domain_table(config).get(grid, (None, None, None))
+    return "%sx%s" % (cols, rows) if cols and rows else grid
+
+
+def transfer_tasks(options=None):
+    """(start, source, target) of the navigation experiment: the nav_transfer section of its
+    options file (default: the repository's config/experiments/nav_transfer.yaml), the start
+    defaulting to the site's shop (config/dialog.yaml navigation.shop), as nav_transfer reads
+    them."""
+    options = options or paths.repo("config", "experiments", "nav_transfer.yaml")
+    with open(options) as f:
+        section = (yaml.safe_load(f) or {}).get("nav_transfer") or {}
+    start = section.get("start")
+    if not start:
+        with open(paths.repo("config", "dialog.yaml")) as f:
+            start = ((yaml.safe_load(f) or {}).get("navigation") or {}).get("shop")
+    return start, section.get("source"), section.get("target")
 
 
 def smooth(values, window=10):
@@ -179,7 +222,7 @@ def plot(tables, png_path, window=10):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    names = [d for d in ("small", "large") if d in tables]
+    names = list(tables)  # any domains, in the caller's order (the paper: small, large)
     fig, axes = plt.subplots(1, len(names), figsize=(5 * len(names), 3.6), squeeze=False)
     for ax, d in zip(axes[0], names):
         t = tables[d]
@@ -193,8 +236,9 @@ def plot(tables, png_path, window=10):
                 h = smooth(ci, window)
                 ax.fill_between(ep, [a - b for a, b in zip(m, h)], [a + b for a, b in zip(m, h)],
                                 color=line.get_color(), alpha=0.15, linewidth=0)
-        grid, limit = DOMAINS[d]
-        ax.set_title("%s (%s, %d steps)" % (d, grid.split("_")[1], limit))
+        grid, limit = resolve_domain(d)
+        title = "%s (%s, %s steps)" % (d, grid_size(grid), limit)
+        ax.set_title(title if d in PAPER_NAMES else "%s (%s steps)" % (grid, limit))
         ax.set_xlabel("episode")
         ax.set_ylabel("reward (%d-episode window)" % window)
         ax.grid(alpha=0.3)

@@ -87,7 +87,7 @@ class DialogNode {
     std::uint64_t seed = 1;        ///< ~seed (the manager is deterministic; logged)
     bool check_site = true;        ///< ~check_site: refuse to start on an inconsistent site
 
-    /// @brief Reads and validates; with check_site, also the site (krr_core/site/site_check.h).
+    /// @brief Reads and validates; with check_site, also the site (krr_ros/site_check.h).
     static Params read(ParamReader& r);
   };
   static constexpr const char* kLog = "dialog";

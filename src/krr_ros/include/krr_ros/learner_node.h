@@ -46,9 +46,11 @@ struct LearnerParams {
                                       ///< R-Max from navigation.yaml (~known_threshold, ~rmax,
                                       ///< ~discount, ~step_cost, ~replan_every override it)
   std::uint64_t seed = 1;             ///< ~seed: task selection, simulator, R-Max
+  bool check_site = true;             ///< ~check_site: refuse to start on an inconsistent site
 
-  /// @brief Read and validate every parameter (unknown ones refused).
-  /// @throws krr::ConfigError naming the parameter and its value.
+  /// @brief Read and validate every parameter (unknown ones refused); with check_site, also
+  /// the site (krr_ros/site_check.h).
+  /// @throws krr::ConfigError naming the parameter and its value, or every finding of the site.
   static LearnerParams read(ParamReader& r);
 };
 

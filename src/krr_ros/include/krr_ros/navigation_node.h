@@ -48,9 +48,11 @@ struct NavigationParams {
   double executor_wait = 5;            ///< ~executor_wait: s to wait for the server per trip
   std::string sample_topic;            ///< ~sample_topic: observed moves ("" = not published)
   std::uint64_t seed = 1;              ///< ~seed: simulator and OMPL
+  bool check_site = true;              ///< ~check_site: refuse to start on an inconsistent site
 
-  /// @brief Read and validate every parameter (unknown ones refused).
-  /// @throws krr::ConfigError naming the parameter and its value.
+  /// @brief Read and validate every parameter (unknown ones refused); with check_site, also
+  /// the site (krr_ros/site_check.h).
+  /// @throws krr::ConfigError naming the parameter and its value, or every finding of the site.
   static NavigationParams read(ParamReader& r);
 };
 

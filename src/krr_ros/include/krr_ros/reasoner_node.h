@@ -66,7 +66,10 @@ class ReasonerNode {
     /// ~backend: auto (native engine inside its fragment, clingo otherwise), native or asp
     krr::plog::Backend backend = krr::plog::Backend::Auto;
     std::uint64_t seed = 1;                 ///< ~seed (the reasoner is deterministic; logged)
+    bool check_site = true;                 ///< ~check_site: refuse an inconsistent site
 
+    /// @brief Reads and validates; with check_site, also the site (krr_ros/site_check.h): the
+    /// domain_files must include the dialog's knowledge.
     static Params read(ParamReader& r);
   };
   static constexpr const char* kLog = "reasoner";

@@ -16,8 +16,8 @@
 #include "krr_core/common/files.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/dialog/delivery_navigation.h"
-#include "krr_core/site/site_check.h"
 #include "krr_ros/conversions.h"
+#include "krr_ros/site_check.h"
 
 namespace krr_ros {
 
@@ -58,17 +58,13 @@ DialogNode::Params DialogNode::Params::read(ParamReader& r) {
   p.state_file = r.path("state_file", "", false);
   p.speech_input = r.str("speech_input", "");
   p.speech_output = r.str("speech_output", "");
-  p.check_site = r.boolean("check_site", true);
+  p.check_site = readCheckSite(r);
   if (p.action.empty()) throw krr::ConfigError("parameter navigation_action: empty name");
   r.rejectUnknown();
-  if (p.check_site) {
-    // The site's files agree before anything starts (issue 27): this node's dialog and
-    // language files, the rest of the site from the repository's config/.
-    krr::site::SiteFiles files = krr::site::SiteFiles::inConfigDir(r.resolve("config"));
-    files.dialog_config = p.dialog_config;
-    files.language_config = p.language_config;
-    krr::site::requireConsistentSite(files);
-  }
+  // The site's files agree before anything starts (site_check.h): this node's navigation,
+  // dialog and language files, the rest of the site from the repository's config/.
+  if (p.check_site)
+    requireConsistentSite(r, {p.nav.navigation_config, p.dialog_config, p.language_config, {}});
   return p;
 }
 

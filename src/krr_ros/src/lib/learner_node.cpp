@@ -44,6 +44,7 @@
 #include "krr_core/kb/free_time_learner.h"
 #include "krr_core/kb/observed_navigation.h"
 #include "krr_ros/conversions.h"
+#include "krr_ros/site_check.h"
 #include "krr_ros/nav_kb.h"
 #include "krr_ros/params.h"
 
@@ -105,7 +106,10 @@ LearnerParams LearnerParams::read(ParamReader& r) {
   } catch (const krr::Error& e) {
     throw krr::ConfigError("parameters of " + ros::this_node::getName() + ": " + e.what());
   }
+  p.check_site = readCheckSite(r);
   r.rejectUnknown();
+  // The site's files agree before anything starts (site_check.h).
+  if (p.check_site) requireConsistentSite(r, {p.kb.navigation_config, "", "", {}});
   return p;
 }
 

@@ -62,6 +62,7 @@
 #include "krr_core/mdp/solvers.h"
 #include "krr_core/nav/ompl_planner.h"
 #include "krr_ros/conversions.h"
+#include "krr_ros/site_check.h"
 #include "krr_ros/nav_kb.h"
 #include "krr_ros/params.h"
 
@@ -132,7 +133,10 @@ NavigationParams NavigationParams::read(ParamReader& r) {
   if (p.step_cost >= p.rmax)
     r.refuse("step_cost", std::to_string(p.step_cost),
              "must be below rmax = " + std::to_string(p.rmax));
+  p.check_site = readCheckSite(r);
   r.rejectUnknown();
+  // The site's files agree before anything starts (site_check.h).
+  if (p.check_site) requireConsistentSite(r, {p.kb.navigation_config, "", "", {}});
   return p;
 }
 

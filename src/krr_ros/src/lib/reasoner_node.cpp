@@ -15,6 +15,7 @@
 #include "krr_core/common/resources.h"
 #include "krr_core/kb/navigation_knowledge.h"
 #include "krr_ros/conversions.h"
+#include "krr_ros/site_check.h"
 
 namespace krr_ros {
 
@@ -117,7 +118,11 @@ ReasonerNode::Params ReasonerNode::Params::read(ParamReader& r) {
   p.query_seconds = r.number("query_seconds", 10.0, 0.01, 3600.0);
   p.threads = static_cast<int>(r.integer("threads", 4, 1, 64));
   p.backend = krr::plog::parseBackend(r.str("backend", "auto", {"auto", "native", "asp"}));
+  p.check_site = readCheckSite(r);
   r.rejectUnknown();
+  // The site's files agree before anything is loaded (site_check.h): the knowledge this node
+  // loads (~domain_files) is the dialog's, its navigation config names the places.
+  if (p.check_site) requireConsistentSite(r, {p.nav.navigation_config, "", "", p.domain_files});
   return p;
 }
 

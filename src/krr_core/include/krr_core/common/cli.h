@@ -7,7 +7,7 @@
  *    "program: message" and the usage on stderr and exits 2.
  *
  * @code
- *   krr::OptionParser cli("nav_transfer", "Learn shop-room1, apply to shop-room2.");
+ *   krr::OptionParser cli("nav_transfer", "Learn one task, apply to another.");
  *   cli.add("--trials", "N", "trials to run", &trials);
  *   cli.flag("--json", "print JSON", &json);
  *   if (const auto status = cli.parse(argc, argv)) return *status;
@@ -91,6 +91,10 @@ class OptionParser {
   OptionParser& required();
   /// @brief Another name of the option declared last (e.g. --trials for --samples).
   OptionParser& alias(const std::string& name);
+  /// @brief An old name of the option declared last, still accepted but not listed in the
+  /// usage: using it prints one line on stderr ("program: option --repo is deprecated: use
+  /// --root"), so scripts keep working while their authors learn the new name.
+  OptionParser& deprecatedAlias(const std::string& name);
   /// @brief The default shown for the option declared last ("" shows none).
   OptionParser& defaultText(const std::string& text);
   /// @brief Text printed at the end of the usage (details, file formats).
@@ -119,6 +123,7 @@ class OptionParser {
  private:
   struct Option {
     std::vector<std::string> names;
+    std::vector<std::string> deprecated_names;  ///< accepted, not listed, warned about
     std::string value_name, help, default_text;
     Setter setter;               ///< options with a value
     std::function<void()> action;  ///< flags

@@ -44,7 +44,7 @@ namespace dialog {
 
 /// @brief Parameters of delivery navigation.
 struct DeliveryNavigationOptions {
-  std::string shop = "shop";         ///< place the robot starts every delivery from
+  std::string shop;                  ///< place every delivery starts from (DialogConfig::shop)
   std::vector<std::string> rooms;    ///< destination places, in the dialog's room order
   mdp::NavigationReward reward{1.0, 40.0};  ///< step cost and Rmax of the navigation task
   double discount = 1.0;             ///< of the navigation task solved for the policies

@@ -48,7 +48,9 @@ struct DialogConfig {
   double serve_cost_weight = 1.0;
   double wrong_delivery_penalty = 120.0;  ///< P_w, charged when the served request is wrong
   // navigation:
-  std::string shop = "shop";       ///< place every delivery starts from
+  /// Place every delivery starts from: a place of the site's map, navigation.shop (required:
+  /// no default name, the site names it).
+  std::string shop;
   std::string time = "morning";    ///< time of day of the knowledge used and learned
   // The navigation task (knowledge.navigation: navigation.yaml `planning` and `rmax_learning`;
   // these defaults when the dialog config names no navigation config):

@@ -78,6 +78,12 @@ struct NavExperimentFiles {
   /// @brief The site's default domain (the first of the navigation config's, after
   /// resolveRoot), for runs that name none. @throws ConfigError.
   std::string defaultDomain() const;
+  /// @brief The dialog config whose shop is the site's: dialog.yaml beside the navigation
+  /// config (after resolveRoot).
+  std::string dialogConfig() const;
+  /// @brief The site's shop, navigation.shop of dialogConfig(): the start of the experiments'
+  /// episodes when their options file names none. @throws ConfigError.
+  std::string siteShop() const;
 
  private:
   std::string options_file_;

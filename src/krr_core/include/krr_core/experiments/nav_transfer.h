@@ -1,15 +1,17 @@
 /**
  * @file nav_transfer.h
  * @brief The paper's navigation experiment (Sec. IV, Fig. "Navigation tasks"): learn in the
- * shop-room1 task, extract the knowledge into P-log, apply it to the shop-room2 task.
+ * start -> source task, extract the knowledge into P-log, apply it to the start -> target task
+ * (the paper's office, config/experiments/nav_transfer.yaml: from the shop to room1, then to
+ * room2).
  *
  * One trial:
- *  1. Procedure 1: R-Max learns shop -> source from scratch in the simulator until it has
+ *  1. Procedure 1: R-Max learns start -> source from scratch in the simulator until it has
  *     converged (no newly known pair for `convergence_episodes` episodes) or `source_episodes`
  *     have run; the known pairs are written into the knowledge base (extraction).
- *  2. Procedure 2: the shop -> target model is built from the knowledge base by the reasoner;
+ *  2. Procedure 2: the start -> target model is built from the knowledge base by the reasoner;
  *     the pairs backed by learned knowledge start known ("with extraction").
- *  3. R-Max learns shop -> target for `target_episodes`, with those priors and, from the same
+ *  3. R-Max learns start -> target for `target_episodes`, with those priors and, from the same
  *     random stream, without them ("without extraction").
  * Trials are independent and seeded by (seed, trial index), so results do not depend on how
  * many threads run them.
@@ -30,9 +32,12 @@ namespace experiments {
 
 /// @brief Parameters of the transfer experiment.
 struct NavTransferOptions {
-  std::string start = "shop";
-  std::string source = "room1";
-  std::string target = "room2";
+  // Places of the site's map, no default names: the options file names them (the paper's
+  // office: config/experiments/nav_transfer.yaml) and nav_transfer defaults the start to the
+  // site's shop (dialog.yaml navigation.shop).
+  std::string start;   ///< where every episode starts
+  std::string source;  ///< the task learned first, its knowledge extracted
+  std::string target;  ///< the task learned with and without that knowledge
   std::string time = "morning";       ///< time of day the robot learns and acts in
   double blocking_rate = 0.3;         ///< br of the simulated world (paper default 0.3)
   std::size_t source_episodes = 300;  ///< cap on source-task learning

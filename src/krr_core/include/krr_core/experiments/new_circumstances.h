@@ -34,8 +34,8 @@
  *     all from the same random stream ("new_circumstances/episode", i: common random numbers):
  *     the merged controller of S, the random pick (the own controller of the pick), the oracle
  *     (the own controller of the true setting) and every setting's own controller, whatever the
- *     truth. Success = reaching the goal within the domain's step limit (shop -> room2 on
- *     office_30x30, 200 steps, as in the navigation experiments).
+ *     truth. Success = reaching the goal within the domain's step limit (the paper's office:
+ *     from the shop to room2 on the small domain, 200 steps, as in the navigation experiments).
  *
  * Reusing learning runs keeps every trial's distribution: trial i's knowledge is one learning
  * run of the same procedure, from a stream derived from (seed, run), so each trial is
@@ -61,8 +61,11 @@ namespace experiments {
 /// @brief Parameters of the new-circumstances experiment (config/experiments/new_circumstances.yaml).
 struct NewCircumstancesOptions {
   std::string domain;  ///< navigation domain (the CLI loads it; empty: the site's default)
-  std::string start = "shop";
-  std::string goal = "room2";
+  // Places of the site's map, no default names: the options file names them (the paper's
+  // office: config/experiments/new_circumstances.yaml) and new_circumstances defaults the start
+  // to the site's shop (dialog.yaml navigation.shop).
+  std::string start;  ///< where every episode starts
+  std::string goal;   ///< success: reaching it within the domain's step limit
   /// The settings (times of day): each has its own learned knowledge and controller.
   std::vector<std::string> learn_times{"morning", "noon", "afternoon"};
   /// The robot is in one of this many settings, drawn per trial among learn_times (paper: 2).
@@ -73,9 +76,9 @@ struct NewCircumstancesOptions {
   /// config/navigation.yaml still apply). < 0: the simulator's own configuration.
   double blocking_rate = 0.1;
   /// Procedure 1 per setting: "fixed" practises start -> goal only; "least_known" lets the
-  /// LeastKnownSelector pick among `places` (start excluded).
+  /// LeastKnownSelector pick among `places` (start excluded; empty: every place of the map).
   std::string selector = "fixed";
-  std::vector<std::string> places{"room1", "room2", "room3", "room4", "room5"};
+  std::vector<std::string> places;
   /// Procedure 1's knowledge extraction: "areas" (pooled per blocking area, kb/area_knowledge.h;
   /// what the robot's learner writes) or "pairs" (each known (cell, move) pair, the paper's
   /// literal Procedure 1, kept for comparison).

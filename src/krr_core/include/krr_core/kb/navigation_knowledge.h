@@ -55,7 +55,7 @@ class NavStateSpace {
   /// @brief The cell of a state, -1 for the trapped state.
   int cellOf(mdp::StateId s) const { return s < cells_.size() ? cells_[s] : -1; }
   mdp::StateId trappedState() const { return static_cast<mdp::StateId>(cells_.size()); }
-  /// @brief The state of a named place (shop, room1...).
+  /// @brief The state of a named place of the map (the shop, a room).
   mdp::StateId placeState(const std::string& place) const { return stateOf(grid_->placeCell(place)); }
   const nav::NavGrid& grid() const { return *grid_; }
 

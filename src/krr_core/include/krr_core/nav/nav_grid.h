@@ -34,7 +34,7 @@ struct Rect {
   bool contains(const Point2& p) const { return p.x >= x0 && p.x < x1 && p.y >= y0 && p.y < y1; }
 };
 
-/// @brief A named goal location (shop, room1...): a point the robot drives to, and its room.
+/// @brief A named goal location (the shop, a room): a point the robot drives to, and its room.
 struct Place {
   std::string name;
   Point2 point;

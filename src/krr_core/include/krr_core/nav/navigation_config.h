@@ -64,7 +64,7 @@ struct PlannerConfig {
 
 /// @brief One navigation domain (grid size and episode length).
 struct DomainConfig {
-  std::string name;  ///< e.g. "office_30x30"
+  std::string name;  ///< the key of the config's domains (the office's: "office_30x30")
   int cols = 30;
   int rows = 30;
   int step_limit = 200;  ///< moves allowed per navigation episode

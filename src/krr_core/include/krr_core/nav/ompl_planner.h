@@ -57,7 +57,7 @@ class OmplPlanner {
   std::vector<Point2> planCellMove(const NavGrid& grid, int from_cell, int to_cell,
                                    double timeout = 0.0);
 
-  /// @brief Path between two named places (their points), e.g. planRoute(grid, "shop", "room5").
+  /// @brief Path between two named places (their points), e.g. from the shop to a room.
   std::vector<Point2> planRoute(const NavGrid& grid, const std::string& from,
                                 const std::string& to, double timeout = 0.0);
 

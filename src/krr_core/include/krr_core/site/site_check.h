@@ -28,9 +28,11 @@
  * A file that cannot be read is a finding too, and the rules that need it are skipped.
  * Every finding names the file, the field and the value.
  *
- * A node checks at start with the files it was given (its parameters win over the defaults):
+ * A node checks at start with the files it was given (its parameters win over the defaults;
+ * the nodes' one helper is krr_ros/site_check.h):
  * @code
  *   krr::site::SiteFiles files = krr::site::SiteFiles::inConfigDir(base_dir + "/config");
+ *   files.navigation_config = params.navigation_config;  // every node
  *   files.dialog_config = params.dialog_config;      // dialog_node
  *   files.language_config = params.language_config;  // dialog_node
  *   files.reasoner_domain_files = params.domain_files;  // reasoner_node (resolved paths)
@@ -63,6 +65,9 @@ struct SiteFiles {
   /// The reasoner's domain_files as a running node has them (its parameters, resolved),
   /// instead of reading reasoner_config: the launch file may have overridden the file's.
   std::optional<std::vector<std::string>> reasoner_domain_files;
+  /// What a finding on reasoner_domain_files names as its file (a node: "parameters of
+  /// /reasoner"); "" = "reasoner parameters".
+  std::string reasoner_source;
   /// The shop given on the command line (e.g. make_nav_domain --shop), instead of the dialog
   /// config's; `shop_source` names where it came from ("option --shop").
   std::string shop;
