@@ -863,25 +863,57 @@ std::string negationLoopReason(const Program& program) {
     if (r.consistency_restoring)
       return r.loc.str() + ": consistency-restoring random selection (':+')";
   // Nodes: (attribute, head value) for constant head values, (attribute, *) for the others.
-  std::unordered_map<std::string, std::vector<int>> nodes_of;  // attribute -> its nodes
-  std::unordered_map<std::string, int> node_id;                // "attribute=value" -> node
-  std::vector<std::string> node_name;
-  auto constantValue = [](const Term& t, std::string& out) {
-    if (!t.isGround() || t.kind == Term::Kind::Binary || t.kind == Term::Kind::Negate)
-      return false;
-    out = toString(t);
-    return true;
+  // Attributes and values are interned ids (the parser's hints give most attributes without
+  // a lookup), a node is the pair of ids: no string is built per rule.
+  const AttributeIndex index(program);
+  const int na = static_cast<int>(program.attributes.size());
+  NameTable undeclared, values;
+  auto attrOf = [&](const AttributeTerm& t) {
+    const int a = index.of(t);
+    return a >= 0 ? a : na + undeclared.intern(t.name);
   };
+  auto attrKnown = [&](const AttributeTerm& t) {  // -1: no rule has it as its head
+    const int a = index.of(t);
+    if (a >= 0) return a;
+    const int u = undeclared.find(t.name);
+    return u < 0 ? -1 : na + u;
+  };
+  constexpr int kAny = -1;  // the value "*"
+  auto constantValue = [&](const Term& t) {  // value id, or kAny
+    if (!t.isGround() || t.kind == Term::Kind::Binary || t.kind == Term::Kind::Negate) return kAny;
+    return t.kind == Term::Kind::Symbol ? values.intern(t.name) : values.intern(toString(t));
+  };
+  auto key = [](int attr, int value) {
+    return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(attr)) << 32) |
+           static_cast<std::uint32_t>(value);
+  };
+  std::unordered_map<std::uint64_t, int> node_id;  // (attribute, value) -> node
+  std::vector<std::pair<int, int>> node_of;        // node -> (attribute, value)
+  std::vector<int> first_node, last_node, next_node;  // nodes of an attribute, in order
+  node_id.reserve(program.rules.size());
   auto nodeOf = [&](const Atom& head) {
-    std::string v;
-    if (!constantValue(head.value, v)) v = "*";
-    std::string name = head.attr.name + "=" + v;
-    auto [it, added] = node_id.emplace(name, static_cast<int>(node_name.size()));
+    const int a = attrOf(head.attr);
+    const int v = constantValue(head.value);
+    auto [it, added] = node_id.emplace(key(a, v), static_cast<int>(node_of.size()));
     if (added) {
-      nodes_of[head.attr.name].push_back(it->second);
-      node_name.push_back(std::move(name));
+      const int n = it->second;
+      node_of.push_back({a, v});
+      next_node.push_back(-1);
+      if (first_node.size() <= static_cast<size_t>(a)) {
+        first_node.resize(static_cast<size_t>(a) + 1, -1);
+        last_node.resize(static_cast<size_t>(a) + 1, -1);
+      }
+      if (first_node[static_cast<size_t>(a)] < 0) first_node[static_cast<size_t>(a)] = n;
+      else next_node[static_cast<size_t>(last_node[static_cast<size_t>(a)])] = n;
+      last_node[static_cast<size_t>(a)] = n;
     }
     return it->second;
+  };
+  auto nodeName = [&](int n) {
+    const auto& av = node_of[static_cast<size_t>(n)];
+    const std::string& attr = av.first < na ? program.attributes[static_cast<size_t>(av.first)].name
+                                            : undeclared.name(av.first - na);
+    return attr + "=" + (av.second == kAny ? std::string("*") : values.name(av.second));
   };
   std::vector<int> head_node(program.rules.size(), -1);
   for (size_t i = 0; i < program.rules.size(); ++i)
@@ -889,35 +921,45 @@ std::string negationLoopReason(const Program& program) {
   // Edges (target, negative): `not` and `!=` count as negative, as the grounder's check of
   // static attributes does; a body atom with a constant value depends on that value's rules
   // and on the rules with a variable value, any other atom on every rule of its attribute.
-  DependencyEdges edges(node_name.size());
+  struct Edge {
+    int from, to;
+    bool negative;
+  };
+  std::vector<Edge> edge_list;
   for (size_t i = 0; i < program.rules.size(); ++i) {
     if (head_node[i] < 0) continue;
-    auto& out = edges[static_cast<size_t>(head_node[i])];
+    const int from = head_node[i];
     for (const auto& l : program.rules[i].body) {
       if (l.kind != Literal::Kind::Atom) continue;
-      auto it = nodes_of.find(l.atom.attr.name);
-      if (it == nodes_of.end()) continue;
+      const int a = attrKnown(l.atom.attr);
+      if (a < 0 || static_cast<size_t>(a) >= first_node.size() ||
+          first_node[static_cast<size_t>(a)] < 0)
+        continue;
       const bool negative = l.naf || l.negated;
-      std::string v;
-      if (!l.negated && constantValue(l.atom.value, v)) {
-        for (const std::string& value : {v, std::string("*")}) {
-          auto n = node_id.find(l.atom.attr.name + "=" + value);
-          if (n != node_id.end()) out.push_back({n->second, negative});
+      const int v = l.negated ? kAny : constantValue(l.atom.value);
+      if (!l.negated && v != kAny) {
+        for (const int value : {v, kAny}) {
+          auto n = node_id.find(key(a, value));
+          if (n != node_id.end()) edge_list.push_back({from, n->second, negative});
         }
       } else {
-        for (int n : it->second) out.push_back({n, negative});
+        for (int n = first_node[static_cast<size_t>(a)]; n >= 0; n = next_node[static_cast<size_t>(n)])
+          edge_list.push_back({from, n, negative});
       }
     }
   }
   // A negative edge inside a strongly connected component is a loop through negation.
+  const CompactGraph edges = CompactGraph::fromEdges(node_of.size(), edge_list);
   int ncomp = 0;
   const std::vector<int> comp = stronglyConnectedComponents(edges, ncomp);
   for (size_t m = 0; m < edges.size(); ++m)
-    for (const auto& e : edges[m])
-      if (e.second && comp[static_cast<size_t>(e.first)] == comp[m])
-        return node_name[m] + " may depend on " + node_name[static_cast<size_t>(e.first)] +
-               " through negation, and " + node_name[static_cast<size_t>(e.first)] + " on " +
-               node_name[m];
+    for (size_t k = 0; k < edges.degree(m); ++k) {
+      const int to = edges.to(m, k);
+      if (edges.negative[static_cast<size_t>(edges.start[m]) + k] &&
+          comp[static_cast<size_t>(to)] == comp[m])
+        return nodeName(static_cast<int>(m)) + " may depend on " + nodeName(to) +
+               " through negation, and " + nodeName(to) + " on " + nodeName(static_cast<int>(m));
+    }
   return "";
 }
 

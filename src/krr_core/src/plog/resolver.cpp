@@ -510,7 +510,11 @@ class Resolver {
       const Term* t = &h.lhs;
       if (t->kind == Term::Kind::Negate) t = &t->args[0];
       if (t->kind != Term::Kind::Symbol && t->kind != Term::Kind::Compound) continue;
-      if (findAttr(t->name)) continue;
+      // one lookup: the name is added to the index with its new declaration
+      indexNames(prog_.attributes, attr_index_, attr_decl_, attr_indexed_);
+      const int id = attr_index_.intern(t->name);
+      if (static_cast<std::size_t>(id) < attr_decl_.size()) continue;  // declared
+      attr_decl_.push_back(prog_.attributes.size());
       AttributeDecl d;
       d.name = t->name;
       d.arg_sorts.assign(t->args.size(), "");
@@ -518,6 +522,7 @@ class Resolver {
       d.implicit = true;
       d.loc = t->loc;
       prog_.attributes.push_back(std::move(d));
+      attr_indexed_ = prog_.attributes.size();
     }
   }
 
