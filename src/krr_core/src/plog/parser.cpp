@@ -51,6 +51,7 @@ class Parser {
     std::vector<RawStmt> out;
     size_t dots = 0;  // an upper bound on the statements: no reallocation while reading
     for (const auto& t : toks_) dots += t.kind == Tok::Dot;
+    if (guard_) guard_->check("parsing", toks_.front().loc, (dots + 1) * sizeof(RawStmt));
     out.reserve(dots + 1);
     parseStatements(out);
     for (const auto& d : pending_domains_)

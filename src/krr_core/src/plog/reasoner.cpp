@@ -324,6 +324,7 @@ void Reasoner::loadString(const std::string& text, const std::string& name, Dial
   program_ = parseProgram(text, name, dialect, parse_options_);
   rule_ids_.clear();
   pr_ids_.clear();
+  keys_valid_ = false;  // (also when the new program has no statement: the old keys go)
   structuralChange();
 }
 

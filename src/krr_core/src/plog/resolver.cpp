@@ -500,7 +500,12 @@ class Resolver {
   void declareImplicit(const std::vector<RawStmt>& stmts) {
     // plog2.0 requires every attribute to be declared in its `attributes` section
     if (plog2_) return;
+    if (guard_ && !stmts.empty())
+      guard_->check("resolving the statements", stmts.front().loc,
+                    stmts.size() * (sizeof(AttributeDecl) + 2 * sizeof(std::size_t)));
     prog_.attributes.reserve(prog_.attributes.size() + stmts.size());
+    attr_index_.reserve(prog_.attributes.size() + stmts.size());
+    attr_decl_.reserve(prog_.attributes.size() + stmts.size());
     for (const auto& s : stmts) {
       if (s.kind != RawStmt::Kind::Rule || !s.head) continue;
       const RawLit& h = *s.head;
@@ -575,6 +580,10 @@ class Resolver {
     // a map (hashed: a program of n undeclared predicates costs O(n); the renaming below
     // does not depend on the order of the names)
     NameTable names;
+    if (guard_ && !stmts.empty())
+      guard_->check("resolving the statements", stmts.front().loc,
+                    (stmts.size() + 16) * (sizeof(std::string) + 16));
+    names.reserve(stmts.size() + 16);  // (at most a head and a few body names per statement)
     std::vector<size_t> first_arity;
     std::map<int, std::vector<size_t>> more_arities;
     auto top = [](const RawLit& l) -> const Term* {
@@ -645,6 +654,9 @@ class Resolver {
         nrr += s.kind == RawStmt::Kind::Random;
         np += s.kind == RawStmt::Kind::Pr;
       }
+      if (guard_ && !stmts.empty())
+        guard_->check("resolving the statements", stmts.front().loc,
+                      nr * sizeof(Rule) + nrr * sizeof(RandomRule) + np * sizeof(PrAtom));
       prog_.rules.reserve(prog_.rules.size() + nr);
       prog_.random_rules.reserve(prog_.random_rules.size() + nrr);
       prog_.pr_atoms.reserve(prog_.pr_atoms.size() + np);
