@@ -9,6 +9,7 @@
 #include <unordered_set>
 
 #include "krr_core/plog/arith.h"
+#include "krr_core/plog/name_table.h"
 
 #include "scc.h"
 
@@ -69,112 +70,6 @@ namespace {
 // Attribute dependency analysis
 // -------------------------------------------------------------------------------------------
 
-void attrsOfBody(const std::vector<Literal>& b, std::set<std::string>& out) {
-  for (const auto& l : b)
-    if (l.kind == Literal::Kind::Atom) out.insert(l.atom.attr.name);
-}
-
-/// @brief Attributes on a cycle through default negation (attribute-level strongly connected
-/// components of the rule dependency graph that contain a `not` edge) and attributes chosen
-/// by a random selection with a dynamic range.
-std::set<std::string> worldChangingAttributes(const Program& p) {
-  std::unordered_map<std::string, int> id;
-  auto idOf = [&](const std::string& a) { return id.emplace(a, static_cast<int>(id.size())).first->second; };
-  std::vector<std::vector<std::pair<int, bool>>> edges;  // child -> (parent, through not)
-  auto addEdges = [&](const std::string& head, const std::vector<Literal>& body) {
-    const int h = idOf(head);
-    for (const auto& l : body) {
-      if (l.kind != Literal::Kind::Atom) continue;
-      const int b = idOf(l.atom.attr.name);
-      if (edges.size() < id.size()) edges.resize(id.size());
-      edges[static_cast<size_t>(h)].push_back({b, l.naf});
-    }
-    if (edges.size() < id.size()) edges.resize(id.size());
-  };
-  std::set<std::string> out;
-  for (const auto& r : p.rules)
-    if (r.head) addEdges(r.head->attr.name, r.body);
-  for (const auto& r : p.random_rules) {
-    addEdges(r.attr.name, r.body);
-    addEdges(r.attr.name, r.range_body);
-    if (r.has_range) out.insert(r.attr.name);
-  }
-  const int n = static_cast<int>(id.size());
-  edges.resize(static_cast<size_t>(n));
-  std::vector<std::string> name(static_cast<size_t>(n));
-  for (const auto& kv : id) name[static_cast<size_t>(kv.second)] = kv.first;
-  // Tarjan's algorithm, iterative (programs may have long dependency chains).
-  std::vector<int> index(static_cast<size_t>(n), -1), low(static_cast<size_t>(n), 0),
-      comp(static_cast<size_t>(n), -1), stack;
-  std::vector<char> on_stack(static_cast<size_t>(n), 0);
-  int counter = 0, ncomp = 0;
-  for (int root = 0; root < n; ++root) {
-    if (index[static_cast<size_t>(root)] >= 0) continue;
-    std::vector<std::pair<int, size_t>> call{{root, 0}};
-    index[static_cast<size_t>(root)] = low[static_cast<size_t>(root)] = counter++;
-    stack.push_back(root);
-    on_stack[static_cast<size_t>(root)] = 1;
-    while (!call.empty()) {
-      const int v = call.back().first;
-      size_t& next = call.back().second;
-      const auto& ev = edges[static_cast<size_t>(v)];
-      if (next < ev.size()) {
-        const int w = ev[next++].first;
-        if (index[static_cast<size_t>(w)] < 0) {
-          index[static_cast<size_t>(w)] = low[static_cast<size_t>(w)] = counter++;
-          stack.push_back(w);
-          on_stack[static_cast<size_t>(w)] = 1;
-          call.push_back({w, 0});
-        } else if (on_stack[static_cast<size_t>(w)]) {
-          low[static_cast<size_t>(v)] = std::min(low[static_cast<size_t>(v)], index[static_cast<size_t>(w)]);
-        }
-        continue;
-      }
-      if (low[static_cast<size_t>(v)] == index[static_cast<size_t>(v)]) {
-        int w;
-        do {
-          w = stack.back();
-          stack.pop_back();
-          on_stack[static_cast<size_t>(w)] = 0;
-          comp[static_cast<size_t>(w)] = ncomp;
-        } while (w != v);
-        ++ncomp;
-      }
-      call.pop_back();
-      if (!call.empty()) {
-        const int u = call.back().first;
-        low[static_cast<size_t>(u)] = std::min(low[static_cast<size_t>(u)], low[static_cast<size_t>(v)]);
-      }
-    }
-  }
-  std::vector<char> negative(static_cast<size_t>(ncomp), 0);
-  for (int v = 0; v < n; ++v)
-    for (const auto& e : edges[static_cast<size_t>(v)])
-      if (e.second && comp[static_cast<size_t>(e.first)] == comp[static_cast<size_t>(v)])
-        negative[static_cast<size_t>(comp[static_cast<size_t>(v)])] = 1;
-  for (int v = 0; v < n; ++v)
-    if (negative[static_cast<size_t>(comp[static_cast<size_t>(v)])]) out.insert(name[static_cast<size_t>(v)]);
-  return out;
-}
-
-struct Deps {
-  std::map<std::string, std::set<std::string>> parents;  // attr -> attrs it depends on
-};
-
-Deps dependencies(const Program& p) {
-  Deps d;
-  for (const auto& r : p.random_rules) {
-    auto& s = d.parents[r.attr.name];
-    attrsOfBody(r.body, s);
-    attrsOfBody(r.range_body, s);
-  }
-  for (const auto& pr : p.pr_atoms)
-    if (!pr.body.empty()) attrsOfBody(pr.body, d.parents[pr.atom.attr.name]);
-  for (const auto& r : p.rules)  // (facts have no parents: no entry, so n facts cost O(n))
-    if (r.head && !r.body.empty()) attrsOfBody(r.body, d.parents[r.head->attr.name]);
-  return d;
-}
-
 // -------------------------------------------------------------------------------------------
 // Compiled terms and literals
 // -------------------------------------------------------------------------------------------
@@ -218,20 +113,33 @@ struct FactSet {
   int arity = 0;
   std::vector<std::vector<int>> tuples;
   std::unordered_map<std::vector<int>, std::vector<int>, VecHash> by_args;  // args -> values
-  std::vector<std::unordered_map<int, std::vector<int>>> pos_index;        // pos -> sym -> tuple
   bool add(const std::vector<int>& args, int value) {
     auto& vals = by_args[args];
     for (int v : vals)
       if (v == value) return false;
     vals.push_back(value);
-    std::vector<int> t = args;
+    std::vector<int> t;
+    t.reserve(args.size() + 1);
+    t.insert(t.end(), args.begin(), args.end());
     t.push_back(value);
-    int id = static_cast<int>(tuples.size());
-    if (pos_index.size() < t.size()) pos_index.resize(t.size());
-    for (size_t i = 0; i < t.size(); ++i) pos_index[i][t[i]].push_back(id);
     tuples.push_back(std::move(t));
     return true;
   }
+  /// @brief pos -> sym -> ids of the tuples with that symbol there, in the order they were
+  /// added. Made when a join first asks for it (most attributes are only ever tested with
+  /// every position bound: indexing each of 10^5 facts up front cost more than the rest).
+  const std::vector<std::unordered_map<int, std::vector<int>>>& posIndex() const {
+    for (; indexed_ < tuples.size(); ++indexed_) {
+      const std::vector<int>& t = tuples[indexed_];
+      if (pos_index_.size() < t.size()) pos_index_.resize(t.size());
+      for (size_t i = 0; i < t.size(); ++i) pos_index_[i][t[i]].push_back(static_cast<int>(indexed_));
+    }
+    return pos_index_;
+  }
+
+ private:
+  mutable std::vector<std::unordered_map<int, std::vector<int>>> pos_index_;
+  mutable size_t indexed_ = 0;  ///< tuples in pos_index_
 };
 
 // Thrown inside an incremental update that needs a full grounding.
@@ -241,10 +149,10 @@ constexpr int kRemovedStatement = 1 << 20;  // GPr::inactive of a removed statem
 
 class Grounder {
  public:
-  Grounder(const Program& p, GroundProgram& g) : prog_(p), g_(g) {
+  Grounder(const Program& p, GroundProgram& g) : prog_(p), g_(g), attr_index_(p, true) {
     g_.symbols = std::make_shared<SymbolTable>();
     syms_ = g_.symbols.get();
-    for (size_t i = 0; i < p.attributes.size(); ++i) attr_index_[p.attributes[i].name] = int(i);
+
     for (size_t i = 0; i < p.sorts.size(); ++i) {
       sort_index_[p.sorts[i].name] = int(i);
       std::vector<int> vals;
@@ -287,8 +195,7 @@ class Grounder {
     return attr >= 0 && static_cast<size_t>(attr) < guard_attr_.size() && guard_attr_[static_cast<size_t>(attr)];
   }
   int attrIndexOf(const std::string& n) const {
-    auto it = attr_index_.find(n);
-    return it == attr_index_.end() ? -1 : it->second;
+    return attrLookup(n);
   }
   const Program& program() const { return prog_; }
 
@@ -320,7 +227,7 @@ class Grounder {
       for (const Rule* r : d.added_facts)
         if (!changeFact(*r, +1)) return false;
       for (const auto& ap : d.added_prs) {
-        const int a = attrId(ap.first->atom.attr.name, ap.first->loc);
+        const int a = attrId(ap.first->atom.attr, ap.first->loc);
         if (!g_.attr_in_cone[static_cast<size_t>(a)]) continue;  // outside the grounding
         groundPrAtom(*ap.first, ap.second);
       }
@@ -346,30 +253,59 @@ class Grounder {
     g_.attr_random.assign(na, false);
     g_.attr_dynamic.assign(na, false);
     g_.attr_in_cone.assign(na, false);
-    for (const auto& r : prog_.random_rules) g_.attr_random[attrId(r.attr.name, r.loc)] = true;
+    for (const auto& r : prog_.random_rules) g_.attr_random[attrId(r.attr, r.loc)] = true;
     for (size_t i = 0; i < na; ++i) g_.attr_dynamic[i] = g_.attr_random[i];
-    bool changed = true;
-    while (changed) {
-      changed = false;
-      for (const auto& r : prog_.rules) {
-        if (!r.head) continue;
-        int h = attrId(r.head->attr.name, r.loc);
-        if (g_.attr_dynamic[h]) continue;
-        for (const auto& l : r.body)
-          if (l.kind == Literal::Kind::Atom && g_.attr_dynamic[attrId(l.atom.attr.name, l.loc)]) {
-            g_.attr_dynamic[h] = true;
-            changed = true;
-            break;
-          }
+    // Dynamic attributes: the random ones and those with a rule whose body has a dynamic
+    // atom. One pass in program order (which also reports unknown attributes in that order),
+    // then the rest propagates along body -> head edges: O(rules), where repeated passes cost
+    // O(rules x chain length) on a chain b_i :- b_{i+1} that ends in a random attribute.
+    rule_head_attr_.assign(prog_.rules.size(), -1);
+    for (size_t i = 0; i < prog_.rules.size(); ++i) {
+      const Rule& r = prog_.rules[i];
+      if (!r.head) continue;
+      const int h = attrId(r.head->attr, r.loc);
+      rule_head_attr_[i] = h;
+      if (g_.attr_dynamic[h]) continue;
+      for (const auto& l : r.body)
+        if (l.kind == Literal::Kind::Atom && g_.attr_dynamic[attrId(l.atom.attr, l.loc)]) {
+          g_.attr_dynamic[h] = true;
+          break;
+        }
+    }
+    {
+      // (the pass looked up every body attribute of the rules whose head is still static)
+      struct Use {
+        int from, to;  // body attribute -> head attribute
+        bool negative;
+      };
+      std::vector<Use> uses;
+      for (size_t i = 0; i < prog_.rules.size(); ++i) {
+        const int h = rule_head_attr_[i];
+        if (h < 0 || g_.attr_dynamic[static_cast<size_t>(h)]) continue;
+        for (const auto& l : prog_.rules[i].body)
+          if (l.kind == Literal::Kind::Atom) uses.push_back({attr_index_.of(l.atom.attr), h, false});
+      }
+      const CompactGraph heads = CompactGraph::fromEdges(na, uses);
+      std::vector<int> work;
+      for (size_t a = 0; a < na; ++a)
+        if (g_.attr_dynamic[a]) work.push_back(static_cast<int>(a));
+      while (!work.empty()) {
+        const size_t a = static_cast<size_t>(work.back());
+        work.pop_back();
+        for (size_t k = 0; k < heads.degree(a); ++k) {
+          const size_t h = static_cast<size_t>(heads.to(a, k));
+          if (!g_.attr_dynamic[h]) g_.attr_dynamic[h] = true, work.push_back(static_cast<int>(h));
+        }
       }
     }
-    for (const auto& r : prog_.rules)
-      if (r.head && g_.attr_random[attrId(r.head->attr.name, r.loc)])
-        throw OutsideFragmentError(r.loc.str() + ": rule defining random attribute '" + r.head->attr.name +
-                    "' is outside the native reasoner's fast path (use the ASP back end)");
+    for (size_t i = 0; i < prog_.rules.size(); ++i)
+      if (rule_head_attr_[i] >= 0 && g_.attr_random[static_cast<size_t>(rule_head_attr_[i])])
+        throw OutsideFragmentError(prog_.rules[i].loc.str() + ": rule defining random attribute '" +
+                                   prog_.rules[i].head->attr.name +
+                                   "' is outside the native reasoner's fast path (use the ASP back end)");
     for (const auto& n : cone_names) {
-      auto it = attr_index_.find(n);
-      if (it != attr_index_.end()) g_.attr_in_cone[it->second] = true;
+      const int a = attrLookup(n);
+      if (a >= 0) g_.attr_in_cone[static_cast<size_t>(a)] = true;
     }
     computeGuardAttributes();
     evaluateStatic();
@@ -392,11 +328,16 @@ class Grounder {
   }
 
  private:
+  /// The attribute of a term (its hint, else its name), UnknownSymbolError when undeclared.
+  int attrId(const AttributeTerm& t, const SourceLocation& loc) const {
+    const int a = attr_index_.of(t);
+    if (a < 0) throw UnknownSymbolError(loc.str() + ": unknown attribute '" + t.name + "'");
+    return a;
+  }
   int attrId(const std::string& n, const SourceLocation& loc) const {
-    auto it = attr_index_.find(n);
-    if (it == attr_index_.end())
-      throw UnknownSymbolError(loc.str() + ": unknown attribute '" + n + "'");
-    return it->second;
+    const int a = attrLookup(n);
+    if (a < 0) throw UnknownSymbolError(loc.str() + ": unknown attribute '" + n + "'");
+    return a;
   }
 
   const std::vector<int>& sortValues(const std::string& s, const SourceLocation& loc) const {
@@ -478,7 +419,7 @@ class Grounder {
     c.naf = l.naf;
     if (l.kind == Literal::Kind::Atom) {
       c.is_atom = true;
-      c.attr = attrId(l.atom.attr.name, l.loc);
+      c.attr = attrId(l.atom.attr, l.loc);
       c.dynamic = g_.attr_dynamic[c.attr];
       c.neg = l.negated;
       for (const auto& a : l.atom.attr.args) c.args.push_back(compile(s, a));
@@ -767,9 +708,10 @@ class Grounder {
               if (!bound(t, b)) continue;
               int v = evalTerm(t, b);
               size_t c = 0;
-              if (p < f.pos_index.size()) {
-                auto it = f.pos_index[p].find(v);
-                if (it != f.pos_index[p].end()) c = it->second.size();
+              const auto& pos_index = f.posIndex();
+              if (p < pos_index.size()) {
+                auto it = pos_index[p].find(v);
+                if (it != pos_index[p].end()) c = it->second.size();
               }
               if (c < cost || pos < 0) {
                 cost = c;
@@ -962,9 +904,10 @@ class Grounder {
       if (best_pos >= 0) {
         const CTerm& t = static_cast<size_t>(best_pos) < l.args.size() ? l.args[best_pos] : l.value;
         int v = evalTerm(t, b);
-        if (static_cast<size_t>(best_pos) < f.pos_index.size()) {
-          auto it = f.pos_index[best_pos].find(v);
-          if (it != f.pos_index[best_pos].end()) cand = it->second;
+        const auto& pos_index = f.posIndex();
+        if (static_cast<size_t>(best_pos) < pos_index.size()) {
+          auto it = pos_index[best_pos].find(v);
+          if (it != pos_index[best_pos].end()) cand = it->second;
         }
       } else {
         cand.resize(f.tuples.size());
@@ -1004,59 +947,73 @@ class Grounder {
   // ---- static evaluation ----
   void evaluateStatic() {
     const size_t na = prog_.attributes.size();
-    // static rules grouped by head attribute; dependency graph among static attributes
-    std::vector<std::vector<int>> rules_of(na);
-    std::vector<std::vector<std::pair<int, bool>>> edges(na);  // head -> (body attr, negative)
+    // Static rules grouped by head attribute; dependency graph among static attributes (in
+    // compressed rows: one array for all, a 10^5-rule program has 10^5 attributes).
+    struct Ref {
+      int from, to;
+      bool negative;
+    };
+    std::vector<Ref> rule_refs, edge_list, stat_list;  // head -> rule; head -> body attribute
     for (size_t r = 0; r < prog_.rules.size(); ++r) {
       const Rule& rule = prog_.rules[r];
       if (!rule.head) continue;
-      int h = attrId(rule.head->attr.name, rule.loc);
+      int h = rule_head_attr_[r];
       if (g_.attr_dynamic[h]) continue;
-      rules_of[h].push_back(static_cast<int>(r));
+      rule_refs.push_back({h, static_cast<int>(r), false});
       for (const auto& l : rule.body)
-        if (l.kind == Literal::Kind::Atom)
-          edges[h].push_back({attrId(l.atom.attr.name, l.loc), l.naf || l.negated});
+        if (l.kind == Literal::Kind::Atom) {
+          const Ref e{h, attrId(l.atom.attr, l.loc), l.naf || l.negated};
+          edge_list.push_back(e);
+          if (!g_.attr_dynamic[static_cast<size_t>(e.to)]) stat_list.push_back(e);
+        }
     }
+    const CompactGraph rules_of = CompactGraph::fromEdges(na, rule_refs);
+    const CompactGraph edges = CompactGraph::fromEdges(na, edge_list);
     // Needed static attributes: cone attributes and everything they depend on (edges into
     // dynamic attributes are not followed), grouped in strongly connected components,
     // dependencies first (scc.h: iterative, a 100000-rule chain is that deep).
-    DependencyEdges statEdges(na);
-    for (size_t a = 0; a < na; ++a)
-      for (const auto& e : edges[a])
-        if (!g_.attr_dynamic[e.first]) statEdges[a].push_back(e);
+    const CompactGraph statEdges = CompactGraph::fromEdges(na, stat_list);
     std::vector<char> needed(na, 0);
     std::vector<int> todo;
     for (size_t a = 0; a < na; ++a)
       if (!g_.attr_dynamic[a] && g_.attr_in_cone[a]) needed[a] = 1, todo.push_back(static_cast<int>(a));
     while (!todo.empty()) {
-      const int v = todo.back();
+      const size_t v = static_cast<size_t>(todo.back());
       todo.pop_back();
-      for (const auto& e : statEdges[static_cast<size_t>(v)])
-        if (!needed[static_cast<size_t>(e.first)]) needed[static_cast<size_t>(e.first)] = 1, todo.push_back(e.first);
+      for (size_t k = 0; k < statEdges.degree(v); ++k) {
+        const int w = statEdges.to(v, k);
+        if (!needed[static_cast<size_t>(w)]) needed[static_cast<size_t>(w)] = 1, todo.push_back(w);
+      }
     }
     int ncomp = 0;
     const std::vector<int> comp = stronglyConnectedComponents(statEdges, ncomp);
-    std::vector<std::vector<int>> comps(static_cast<size_t>(ncomp));
+    // the needed attributes by component (in attribute order within one)
+    std::vector<Ref> members;
     for (size_t a = 0; a < na; ++a)
-      if (needed[a]) comps[static_cast<size_t>(comp[a])].push_back(static_cast<int>(a));
-    for (const auto& c : comps) {
-      if (c.empty()) continue;
+      if (needed[a]) members.push_back({comp[a], static_cast<int>(a), false});
+    const CompactGraph comps = CompactGraph::fromEdges(static_cast<size_t>(ncomp), members);
+    std::vector<int> c;
+    for (size_t ci = 0; ci < comps.size(); ++ci) {
+      if (comps.degree(ci) == 0) continue;
+      c.assign(comps.target.begin() + comps.start[ci], comps.target.begin() + comps.start[ci + 1]);
       for (int a : c)
-        for (auto& e : edges[a])
-          if (e.second && !g_.attr_dynamic[e.first] && comp[e.first] == comp[a])
+        for (size_t k = 0; k < edges.degree(static_cast<size_t>(a)); ++k)
+          if (edges.negative[static_cast<size_t>(edges.start[static_cast<size_t>(a)]) + k] &&
+              !g_.attr_dynamic[static_cast<size_t>(edges.to(static_cast<size_t>(a), k))] &&
+              comp[static_cast<size_t>(edges.to(static_cast<size_t>(a), k))] == comp[static_cast<size_t>(a)])
             throw OutsideFragmentError(prog_.attributes[a].loc.str() + ": attribute '" +
                         prog_.attributes[a].name +
                         "' depends on itself through negation (non-stratified); this is "
                         "outside the native reasoner's fast path (use the ASP back end)");
       bool recursive = c.size() > 1;
       for (int a : c)
-        for (auto& e : edges[a])
-          if (e.first == a) recursive = true;
+        for (size_t k = 0; k < edges.degree(static_cast<size_t>(a)); ++k)
+          if (edges.to(static_cast<size_t>(a), k) == a) recursive = true;
       std::vector<Stmt> stmts;
       std::vector<const Rule*> srcs;
       for (int a : c)
-        for (int r : rules_of[a]) {
-          const Rule& rule = prog_.rules[static_cast<size_t>(r)];
+        for (size_t k = 0; k < rules_of.degree(static_cast<size_t>(a)); ++k) {
+          const Rule& rule = prog_.rules[static_cast<size_t>(rules_of.to(static_cast<size_t>(a), k))];
           Stmt s;
           s.loc = rule.loc;
           for (const auto& l : rule.body) s.lits.push_back(compileLit(s, l, 0));
@@ -1069,7 +1026,7 @@ class Grounder {
           Stmt& s = stmts[k];
           const Rule& rule = *srcs[k];
           cur_loc_ = rule.loc;
-          int h = attrId(rule.head->attr.name, rule.loc);
+          int h = rule_head_attr_[static_cast<size_t>(&rule - prog_.rules.data())];
           std::vector<CTerm> hargs;
           for (const auto& a : rule.head->attr.args) hargs.push_back(compile(s, a));
           CTerm hval = compile(s, rule.head->value);
@@ -1118,7 +1075,7 @@ class Grounder {
   void groundDynamic() {
     // random selection rules
     for (const auto& r : prog_.random_rules) {
-      int a = attrId(r.attr.name, r.loc);
+      int a = attrId(r.attr, r.loc);
       if (!g_.attr_in_cone[a]) continue;
       cur_loc_ = r.loc;
       Stmt s;
@@ -1186,20 +1143,21 @@ class Grounder {
     // pr-atoms
     for (size_t i = 0; i < prog_.pr_atoms.size(); ++i) {
       const PrAtom& p = prog_.pr_atoms[i];
-      int a = attrId(p.atom.attr.name, p.loc);
+      int a = attrId(p.atom.attr, p.loc);
       if (!g_.attr_in_cone[a]) continue;
       groundPrAtom(p, pr_ids_ ? (*pr_ids_)[i] : static_cast<std::uint64_t>(i + 1));
     }
     // dynamic derived rules and constraints
-    for (const auto& r : prog_.rules) {
+    for (size_t ri = 0; ri < prog_.rules.size(); ++ri) {
+      const Rule& r = prog_.rules[ri];
       int h = -1;
       if (r.head) {
-        h = attrId(r.head->attr.name, r.loc);
+        h = rule_head_attr_[ri];
         if (!g_.attr_dynamic[h] || !g_.attr_in_cone[h]) continue;
       } else {
         bool touches = false;
         for (const auto& l : r.body)
-          if (l.kind == Literal::Kind::Atom && g_.attr_in_cone[attrId(l.atom.attr.name, l.loc)])
+          if (l.kind == Literal::Kind::Atom && g_.attr_in_cone[attrId(l.atom.attr, l.loc)])
             touches = true;
         if (!touches && !r.body.empty()) continue;
       }
@@ -1263,7 +1221,7 @@ class Grounder {
 
   // One pr-atom statement: its ground instances are appended to their instances' lists.
   void groundPrAtom(const PrAtom& p, std::uint64_t id) {
-    int a = attrId(p.atom.attr.name, p.loc);
+    int a = attrId(p.atom.attr, p.loc);
     if (!g_.attr_random[a]) {
       throw UnknownSymbolError(p.loc.str() + ": pr-atom for attribute '" + p.atom.attr.name +
                                "' which has no random selection rule");
@@ -1329,19 +1287,19 @@ class Grounder {
     const size_t na = prog_.attributes.size();
     guard_attr_.assign(na, 0);
     for (size_t a = 0; a < na; ++a) guard_attr_[a] = g_.attr_dynamic[a] ? 0 : 1;
-    auto off = [&](const std::string& n) {
-      auto it = attr_index_.find(n);
-      if (it != attr_index_.end()) guard_attr_[static_cast<size_t>(it->second)] = 0;
+    auto off = [&](const AttributeTerm& t) {
+      const int a = attr_index_.of(t);
+      if (a >= 0) guard_attr_[static_cast<size_t>(a)] = 0;
     };
     auto offBody = [&](const std::vector<Literal>& body) {
       for (const auto& l : body)
-        if (l.kind == Literal::Kind::Atom) off(l.atom.attr.name);
+        if (l.kind == Literal::Kind::Atom) off(l.atom.attr);
     };
     for (const auto& r : prog_.rules) {
       if (r.head) {
         bool ground = r.head->value.isGround();
         for (const auto& t : r.head->attr.args) ground = ground && t.isGround();
-        if (!r.body.empty() || !ground) off(r.head->attr.name);
+        if (!r.body.empty() || !ground) off(r.head->attr);
       }
       offBody(r.body);
     }
@@ -1351,15 +1309,17 @@ class Grounder {
     }
     for (const auto& p : prog_.pr_atoms)
       for (const auto& l : p.body)
-        if (l.kind == Literal::Kind::Atom && !(l.naf && !l.negated)) off(l.atom.attr.name);
+        if (l.kind == Literal::Kind::Atom && !(l.naf && !l.negated)) off(l.atom.attr);
   }
 
-  // Multiplicity of each guard fact (the same fact may be stated twice).
+  // Multiplicity of each guard fact (the same fact may be stated twice), for the guard
+  // attributes in the cone: the facts of the others do not enter the grounding (changeFact).
   void countGuardFacts() {
-    for (const auto& r : prog_.rules) {
+    for (size_t i = 0; i < prog_.rules.size(); ++i) {
+      const Rule& r = prog_.rules[i];
       if (!r.head || !r.body.empty()) continue;
-      const int a = attrIndexOf(r.head->attr.name);
-      if (!isGuard(a)) continue;
+      const int a = rule_head_attr_[i];
+      if (!isGuard(a) || !g_.attr_in_cone[static_cast<size_t>(a)]) continue;
       ++fact_count_[factKey(a, *r.head)];
     }
   }
@@ -1374,11 +1334,14 @@ class Grounder {
   // A guard fact added (+1) or removed (-1); false when outside the incremental path.
   bool changeFact(const Rule& r, int delta) {
     if (!r.head || !r.body.empty()) return false;
-    const int a = attrIndexOf(r.head->attr.name);
+    const int a = attr_index_.of(r.head->attr);
     if (!isGuard(a)) return false;
     bool ground = r.head->value.isGround();
     for (const auto& t : r.head->attr.args) ground = ground && t.isGround();
     if (!ground) return false;
+    // Outside the cone: nothing of the grounding depends on the attribute (its facts are
+    // neither evaluated nor counted).
+    if (!g_.attr_in_cone[static_cast<size_t>(a)]) return true;
     const std::vector<int> key = factKey(a, *r.head);
     int& count = fact_count_[key];
     const int before = count;
@@ -1431,7 +1394,12 @@ class Grounder {
   const Program& prog_;
   GroundProgram& g_;
   SymbolTable* syms_ = nullptr;
-  std::unordered_map<std::string, int> attr_index_;
+  /// Attribute names -> index into Program::attributes (the last declaration of a name wins).
+  AttributeIndex attr_index_;
+  /// Per rule of the program: its head's attribute (-1: a constraint). Made by run(), for
+  /// the grounding it does (an incremental update receives another program).
+  std::vector<int> rule_head_attr_;
+  int attrLookup(const std::string& n) const { return attr_index_.find(n); }
   std::unordered_map<std::string, int> sort_index_;
   std::vector<std::vector<int>> sort_vals_;
   std::vector<FactSet> facts_;
@@ -1468,70 +1436,133 @@ class Grounder {
 }  // namespace
 
 std::set<std::string> relevanceCone(const Program& program, const std::set<std::string>& names) {
-  Deps d = dependencies(program);
-  std::set<std::string> cone;
-  std::vector<std::string> work(names.begin(), names.end());
-  auto close = [&]() {
-    while (!work.empty()) {
-      std::string a = work.back();
-      work.pop_back();
-      if (!cone.insert(a).second) continue;
-      auto it = d.parents.find(a);
-      if (it == d.parents.end()) continue;
-      for (const auto& p : it->second)
-        if (!cone.count(p)) work.push_back(p);
+  // Attributes as dense ids (their declaration index; names that no declaration has come
+  // after them), edges as one array each: the cone of a 10^5-rule program costs no set of
+  // strings, and no name lookup for the atoms the parser resolved (AttributeTerm::index).
+  const AttributeIndex index(program);
+  const int na = static_cast<int>(program.attributes.size());
+  NameTable undeclared;
+  auto idOfName = [&](const std::string& n) {
+    const int a = index.find(n);
+    return a >= 0 ? a : na + undeclared.intern(n);
+  };
+  auto idOf = [&](const AttributeTerm& t) {
+    const int a = index.of(t);
+    return a >= 0 ? a : na + undeclared.intern(t.name);
+  };
+  auto nameOf = [&](int id) -> const std::string& {
+    return id < na ? program.attributes[static_cast<size_t>(id)].name : undeclared.name(id - na);
+  };
+  auto count = [&]() { return static_cast<size_t>(na) + undeclared.size(); };
+  struct Edge {
+    int from, to;
+    bool negative;
+  };
+  // Relevance: an attribute depends on the attributes in the bodies of its random selection
+  // rules (dynamic ranges included), of its pr-atoms and of the rules defining it.
+  std::vector<Edge> deps;
+  // Loops through default negation: the same edges without the pr-atoms', with their `not`.
+  std::vector<Edge> loops;
+  auto edges = [&](int from, const std::vector<Literal>& body, bool loop) {
+    for (const auto& l : body) {
+      if (l.kind != Literal::Kind::Atom) continue;
+      const Edge e{from, idOf(l.atom.attr), l.naf};
+      deps.push_back(e);
+      if (loop) loops.push_back(e);
     }
   };
-  close();
+  std::vector<int> seeds;
+  for (const auto& n : names) seeds.push_back(idOfName(n));
+  std::vector<int> random_attrs;
+  for (const auto& r : program.random_rules) {
+    const int a = idOf(r.attr);
+    random_attrs.push_back(a);
+    edges(a, r.body, true);
+    edges(a, r.range_body, true);
+    // A random selection over a dynamic range: a world where the range is empty has no
+    // answer set.
+    if (r.has_range) seeds.push_back(a);
+  }
+  for (const auto& pr : program.pr_atoms)
+    if (!pr.body.empty()) edges(idOf(pr.atom.attr), pr.body, false);
+  // Derived attribute -> may it get two values in a world (two head values or a variable)?
+  struct HeadValue {
+    bool seen = false, multi = false;
+    std::string first;
+  };
+  std::vector<HeadValue> head_values(count());
+  // (every random attribute has an id by now: ids made later are not random)
+  std::vector<char> is_random(count(), 0);
+  for (int a : random_attrs) is_random[static_cast<size_t>(a)] = 1;
+  for (const auto& r : program.rules) {
+    if (!r.head) {
+      // Constraints act as evidence: every attribute they mention is in every cone.
+      for (const auto& l : r.body)
+        if (l.kind == Literal::Kind::Atom) seeds.push_back(idOf(l.atom.attr));
+      continue;
+    }
+    const int h = idOf(r.head->attr);
+    edges(h, r.body, true);
+    if (static_cast<size_t>(h) < is_random.size() && is_random[static_cast<size_t>(h)]) continue;
+    if (head_values.size() <= static_cast<size_t>(h)) head_values.resize(count());
+    HeadValue& hv = head_values[static_cast<size_t>(h)];
+    const bool var = r.head->value.kind == Term::Kind::Variable;
+    if (!hv.seen) {
+      hv.seen = true;
+      hv.multi = var;
+      if (!var) hv.first = toString(r.head->value);
+    } else if (!hv.multi && (var || toString(r.head->value) != hv.first)) {
+      hv.multi = true;
+    }
+  }
+  // Derived attributes that may get two values in a world (an inconsistency) act as evidence
+  // too. Even when independent of the query, such evidence matters if it can never be
+  // satisfied (then the program has no possible world at all).
+  for (size_t a = 0; a < head_values.size(); ++a)
+    if (head_values[a].multi) seeds.push_back(static_cast<int>(a));
+  const size_t n = count();
   // Rules outside the query's dependencies can still change the set of possible worlds: a
   // loop through default negation (odd: `e :- not e.` removes worlds; even: `b :- not c.
-  // c :- not b.` splits one into several) and a random selection over a dynamic range (a
-  // world where the range is empty has no answer set). Their attributes join every cone, so
-  // the native engine either handles them exactly (locally stratified ground rules, ranges
-  // that are never empty) or refuses the program as outside its fragment.
-  for (const auto& a : worldChangingAttributes(program))
-    if (!cone.count(a)) work.push_back(a);
-  close();
-  // Constraints, and derived attributes that may get two values in a world (an inconsistency),
-  // act as evidence: a world violating them is not a possible world. Even when independent of
-  // the query they matter if they can never be satisfied (then the program has no possible
-  // world at all), so they are always part of the cone.
-  std::set<std::string> random_attrs;
-  for (const auto& r : program.random_rules) random_attrs.insert(r.attr.name);
-  // derived attribute -> (first head value, may it get two values: two values or a variable)
-  std::unordered_map<std::string, std::pair<std::string, bool>> head_values;
-  for (const auto& r : program.rules) {
-    if (!r.head || random_attrs.count(r.head->attr.name)) continue;
-    const bool var = r.head->value.kind == Term::Kind::Variable;
-    const std::string v = var ? std::string() : toString(r.head->value);
-    auto it = head_values.find(r.head->attr.name);
-    if (it == head_values.end()) head_values.emplace(r.head->attr.name, std::make_pair(v, var));
-    else if (var || it->second.first != v) it->second.second = true;
+  // c :- not b.` splits one into several). The attributes of a strongly connected component
+  // with a `not` edge inside join every cone, so the native engine either handles them
+  // exactly (locally stratified ground rules) or refuses the program as outside its fragment.
+  {
+    const CompactGraph g = CompactGraph::fromEdges(n, loops);
+    int ncomp = 0;
+    const std::vector<int> comp = stronglyConnectedComponents(g, ncomp);
+    std::vector<char> negative(static_cast<size_t>(ncomp), 0);
+    for (size_t v = 0; v < n; ++v)
+      for (size_t k = 0; k < g.degree(v); ++k)
+        if (g.negative[static_cast<size_t>(g.start[v]) + k] &&
+            comp[static_cast<size_t>(g.to(v, k))] == comp[v])
+          negative[static_cast<size_t>(comp[v])] = 1;
+    for (size_t v = 0; v < n; ++v)
+      if (negative[static_cast<size_t>(comp[v])]) seeds.push_back(static_cast<int>(v));
   }
-  bool changed = true;
-  while (changed) {
-    changed = false;
-    for (const auto& r : program.rules) {
-      if (r.head) continue;
-      std::set<std::string> as;
-      attrsOfBody(r.body, as);
-      bool all = true;
-      for (const auto& a : as)
-        if (!cone.count(a)) all = false;
-      if (all) continue;
-      for (const auto& a : as)
-        if (!cone.count(a)) work.push_back(a);
-      close();
-      changed = true;
-    }
-    for (const auto& hv : head_values) {
-      if (cone.count(hv.first)) continue;
-      if (!hv.second.second) continue;
-      work.push_back(hv.first);
-      close();
-      changed = true;
+  // The cone: everything the seeds depend on.
+  const CompactGraph parents = CompactGraph::fromEdges(n, deps);
+  std::vector<char> in(n, 0);
+  std::vector<int> work;
+  for (int s : seeds) {
+    if (in[static_cast<size_t>(s)]) continue;
+    in[static_cast<size_t>(s)] = 1;
+    work.push_back(s);
+    while (!work.empty()) {
+      const size_t v = static_cast<size_t>(work.back());
+      work.pop_back();
+      for (size_t k = 0; k < parents.degree(v); ++k) {
+        const int p = parents.to(v, k);
+        if (!in[static_cast<size_t>(p)]) in[static_cast<size_t>(p)] = 1, work.push_back(p);
+      }
     }
   }
+  std::vector<const std::string*> out;
+  for (size_t v = 0; v < n; ++v)
+    if (in[v]) out.push_back(&nameOf(static_cast<int>(v)));
+  std::sort(out.begin(), out.end(),
+            [](const std::string* a, const std::string* b) { return *a < *b; });
+  std::set<std::string> cone;
+  for (const std::string* a : out) cone.emplace_hint(cone.end(), *a);
   return cone;
 }
 
@@ -1554,11 +1585,17 @@ IncrementalGrounder::IncrementalGrounder(const Program& program,
                                          const std::set<std::string>& cone_attributes,
                                          const std::vector<std::uint64_t>* pr_ids,
                                          const GroundingLimits& limits)
+    : IncrementalGrounder(program, ClosedCone{relevanceCone(program, cone_attributes)}, pr_ids,
+                          limits) {}
+
+IncrementalGrounder::IncrementalGrounder(const Program& program, ClosedCone cone,
+                                         const std::vector<std::uint64_t>* pr_ids,
+                                         const GroundingLimits& limits)
     : ground_(std::make_shared<GroundProgram>()) {
   impl_ = std::make_unique<Impl>(program, *ground_);
   impl_->grounder.setLimits(limits);
   impl_->grounder.setPrIds(pr_ids);
-  impl_->grounder.run(relevanceCone(program, cone_attributes));
+  impl_->grounder.run(cone.attributes);
   impl_->grounder.setPrIds(nullptr);
 }
 

@@ -49,6 +49,10 @@ class Parser {
       }
     }
     std::vector<RawStmt> out;
+    size_t dots = 0;  // an upper bound on the statements: no reallocation while reading
+    for (const auto& t : toks_) dots += t.kind == Tok::Dot;
+    if (guard_) guard_->check("parsing", toks_.front().loc, (dots + 1) * sizeof(RawStmt));
+    out.reserve(dots + 1);
     parseStatements(out);
     for (const auto& d : pending_domains_)
       if (!prog_.findSort(d.sort))
@@ -250,20 +254,20 @@ class Parser {
       next();
       next();
       st.kind = RawStmt::Kind::Obs;
-      st.obs = parseObsArgs(st.loc);
+      st.w().obs = parseObsArgs(st.loc);
       refuseBody("obs(...)");
       endStatement();
     } else if (isIdent("do") && peek(1).kind == Tok::LParen) {
       next();
       next();
       st.kind = RawStmt::Kind::Do;
-      st.do_lit = parseDoArgs(&st.do_args);
+      st.w().do_lit = parseDoArgs(&st.w().do_args);
       refuseBody("do(...)");
       endStatement();
     } else if (first.kind == Tok::Question) {
       next();
       st.kind = RawStmt::Kind::Query;
-      st.query = parseQueryBody(first.loc);
+      st.w().query = parseQueryBody(first.loc);
       if (peek().kind != Tok::End) endStatement();
     } else if (first.kind == Tok::If) {
       next();
@@ -618,18 +622,18 @@ class Parser {
     h.lhs = parseExpr();
     st.head = h;
     if (accept(Tok::Colon)) {
-      st.has_range = true;
+      st.w().has_range = true;
       if (accept(Tok::LBrace)) {
-        st.range_var = expect(Tok::Var, "range variable in '{X : p(X)}'").text;
+        st.w().range_var = expect(Tok::Var, "range variable in '{X : p(X)}'").text;
         expect(Tok::Colon, "':' after range variable");
-        st.range_body = parseBody();
+        st.w().range_body = parseBody();
         expect(Tok::RBrace, "'}' closing dynamic range");
       } else {
-        st.range_pred = expect(Tok::Ident, "'{' or predicate name for dynamic range").text;
+        st.w().range_pred = expect(Tok::Ident, "'{' or predicate name for dynamic range").text;
       }
     } else if (accept(Tok::Comma)) {
-      st.has_range = true;
-      st.range_pred = expect(Tok::Ident, "dynamic range predicate name").text;
+      st.w().has_range = true;
+      st.w().range_pred = expect(Tok::Ident, "dynamic range predicate name").text;
     }
     expect(Tok::RParen, "')' closing random(...)");
     parseRuleTail(st);
@@ -641,7 +645,7 @@ class Parser {
     st.priority = generation_;
     next();  // pr
     next();  // (
-    st.pr_atom = parseLiteral(false);
+    st.w().pr_atom = parseLiteral(false);
     if (accept(Tok::Bar)) st.body = parseBody();
     expect(Tok::RParen, "')' or '|' in pr-atom");
     expect(Tok::Eq, "'=' before the probability");
@@ -664,8 +668,8 @@ class Parser {
     } else {
       fail(n, "probability (number, fraction or decimal)");
     }
-    st.prob = v;
-    st.prob_text = txt;
+    st.w().prob = v;
+    st.w().prob_text = txt;
     endStatement();
   }
 

@@ -5,6 +5,7 @@
  */
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <set>
 #include <string>
@@ -58,11 +59,38 @@ struct RawQuery {
   SourceLocation loc;
 };
 
-struct RawStmt {
-  enum class Kind { Rule, Random, Pr, Obs, Do, Query } kind = Kind::Rule;
-  std::string label;
-  std::optional<RawLit> head;      // Rule (absent: constraint); Random: lhs = attribute term
-  std::vector<RawLit> body;
+/// @brief A value held on the heap and copied deeply, absent until first written: the parts
+/// of a raw statement that most statements (facts, rules) do not have, so that a million facts
+/// do not each carry the fields of a query, an observation and a pr-atom.
+template <class T>
+class Boxed {
+ public:
+  Boxed() = default;
+  Boxed(const Boxed& o) : p_(o.p_ ? std::make_unique<T>(*o.p_) : nullptr) {}
+  Boxed(Boxed&&) noexcept = default;
+  Boxed& operator=(const Boxed& o) {
+    if (this != &o) p_ = o.p_ ? std::make_unique<T>(*o.p_) : nullptr;
+    return *this;
+  }
+  Boxed& operator=(Boxed&&) noexcept = default;
+  explicit operator bool() const { return p_ != nullptr; }
+  /// @brief The value, or a default one when it was never written.
+  const T& get() const {
+    static const T empty{};
+    return p_ ? *p_ : empty;
+  }
+  /// @brief The value, made on first use.
+  T& mut() {
+    if (!p_) p_ = std::make_unique<T>();
+    return *p_;
+  }
+
+ private:
+  std::unique_ptr<T> p_;
+};
+
+/// @brief The fields of the rarer statement kinds (selection rules, pr-atoms, obs, do, queries).
+struct RawStmtRare {
   bool has_range = false;          // Random
   std::string range_var;
   std::vector<RawLit> range_body;
@@ -74,9 +102,21 @@ struct RawStmt {
   RawLit do_lit;                   // Do
   std::vector<Term> do_args;       // Do: comma-separated arguments as written
   RawQuery query;                  // Query
+};
+
+struct RawStmt {
+  enum class Kind { Rule, Random, Pr, Obs, Do, Query } kind = Kind::Rule;
+  std::string label;
+  std::optional<RawLit> head;      // Rule (absent: constraint); Random: lhs = attribute term
+  std::vector<RawLit> body;
   int priority = 0;                // Pr: knowledge generation
   bool consistency_restoring = false;  // Rule, Random: written with ':+'
   SourceLocation loc;
+  Boxed<RawStmtRare> rare;
+  /// @brief The rare fields (defaults when the statement has none).
+  const RawStmtRare& r() const { return rare.get(); }
+  /// @brief The rare fields, made when first written.
+  RawStmtRare& w() { return rare.mut(); }
 };
 
 /// @brief What the parser found out about the text that the resolver needs.

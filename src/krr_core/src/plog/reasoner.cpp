@@ -137,11 +137,11 @@ namespace {
 
 std::string ruleKey(const Rule& r) { return toString(r); }
 
-// Attribute names of the atom literals of a body.
+// Attribute terms of the atom literals of a body.
 template <class F>
 void forBodyAttrs(const std::vector<Literal>& body, F f) {
   for (const auto& l : body)
-    if (l.kind == Literal::Kind::Atom) f(l.atom.attr.name);
+    if (l.kind == Literal::Kind::Atom) f(l.atom.attr);
 }
 
 }  // namespace
@@ -160,52 +160,70 @@ void Reasoner::rebuildPrIndex() {
   pr_index_valid_ = true;
 }
 
+void Reasoner::ensureKeys() {
+  if (keys_valid_) return;
+  rule_keys_.clear();
+  rule_key_count_.clear();
+  rule_keys_.reserve(program_.rules.size());
+  for (const auto& r : program_.rules) {
+    rule_keys_.push_back(ruleKey(r));
+    ++rule_key_count_[rule_keys_.back()];
+  }
+  pr_keys_.clear();
+  pr_keys_.reserve(program_.pr_atoms.size());
+  for (const auto& p : program_.pr_atoms) pr_keys_.push_back(prKey(p));
+  pr_index_valid_ = false;
+  keys_valid_ = true;
+}
+
 void Reasoner::structuralChange() {
-  // ids and keys of statements that have none yet (a freshly loaded program)
+  // ids of statements that have none yet (a freshly loaded program); their keys are made
+  // when first needed (ensureKeys): a program that is only queried never needs them
   if (rule_ids_.size() != program_.rules.size()) {
     rule_ids_.clear();
-    rule_keys_.clear();
-    rule_key_count_.clear();
-    for (const auto& r : program_.rules) {
-      rule_ids_.push_back(next_id_++);
-      rule_keys_.push_back(ruleKey(r));
-      ++rule_key_count_[rule_keys_.back()];
-    }
+    rule_ids_.reserve(program_.rules.size());
+    for (size_t i = 0; i < program_.rules.size(); ++i) rule_ids_.push_back(next_id_++);
+    keys_valid_ = false;
   }
   if (pr_ids_.size() != program_.pr_atoms.size()) {
     pr_ids_.clear();
+    pr_ids_.reserve(program_.pr_atoms.size());
+    for (size_t i = 0; i < program_.pr_atoms.size(); ++i) pr_ids_.push_back(next_id_++);
+    keys_valid_ = false;
+  }
+  if (!keys_valid_) {
+    rule_keys_.clear();
+    rule_key_count_.clear();
     pr_keys_.clear();
-    for (const auto& p : program_.pr_atoms) {
-      pr_ids_.push_back(next_id_++);
-      pr_keys_.push_back(prKey(p));
-    }
+    pr_index_.clear();
     pr_index_valid_ = false;
   }
-  attr_idx_.clear();
-  for (size_t i = 0; i < program_.attributes.size(); ++i)
-    attr_idx_[program_.attributes[i].name] = static_cast<int>(i);
+  // attribute names -> index (the last declaration of a name wins)
+  attr_names_.clear();
+  attr_decl_.clear();
+  attr_hints_ = true;
+  attr_count_ = program_.attributes.size();
+  attr_names_.reserve(attr_count_);
+  for (size_t i = 0; i < attr_count_; ++i) {
+    const int id = attr_names_.intern(program_.attributes[i].name);
+    if (static_cast<size_t>(id) == attr_decl_.size()) {
+      attr_decl_.push_back(static_cast<int>(i));
+    } else {
+      attr_decl_[static_cast<size_t>(id)] = static_cast<int>(i);
+      attr_hints_ = false;
+    }
+  }
   attr_random_.assign(program_.attributes.size(), 0);
   for (const auto& r : program_.random_rules) {
-    auto it = attr_idx_.find(r.attr.name);
-    if (it != attr_idx_.end()) attr_random_[static_cast<size_t>(it->second)] = 1;
+    const int a = attrOf(r.attr);
+    if (a >= 0) attr_random_[static_cast<size_t>(a)] = 1;
   }
+  // the dependency counts are made when statements are first added or removed (ensureCounts)
+  counts_valid_ = false;
   edge_count_.clear();
   head_value_count_.clear();
-  head_values_.assign(program_.attributes.size(), 0);
-  head_var_.assign(program_.attributes.size(), 0);
-  for (const auto& r : program_.rules) countRule(r, +1);
-  for (const auto& p : program_.pr_atoms) countPr(p, +1);
-  for (const auto& r : program_.random_rules) {
-    auto it = attr_idx_.find(r.attr.name);
-    if (it == attr_idx_.end()) continue;
-    auto edge = [&](const std::string& n) {
-      auto jt = attr_idx_.find(n);
-      if (jt != attr_idx_.end())
-        ++edge_count_[(static_cast<std::uint64_t>(it->second) << 32) | static_cast<std::uint32_t>(jt->second)];
-    };
-    forBodyAttrs(r.body, edge);
-    forBodyAttrs(r.range_body, edge);
-  }
+  head_values_.clear();
+  head_var_.clear();
   ++structure_version_;
   log_.clear();
   cone_cache_.clear();
@@ -213,22 +231,57 @@ void Reasoner::structuralChange() {
   table_cache_.clear();
 }
 
+int Reasoner::attrByName(const std::string& name) const {
+  const int id = attr_names_.find(name);
+  return id < 0 ? -1 : attr_decl_[static_cast<size_t>(id)];
+}
+
+int Reasoner::attrOf(const AttributeTerm& t) const {
+  if (attr_hints_ && t.index >= 0 && static_cast<size_t>(t.index) < attr_count_ &&
+      static_cast<size_t>(t.index) < program_.attributes.size() &&
+      program_.attributes[static_cast<size_t>(t.index)].name == t.name)
+    return t.index;
+  return attrByName(t.name);
+}
+
+void Reasoner::ensureCounts() {
+  if (counts_valid_) return;
+  edge_count_.clear();
+  head_value_count_.clear();
+  head_values_.assign(program_.attributes.size(), 0);
+  head_var_.assign(program_.attributes.size(), 0);
+  for (const auto& r : program_.rules) countRule(r, +1);
+  for (const auto& p : program_.pr_atoms) countPr(p, +1);
+  for (const auto& r : program_.random_rules) {
+    const int a = attrOf(r.attr);
+    if (a < 0) continue;
+    auto edge = [&](const AttributeTerm& t) {
+      const int b = attrOf(t);
+      if (b >= 0)
+        ++edge_count_[(static_cast<std::uint64_t>(a) << 32) | static_cast<std::uint32_t>(b)];
+    };
+    forBodyAttrs(r.body, edge);
+    forBodyAttrs(r.range_body, edge);
+  }
+  counts_valid_ = true;
+}
+
 bool Reasoner::countPr(const PrAtom& p, int delta) {
-  auto it = attr_idx_.find(p.atom.attr.name);
-  if (it == attr_idx_.end()) return true;  // unknown attribute: let grounding report it
-  const std::uint64_t child = static_cast<std::uint64_t>(it->second) << 32;
+  const int a = attrOf(p.atom.attr);
+  if (a < 0) return true;  // unknown attribute: let grounding report it
+  const std::uint64_t child = static_cast<std::uint64_t>(a) << 32;
   bool changed = false;
   int seen[8];
   int nseen = 0;
   for (const auto& l : p.body) {
     if (l.kind != Literal::Kind::Atom) continue;
-    auto jt = attr_idx_.find(l.atom.attr.name);
-    if (jt == attr_idx_.end()) return true;
+    const int b = attrOf(l.atom.attr);
+    if (b < 0) return true;
     bool dup = false;
-    for (int k = 0; k < nseen; ++k) dup = dup || seen[k] == jt->second;
+    for (int k = 0; k < nseen; ++k) dup = dup || seen[k] == b;
     if (dup) continue;
-    if (nseen < 8) seen[nseen++] = jt->second;
-    int& c = edge_count_[child | static_cast<std::uint32_t>(jt->second)];
+    if (nseen < 8) seen[nseen++] = b;
+    int& c = edge_count_[child | static_cast<std::uint32_t>(b)];
     const int before = c;
     c += delta;
     if ((before > 0) != (c > 0)) changed = true;
@@ -239,14 +292,13 @@ bool Reasoner::countPr(const PrAtom& p, int delta) {
 bool Reasoner::countRule(const Rule& r, int delta) {
   if (!r.head) return true;  // constraints always enter cones
   if (r.consistency_restoring) return true;  // a fresh grounding refuses it (ASP only)
-  auto it = attr_idx_.find(r.head->attr.name);
-  if (it == attr_idx_.end()) return true;
+  const int a = attrOf(r.head->attr);
+  if (a < 0) return true;
   bool changed = !r.body.empty();  // rules with bodies: relations between attributes
-  const int a = it->second;
   const std::uint64_t child = static_cast<std::uint64_t>(a) << 32;
-  forBodyAttrs(r.body, [&](const std::string& n) {
-    auto jt = attr_idx_.find(n);
-    if (jt != attr_idx_.end()) edge_count_[child | static_cast<std::uint32_t>(jt->second)] += delta;
+  forBodyAttrs(r.body, [&](const AttributeTerm& t) {
+    const int b = attrOf(t);
+    if (b >= 0) edge_count_[child | static_cast<std::uint32_t>(b)] += delta;
   });
   if (attr_random_[static_cast<size_t>(a)]) return changed;
   // Derived attributes that may take two values in a world enter every cone (relevanceCone).
@@ -272,6 +324,7 @@ void Reasoner::loadString(const std::string& text, const std::string& name, Dial
   program_ = parseProgram(text, name, dialect, parse_options_);
   rule_ids_.clear();
   pr_ids_.clear();
+  keys_valid_ = false;  // (also when the new program has no statement: the old keys go)
   structuralChange();
 }
 
@@ -326,6 +379,8 @@ size_t Reasoner::addStatements(std::vector<Rule> rules, std::vector<PrAtom> pr_a
 }
 
 size_t Reasoner::addParsed(std::vector<Rule> rules, std::vector<PrAtom> prs, const std::string& tag) {
+  ensureKeys();
+  ensureCounts();
   size_t changed = 0;
   bool structural = false;
   int generation = 0;
@@ -377,6 +432,8 @@ size_t Reasoner::addParsed(std::vector<Rule> rules, std::vector<PrAtom> prs, con
 }
 
 void Reasoner::eraseMarked(const std::vector<char>& rule_gone, const std::vector<char>& pr_gone) {
+  ensureKeys();
+  ensureCounts();
   bool structural = false;
   const std::uint64_t seq = ++change_seq_;
   size_t w = 0;
@@ -431,6 +488,7 @@ size_t Reasoner::removeStatementsWithTag(const std::string& tag) {
 }
 
 size_t Reasoner::removeStatements(const std::vector<Rule>& rules, const std::vector<PrAtom>& prs) {
+  ensureKeys();
   std::vector<char> rg(program_.rules.size(), 0), pg(program_.pr_atoms.size(), 0);
   size_t n = 0;
   if (!prs.empty()) {
@@ -471,7 +529,7 @@ std::shared_ptr<Reasoner::GroundEntry> Reasoner::groundEntryFor(const std::set<s
   for (const auto& o : program_.observations) all.insert(o.literal.atom.attr.name);
   for (const auto& d : program_.interventions) all.insert(d.atom.attr.name);
   for (const auto& a : all)
-    if (attr_idx_.find(a) == attr_idx_.end()) throw UnknownSymbolError("unknown attribute '" + a + "'");
+    if (attrByName(a) < 0) throw UnknownSymbolError("unknown attribute '" + a + "'");
   const std::string all_key = setKey(all);
   auto ct = cone_cache_.find(all_key);
   if (ct == cone_cache_.end() || ct->second.first != structure_version_)
@@ -557,7 +615,8 @@ std::shared_ptr<Reasoner::GroundEntry> Reasoner::groundEntryFor(const std::set<s
   Stopwatch sw;
   auto fresh = std::make_shared<GroundEntry>();
   fresh->grounder =
-      std::make_unique<IncrementalGrounder>(program_, ct->second.second, &pr_ids_, limits_);
+      std::make_unique<IncrementalGrounder>(program_, IncrementalGrounder::ClosedCone{ct->second.second},
+                                            &pr_ids_, limits_);
   fresh->g = fresh->grounder->ground();  // may throw: nothing is stored then
   fresh->structure = structure_version_;
   fresh->seq = fresh->changes_from = change_seq_;
@@ -805,25 +864,57 @@ std::string negationLoopReason(const Program& program) {
     if (r.consistency_restoring)
       return r.loc.str() + ": consistency-restoring random selection (':+')";
   // Nodes: (attribute, head value) for constant head values, (attribute, *) for the others.
-  std::unordered_map<std::string, std::vector<int>> nodes_of;  // attribute -> its nodes
-  std::unordered_map<std::string, int> node_id;                // "attribute=value" -> node
-  std::vector<std::string> node_name;
-  auto constantValue = [](const Term& t, std::string& out) {
-    if (!t.isGround() || t.kind == Term::Kind::Binary || t.kind == Term::Kind::Negate)
-      return false;
-    out = toString(t);
-    return true;
+  // Attributes and values are interned ids (the parser's hints give most attributes without
+  // a lookup), a node is the pair of ids: no string is built per rule.
+  const AttributeIndex index(program);
+  const int na = static_cast<int>(program.attributes.size());
+  NameTable undeclared, values;
+  auto attrOf = [&](const AttributeTerm& t) {
+    const int a = index.of(t);
+    return a >= 0 ? a : na + undeclared.intern(t.name);
   };
+  auto attrKnown = [&](const AttributeTerm& t) {  // -1: no rule has it as its head
+    const int a = index.of(t);
+    if (a >= 0) return a;
+    const int u = undeclared.find(t.name);
+    return u < 0 ? -1 : na + u;
+  };
+  constexpr int kAny = -1;  // the value "*"
+  auto constantValue = [&](const Term& t) {  // value id, or kAny
+    if (!t.isGround() || t.kind == Term::Kind::Binary || t.kind == Term::Kind::Negate) return kAny;
+    return t.kind == Term::Kind::Symbol ? values.intern(t.name) : values.intern(toString(t));
+  };
+  auto key = [](int attr, int value) {
+    return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(attr)) << 32) |
+           static_cast<std::uint32_t>(value);
+  };
+  std::unordered_map<std::uint64_t, int> node_id;  // (attribute, value) -> node
+  std::vector<std::pair<int, int>> node_of;        // node -> (attribute, value)
+  std::vector<int> first_node, last_node, next_node;  // nodes of an attribute, in order
+  node_id.reserve(program.rules.size());
   auto nodeOf = [&](const Atom& head) {
-    std::string v;
-    if (!constantValue(head.value, v)) v = "*";
-    std::string name = head.attr.name + "=" + v;
-    auto [it, added] = node_id.emplace(name, static_cast<int>(node_name.size()));
+    const int a = attrOf(head.attr);
+    const int v = constantValue(head.value);
+    auto [it, added] = node_id.emplace(key(a, v), static_cast<int>(node_of.size()));
     if (added) {
-      nodes_of[head.attr.name].push_back(it->second);
-      node_name.push_back(std::move(name));
+      const int n = it->second;
+      node_of.push_back({a, v});
+      next_node.push_back(-1);
+      if (first_node.size() <= static_cast<size_t>(a)) {
+        first_node.resize(static_cast<size_t>(a) + 1, -1);
+        last_node.resize(static_cast<size_t>(a) + 1, -1);
+      }
+      if (first_node[static_cast<size_t>(a)] < 0) first_node[static_cast<size_t>(a)] = n;
+      else next_node[static_cast<size_t>(last_node[static_cast<size_t>(a)])] = n;
+      last_node[static_cast<size_t>(a)] = n;
     }
     return it->second;
+  };
+  auto nodeName = [&](int n) {
+    const auto& av = node_of[static_cast<size_t>(n)];
+    const std::string& attr = av.first < na ? program.attributes[static_cast<size_t>(av.first)].name
+                                            : undeclared.name(av.first - na);
+    return attr + "=" + (av.second == kAny ? std::string("*") : values.name(av.second));
   };
   std::vector<int> head_node(program.rules.size(), -1);
   for (size_t i = 0; i < program.rules.size(); ++i)
@@ -831,35 +922,45 @@ std::string negationLoopReason(const Program& program) {
   // Edges (target, negative): `not` and `!=` count as negative, as the grounder's check of
   // static attributes does; a body atom with a constant value depends on that value's rules
   // and on the rules with a variable value, any other atom on every rule of its attribute.
-  DependencyEdges edges(node_name.size());
+  struct Edge {
+    int from, to;
+    bool negative;
+  };
+  std::vector<Edge> edge_list;
   for (size_t i = 0; i < program.rules.size(); ++i) {
     if (head_node[i] < 0) continue;
-    auto& out = edges[static_cast<size_t>(head_node[i])];
+    const int from = head_node[i];
     for (const auto& l : program.rules[i].body) {
       if (l.kind != Literal::Kind::Atom) continue;
-      auto it = nodes_of.find(l.atom.attr.name);
-      if (it == nodes_of.end()) continue;
+      const int a = attrKnown(l.atom.attr);
+      if (a < 0 || static_cast<size_t>(a) >= first_node.size() ||
+          first_node[static_cast<size_t>(a)] < 0)
+        continue;
       const bool negative = l.naf || l.negated;
-      std::string v;
-      if (!l.negated && constantValue(l.atom.value, v)) {
-        for (const std::string& value : {v, std::string("*")}) {
-          auto n = node_id.find(l.atom.attr.name + "=" + value);
-          if (n != node_id.end()) out.push_back({n->second, negative});
+      const int v = l.negated ? kAny : constantValue(l.atom.value);
+      if (!l.negated && v != kAny) {
+        for (const int value : {v, kAny}) {
+          auto n = node_id.find(key(a, value));
+          if (n != node_id.end()) edge_list.push_back({from, n->second, negative});
         }
       } else {
-        for (int n : it->second) out.push_back({n, negative});
+        for (int n = first_node[static_cast<size_t>(a)]; n >= 0; n = next_node[static_cast<size_t>(n)])
+          edge_list.push_back({from, n, negative});
       }
     }
   }
   // A negative edge inside a strongly connected component is a loop through negation.
+  const CompactGraph edges = CompactGraph::fromEdges(node_of.size(), edge_list);
   int ncomp = 0;
   const std::vector<int> comp = stronglyConnectedComponents(edges, ncomp);
   for (size_t m = 0; m < edges.size(); ++m)
-    for (const auto& e : edges[m])
-      if (e.second && comp[static_cast<size_t>(e.first)] == comp[m])
-        return node_name[m] + " may depend on " + node_name[static_cast<size_t>(e.first)] +
-               " through negation, and " + node_name[static_cast<size_t>(e.first)] + " on " +
-               node_name[m];
+    for (size_t k = 0; k < edges.degree(m); ++k) {
+      const int to = edges.to(m, k);
+      if (edges.negative[static_cast<size_t>(edges.start[m]) + k] &&
+          comp[static_cast<size_t>(to)] == comp[m])
+        return nodeName(static_cast<int>(m)) + " may depend on " + nodeName(to) +
+               " through negation, and " + nodeName(to) + " on " + nodeName(static_cast<int>(m));
+    }
   return "";
 }
 

@@ -7,6 +7,7 @@
 #include "parser_syntax.h"
 
 #include "krr_core/plog/arith.h"
+#include "krr_core/plog/name_table.h"
 
 #include <algorithm>
 #include <cmath>
@@ -30,18 +31,24 @@ class Resolver {
   /// @brief Program::findAttribute in O(1): the resolver only appends declarations, so the
   /// index is extended with the new tail when the vector has grown (first declaration wins,
   /// as in the linear search). A linear search per literal made n implicit predicates cost n^2.
+  /// Resolving one statement asks for the same name several times in a row: the last answer
+  /// is kept (a hash lookup in a table of 10^5 names is a cache miss or two).
   const AttributeDecl* findAttr(const std::string& name) {
-    for (; attr_indexed_ < prog_.attributes.size(); ++attr_indexed_)
-      attr_index_.emplace(prog_.attributes[attr_indexed_].name, attr_indexed_);
-    auto it = attr_index_.find(name);
-    return it == attr_index_.end() ? nullptr : &prog_.attributes[it->second];
+    indexNames(prog_.attributes, attr_index_, attr_decl_, attr_indexed_);
+    // (names are only added, and the first declaration of a name keeps it: still valid)
+    if (last_attr_ != kNone && last_attr_name_ == name)
+      return &prog_.attributes[last_attr_];
+    const int id = attr_index_.find(name);
+    if (id < 0) return nullptr;
+    last_attr_ = attr_decl_[static_cast<std::size_t>(id)];
+    last_attr_name_ = name;
+    return &prog_.attributes[last_attr_];
   }
   /// @brief Program::findSort in O(1) (see findAttr).
   const SortDecl* findSortDecl(const std::string& name) {
-    for (; sort_indexed_ < prog_.sorts.size(); ++sort_indexed_)
-      sort_index_.emplace(prog_.sorts[sort_indexed_].name, sort_indexed_);
-    auto it = sort_index_.find(name);
-    return it == sort_index_.end() ? nullptr : &prog_.sorts[it->second];
+    indexNames(prog_.sorts, sort_index_, sort_decl_, sort_indexed_);
+    const int id = sort_index_.find(name);
+    return id < 0 ? nullptr : &prog_.sorts[sort_decl_[static_cast<std::size_t>(id)]];
   }
 
   bool isAttributeTerm(const Term& t) {
@@ -56,18 +63,22 @@ class Resolver {
     a.loc = t.loc;
     const AttributeDecl* d = findAttr(t.name);
     if (!d) throw UnknownSymbolError(t.loc.str() + ": unknown attribute '" + t.name + "'");
+    a.index = static_cast<int>(d - prog_.attributes.data());
     if (d->arg_sorts.size() != a.args.size())
       throw UnknownSymbolError(t.loc.str() + ": attribute '" + t.name + "' expects " +
                                std::to_string(d->arg_sorts.size()) + " argument(s), got " +
                                std::to_string(a.args.size()));
     for (size_t i = 0; i < a.args.size(); ++i) {
-      checkValue(a.args[i], d->arg_sorts[i], "argument " + std::to_string(i + 1) + " of '" +
-                                                 t.name + "'");
+      checkValue(a.args[i], d->arg_sorts[i], [&]() {
+        return "argument " + std::to_string(i + 1) + " of '" + t.name + "'";
+      });
     }
     return a;
   }
 
-  void checkValue(const Term& v, const std::string& sort, const std::string& what) {
+  /// `what()` describes the position for the error message (built only when there is one).
+  template <class What>
+  void checkValue(const Term& v, const std::string& sort, const What& what_fn) {
     if (sort.empty()) return;
     if (v.kind != Term::Kind::Symbol && v.kind != Term::Kind::Integer &&
         v.kind != Term::Kind::Compound)
@@ -75,12 +86,18 @@ class Resolver {
     if (!v.isGround()) return;
     const SortDecl* s = findSortDecl(sort);
     if (!s) throw UnknownSymbolError(v.loc.str() + ": unknown sort '" + sort + "'");
-    auto& cache = sort_cache_[sort];
+    if (last_sort_ == nullptr || last_sort_name_ != sort) {
+      last_sort_ = &sort_cache_[sort];
+      last_sort_name_ = sort;
+    }
+    auto& cache = *last_sort_;
     if (cache.size() != s->values.size()) {
       cache.clear();
       for (const auto& x : s->values) cache.insert(toString(x));
     }
-    if (cache.count(toString(v))) return;
+    if (v.kind == Term::Kind::Symbol ? cache.count(v.name) > 0 : cache.count(toString(v)) > 0)
+      return;
+    const std::string what = what_fn();
     throw IllSortedValue(v.loc.str() + ": unknown value '" + toString(v) + "' for " + what +
                              " (not in sort " + sort + ")",
                          "value '" + toString(v) + "' for " + what + " is not in sort " + sort,
@@ -101,7 +118,7 @@ class Resolver {
     a.value = value;
     a.loc = attr_term.loc;
     const AttributeDecl* d = findAttr(attr_term.name);
-    checkValue(value, d->range_sort, "the value of '" + attr_term.name + "'");
+    checkValue(value, d->range_sort, [&]() { return "the value of '" + attr_term.name + "'"; });
     return a;
   }
 
@@ -124,7 +141,7 @@ class Resolver {
   void declareObsAttribute(const std::vector<RawStmt>& stmts) {
     if (findAttr("obs")) return;
     for (const auto& s : stmts) {
-      if (!rawUsesObs(s.body) && !rawUsesObs(s.range_body)) continue;
+      if (!rawUsesObs(s.body) && !rawUsesObs(s.r().range_body)) continue;
       AttributeDecl d;
       d.name = "obs";
       d.arg_sorts.assign(3, "");
@@ -166,7 +183,7 @@ class Resolver {
   void declareDoAttribute(const std::vector<RawStmt>& stmts) {
     if (findAttr("do")) return;
     for (const auto& s : stmts) {
-      for (const auto* body : {&s.body, &s.range_body}) {
+      for (const auto* body : {&s.body, &s.r().range_body}) {
         for (const auto& l : *body) {
           if (l.has_op || l.lhs.kind != Term::Kind::Compound || l.lhs.name != "do") continue;
           AttributeDecl d;
@@ -227,7 +244,7 @@ class Resolver {
         usesObsLiterals()) {
       l.kind = Literal::Kind::Atom;
       l.atom = obsAtom(r.lhs);
-      out.push_back(l);
+      out.push_back(std::move(l));
       return;
     }
     if (!r.has_op) {
@@ -246,7 +263,7 @@ class Resolver {
                                     " and needs a value: " + t->name + "=...");
       l.kind = Literal::Kind::Atom;
       l.atom = makeAtom(*t, Term::symbol(neg ? "false" : "true", t->loc));
-      out.push_back(l);
+      out.push_back(std::move(l));
       return;
     }
     bool la = isAttributeTerm(r.lhs), ra = isAttributeTerm(r.rhs);
@@ -267,14 +284,14 @@ class Resolver {
       l.kind = Literal::Kind::Atom;
       l.negated = r.op == CompareOp::Ne;
       l.atom = makeAtom(r.lhs, r.rhs);
-      out.push_back(l);
+      out.push_back(std::move(l));
       return;
     }
     if (ra && !la && (r.op == CompareOp::Eq || r.op == CompareOp::Ne)) {
       l.kind = Literal::Kind::Atom;
       l.negated = r.op == CompareOp::Ne;
       l.atom = makeAtom(r.rhs, r.lhs);
-      out.push_back(l);
+      out.push_back(std::move(l));
       return;
     }
     if (la && ra && r.op == CompareOp::Eq && !r.naf) {
@@ -318,7 +335,7 @@ class Resolver {
     l.op = r.op;
     l.lhs = lhs;
     l.rhs = rhs;
-    out.push_back(l);
+    out.push_back(std::move(l));
   }
 
   void checkArith(const Term& t) {
@@ -348,7 +365,7 @@ class Resolver {
     resolveLit(r, tmp);
     if (tmp.size() != 1 || tmp[0].kind != Literal::Kind::Atom || tmp[0].negated)
       throw ParseError(r.loc, std::string("expected an atom a(t)=y or p(t) as ") + what);
-    return tmp[0].atom;
+    return std::move(tmp[0].atom);
   }
 
   void typeTerm(const Term& t, const std::string& sort, VariableSorts& vs) {
@@ -483,6 +500,12 @@ class Resolver {
   void declareImplicit(const std::vector<RawStmt>& stmts) {
     // plog2.0 requires every attribute to be declared in its `attributes` section
     if (plog2_) return;
+    if (guard_ && !stmts.empty())
+      guard_->check("resolving the statements", stmts.front().loc,
+                    stmts.size() * (sizeof(AttributeDecl) + 2 * sizeof(std::size_t)));
+    prog_.attributes.reserve(prog_.attributes.size() + stmts.size());
+    attr_index_.reserve(prog_.attributes.size() + stmts.size());
+    attr_decl_.reserve(prog_.attributes.size() + stmts.size());
     for (const auto& s : stmts) {
       if (s.kind != RawStmt::Kind::Rule || !s.head) continue;
       const RawLit& h = *s.head;
@@ -492,16 +515,19 @@ class Resolver {
       const Term* t = &h.lhs;
       if (t->kind == Term::Kind::Negate) t = &t->args[0];
       if (t->kind != Term::Kind::Symbol && t->kind != Term::Kind::Compound) continue;
-      if (findAttr(t->name)) continue;
-      if (findSortDecl(t->name) == nullptr || true) {
-        AttributeDecl d;
-        d.name = t->name;
-        d.arg_sorts.assign(t->args.size(), "");
-        d.range_sort = "boolean";
-        d.implicit = true;
-        d.loc = t->loc;
-        prog_.attributes.push_back(d);
-      }
+      // one lookup: the name is added to the index with its new declaration
+      indexNames(prog_.attributes, attr_index_, attr_decl_, attr_indexed_);
+      const int id = attr_index_.intern(t->name);
+      if (static_cast<std::size_t>(id) < attr_decl_.size()) continue;  // declared
+      attr_decl_.push_back(prog_.attributes.size());
+      AttributeDecl d;
+      d.name = t->name;
+      d.arg_sorts.assign(t->args.size(), "");
+      d.range_sort = "boolean";
+      d.implicit = true;
+      d.loc = t->loc;
+      prog_.attributes.push_back(std::move(d));
+      attr_indexed_ = prog_.attributes.size();
     }
   }
 
@@ -529,13 +555,15 @@ class Resolver {
     for (const auto& s : stmts) {
       if (s.head) lit(*s.head);
       for (const auto& l : s.body) lit(l);
-      for (const auto& l : s.range_body) lit(l);
-      lit(s.pr_atom);
-      lit(s.obs.lit);
-      lit(s.do_lit);
-      for (const auto& l : s.query.formula) lit(l);
-      for (const auto& o : s.query.obs) lit(o.lit);
-      for (const auto& l : s.query.dos) lit(l);
+      if (!s.rare) continue;
+      const RawStmtRare& x = s.r();
+      for (const auto& l : x.range_body) lit(l);
+      lit(x.pr_atom);
+      lit(x.obs.lit);
+      lit(x.do_lit);
+      for (const auto& l : x.query.formula) lit(l);
+      for (const auto& o : x.query.obs) lit(o.lit);
+      for (const auto& l : x.query.dos) lit(l);
     }
     for (auto& a : prog_.attributes)
       if (a.arg_sorts.empty() && seen.count(a.name)) a.arg_sorts = seen[a.name];
@@ -548,7 +576,16 @@ class Resolver {
   /// then used as they are, without a copy.
   bool splitOverloadedPredicates(const std::vector<RawStmt>& stmts, std::vector<RawStmt>& out) {
     if (plog2_) return false;
-    std::map<std::string, std::vector<size_t>> arities;  // first-use order
+    // name -> its arities in first-use order: the first one per name, the others (rare) in
+    // a map (hashed: a program of n undeclared predicates costs O(n); the renaming below
+    // does not depend on the order of the names)
+    NameTable names;
+    if (guard_ && !stmts.empty())
+      guard_->check("resolving the statements", stmts.front().loc,
+                    (stmts.size() + 16) * (sizeof(std::string) + 16));
+    names.reserve(stmts.size() + 16);  // (at most a head and a few body names per statement)
+    std::vector<size_t> first_arity;
+    std::map<int, std::vector<size_t>> more_arities;
     auto top = [](const RawLit& l) -> const Term* {
       const Term* t = &l.lhs;
       if (t->kind == Term::Kind::Negate) t = &t->args[0];
@@ -557,7 +594,13 @@ class Resolver {
     auto note = [&](const RawLit& l) {
       const Term* t = top(l);
       if (!t || findAttr(t->name) || t->name == "obs" || t->name == "do") return;
-      auto& v = arities[t->name];
+      const int id = names.intern(t->name);
+      if (static_cast<size_t>(id) == first_arity.size()) {
+        first_arity.push_back(t->args.size());
+        return;
+      }
+      if (first_arity[static_cast<size_t>(id)] == t->args.size()) return;
+      auto& v = more_arities[id];
       if (std::find(v.begin(), v.end(), t->args.size()) == v.end()) v.push_back(t->args.size());
     };
     for (const auto& s : stmts) {
@@ -565,11 +608,12 @@ class Resolver {
       for (const auto& l : s.body) note(l);
     }
     std::map<std::pair<std::string, size_t>, std::string> rename;
-    for (const auto& a : arities) {
-      for (size_t k = 1; k < a.second.size(); ++k) {
-        std::string n = a.first + "_" + std::to_string(a.second[k]);
-        while (findAttr(n) || arities.count(n)) n += "_";
-        rename[{a.first, a.second[k]}] = n;
+    for (const auto& a : more_arities) {
+      const std::string& name = names.name(a.first);
+      for (size_t arity : a.second) {
+        std::string n = name + "_" + std::to_string(arity);
+        while (findAttr(n) || names.find(n) >= 0) n += "_";
+        rename[{name, arity}] = n;
       }
     }
     if (rename.empty()) return false;
@@ -584,11 +628,13 @@ class Resolver {
     for (auto& s : out) {
       if (s.head) fix(*s.head);
       for (auto& l : s.body) fix(l);
-      for (auto& l : s.range_body) fix(l);
-      fix(s.pr_atom);
-      fix(s.obs.lit);
-      for (auto& l : s.query.formula) fix(l);
-      for (auto& o : s.query.obs) fix(o.lit);
+      if (!s.rare) continue;
+      RawStmtRare& x = s.w();
+      for (auto& l : x.range_body) fix(l);
+      fix(x.pr_atom);
+      fix(x.obs.lit);
+      for (auto& l : x.query.formula) fix(l);
+      for (auto& o : x.query.obs) fix(o.lit);
     }
     return true;
   }
@@ -600,6 +646,21 @@ class Resolver {
     declareObsAttribute(stmts);
     declareDoAttribute(stmts);
     declareImplicit(stmts);
+    {
+      std::size_t nr = 0, nrr = 0, np = 0;
+      for (const auto& s : stmts) {
+        nr += s.kind == RawStmt::Kind::Rule || s.kind == RawStmt::Kind::Obs ||
+              s.kind == RawStmt::Kind::Do;
+        nrr += s.kind == RawStmt::Kind::Random;
+        np += s.kind == RawStmt::Kind::Pr;
+      }
+      if (guard_ && !stmts.empty())
+        guard_->check("resolving the statements", stmts.front().loc,
+                      nr * sizeof(Rule) + nrr * sizeof(RandomRule) + np * sizeof(PrAtom));
+      prog_.rules.reserve(prog_.rules.size() + nr);
+      prog_.random_rules.reserve(prog_.random_rules.size() + nrr);
+      prog_.pr_atoms.reserve(prog_.pr_atoms.size() + np);
+    }
     for (const auto& s : stmts) {
       if (guard_) guard_->tick("resolving the statements", s.loc);
       switch (s.kind) {
@@ -642,20 +703,20 @@ class Resolver {
             throw ParseError(s.head->loc, "random(...) needs an attribute term");
           r.attr = toAttr(t);
           const AttributeDecl* d = findAttr(t.name);
-          r.has_range = s.has_range;
-          if (s.has_range) {
-            if (!s.range_pred.empty()) {
+          r.has_range = s.r().has_range;
+          if (s.r().has_range) {
+            if (!s.r().range_pred.empty()) {
               r.range_var = "_R" + std::to_string(fresh_++);
               RawLit pl;
               pl.loc = s.head->loc;
               pl.lhs.kind = Term::Kind::Compound;
-              pl.lhs.name = s.range_pred;
+              pl.lhs.name = s.r().range_pred;
               pl.lhs.loc = s.head->loc;
               pl.lhs.args.push_back(Term::variable(r.range_var, s.head->loc));
               r.range_body = resolveBody({pl});
             } else {
-              r.range_var = s.range_var;
-              r.range_body = resolveBody(s.range_body);
+              r.range_var = s.r().range_var;
+              r.range_body = resolveBody(s.r().range_body);
             }
             r.variable_sorts.emplace(r.range_var, d->range_sort);
           }
@@ -676,13 +737,13 @@ class Resolver {
           PrAtom p;
           p.loc = s.loc;
           p.label = s.label;
-          p.atom = resolveHeadAtom(s.pr_atom, "the atom of a pr-atom");
+          p.atom = resolveHeadAtom(s.r().pr_atom, "the atom of a pr-atom");
           p.body = resolveBody(s.body);
-          p.probability = s.prob;
-          p.probability_text = s.prob_text;
+          p.probability = s.r().prob;
+          p.probability_text = s.r().prob_text;
           p.priority = s.priority;
           if (!(p.probability >= 0.0 && p.probability <= 1.0))
-            throw IncoherentError(s.loc.str() + ": probability " + s.prob_text + " of pr(" +
+            throw IncoherentError(s.loc.str() + ": probability " + s.r().prob_text + " of pr(" +
                                   toString(p.atom) + ") is outside [0,1]");
           std::vector<std::string> vars;
           varsOfAtom(p.atom, vars);
@@ -694,12 +755,12 @@ class Resolver {
           break;
         }
         case RawStmt::Kind::Obs:
-          requireKnownAttribute(s.obs.lit);
-          prog_.observations.push_back(resolveObs(s.obs));
+          requireKnownAttribute(s.r().obs.lit);
+          prog_.observations.push_back(resolveObs(s.r().obs));
           if (usesObsLiterals()) prog_.rules.push_back(obsFact(prog_.observations.back()));
           break;
         case RawStmt::Kind::Do: {
-          const auto& a = s.do_args;
+          const auto& a = s.r().do_args;
           auto isTerm = [](const Term& t) {
             return t.kind == Term::Kind::Symbol || t.kind == Term::Kind::Compound;
           };
@@ -708,21 +769,21 @@ class Resolver {
             // Agent form do(agent, a(t), y) (plog2.0's do with an agent, flag omitted): the
             // agent fixes a(t) = y.
             RawLit l;
-            l.loc = s.do_lit.loc;
+            l.loc = s.r().do_lit.loc;
             l.lhs = a[1];
             l.has_op = true;
             l.op = CompareOp::Eq;
             l.rhs = a[2];
             prog_.interventions.push_back(resolveDo(l));
           } else {
-            requireKnownAttribute(s.do_lit);
-            prog_.interventions.push_back(resolveDo(s.do_lit));
+            requireKnownAttribute(s.r().do_lit);
+            prog_.interventions.push_back(resolveDo(s.r().do_lit));
           }
           addDoFact(a, s.loc);
           break;
         }
         case RawStmt::Kind::Query:
-          prog_.queries.push_back(resolveQuery(s.query));
+          prog_.queries.push_back(resolveQuery(s.r().query));
           break;
       }
     }
@@ -740,8 +801,26 @@ class Resolver {
  private:
   Program& prog_;
   std::map<std::string, std::unordered_set<std::string>> sort_cache_;
-  std::unordered_map<std::string, std::size_t> attr_index_, sort_index_;
+  /// The entry of sort_cache_ used last and its sort (see checkValue).
+  std::unordered_set<std::string>* last_sort_ = nullptr;
+  std::string last_sort_name_;
+  /// findAttr's last answer: the name and its index.
+  static constexpr std::size_t kNone = static_cast<std::size_t>(-1);
+  std::size_t last_attr_ = kNone;
+  std::string last_attr_name_;
+  /// Names of the attributes and sorts -> position of their first declaration
+  /// (attr_decl_[id], sort_decl_[id]), extended as declarations are appended.
+  NameTable attr_index_, sort_index_;
+  std::vector<std::size_t> attr_decl_, sort_decl_;
   std::size_t attr_indexed_ = 0, sort_indexed_ = 0;
+  template <class Decls>
+  static void indexNames(const Decls& decls, NameTable& index, std::vector<std::size_t>& first,
+                         std::size_t& indexed) {
+    for (; indexed < decls.size(); ++indexed) {
+      const int id = index.intern(decls[indexed].name);
+      if (static_cast<std::size_t>(id) == first.size()) first.push_back(indexed);
+    }
+  }
 };
 
 }  // namespace

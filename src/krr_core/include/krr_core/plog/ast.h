@@ -61,6 +61,11 @@ struct AttributeTerm {
   std::string name;
   std::vector<Term> args;
   SourceLocation loc;
+  /// @brief Position of the attribute's declaration in Program::attributes, set by the parser
+  /// when it resolves the term (-1: not known). A hint that spares the grounder and the
+  /// reasoner a name lookup per atom: valid only while Program::attributes[index].name is
+  /// `name`, which every user checks first (declarations may move between programs).
+  int index = -1;
 };
 
 /// @brief The attribute atom a(t) = y. Predicates p(t) are boolean attributes: p(t) = true.

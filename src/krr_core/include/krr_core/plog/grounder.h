@@ -163,6 +163,14 @@ class IncrementalGrounder {
   IncrementalGrounder(const Program& program, const std::set<std::string>& cone_attributes,
                       const std::vector<std::uint64_t>* pr_ids = nullptr,
                       const GroundingLimits& limits = GroundingLimits());
+  /// @brief A cone that relevanceCone(program, ...) has already computed (it is closed: its
+  /// own cone), passed as ClosedCone{cone} so that it is not computed twice.
+  struct ClosedCone {
+    const std::set<std::string>& attributes;
+  };
+  IncrementalGrounder(const Program& program, ClosedCone cone,
+                      const std::vector<std::uint64_t>* pr_ids = nullptr,
+                      const GroundingLimits& limits = GroundingLimits());
   ~IncrementalGrounder();
   IncrementalGrounder(const IncrementalGrounder&) = delete;
   IncrementalGrounder& operator=(const IncrementalGrounder&) = delete;

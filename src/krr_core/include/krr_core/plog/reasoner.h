@@ -36,6 +36,7 @@
 
 #include "krr_core/plog/ast.h"
 #include "krr_core/plog/budget.h"
+#include "krr_core/plog/name_table.h"
 #include "krr_core/plog/parser.h"
 
 namespace krr {
@@ -339,14 +340,29 @@ class Reasoner {
   Program program_;
   // Statement bookkeeping, parallel to program_.rules / program_.pr_atoms.
   std::vector<std::uint64_t> rule_ids_, pr_ids_;
+  /// Keys (statement text) of the rules and pr-atoms, valid when keys_valid_ (ensureKeys).
   std::vector<std::string> rule_keys_, pr_keys_;
   std::unordered_map<std::string, int> rule_key_count_;
+  bool keys_valid_ = true;
+  /// @brief Make rule_keys_, rule_key_count_ and pr_keys_ when they are not valid (after a
+  /// program was loaded: queries alone never need them, adding or removing statements does).
+  void ensureKeys();
   std::unordered_map<std::string, size_t> pr_index_;  ///< pr key -> position (if valid)
   bool pr_index_valid_ = false;
   std::uint64_t next_id_ = 1;
   // Dependency structure (attribute indices), to know when relevance cones may change.
-  std::unordered_map<std::string, int> attr_idx_;
+  NameTable attr_names_;         ///< attribute names; attr_decl_[id]: their index
+  std::vector<int> attr_decl_;   ///< (the last declaration of a name)
+  bool attr_hints_ = true;       ///< no name is declared twice: AttributeTerm::index is usable
+  std::size_t attr_count_ = 0;   ///< attributes indexed (program_.attributes may have grown)
+  /// @brief Index of an attribute, -1 when it is not among those indexed.
+  int attrByName(const std::string& name) const;
+  int attrOf(const AttributeTerm& term) const;
   std::vector<char> attr_random_;
+  /// @brief The counts below are up to date (they are made on the first change after a
+  /// structural one: loading a program and querying it never needs them).
+  bool counts_valid_ = false;
+  void ensureCounts();
   std::unordered_map<std::uint64_t, int> edge_count_;   ///< (child, parent) -> statements
   std::unordered_map<std::string, int> head_value_count_;  ///< "attr|value" -> rules
   std::vector<int> head_values_;                        ///< attr -> distinct head values
