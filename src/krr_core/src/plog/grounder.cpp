@@ -996,78 +996,85 @@ class Grounder {
     for (size_t ci = 0; ci < comps.size(); ++ci) {
       if (comps.degree(ci) == 0) continue;
       c.assign(comps.target.begin() + comps.start[ci], comps.target.begin() + comps.start[ci + 1]);
-      for (int a : c)
-        for (size_t k = 0; k < edges.degree(static_cast<size_t>(a)); ++k)
-          if (edges.negative[static_cast<size_t>(edges.start[static_cast<size_t>(a)]) + k] &&
-              !g_.attr_dynamic[static_cast<size_t>(edges.to(static_cast<size_t>(a), k))] &&
-              comp[static_cast<size_t>(edges.to(static_cast<size_t>(a), k))] == comp[static_cast<size_t>(a)])
-            throw OutsideFragmentError(prog_.attributes[a].loc.str() + ": attribute '" +
-                        prog_.attributes[a].name +
-                        "' depends on itself through negation (non-stratified); this is "
-                        "outside the native reasoner's fast path (use the ASP back end)");
-      bool recursive = c.size() > 1;
-      for (int a : c)
-        for (size_t k = 0; k < edges.degree(static_cast<size_t>(a)); ++k)
-          if (edges.to(static_cast<size_t>(a), k) == a) recursive = true;
-      std::vector<Stmt> stmts;
-      std::vector<const Rule*> srcs;
-      for (int a : c)
-        for (size_t k = 0; k < rules_of.degree(static_cast<size_t>(a)); ++k) {
-          const Rule& rule = prog_.rules[static_cast<size_t>(rules_of.to(static_cast<size_t>(a), k))];
-          Stmt s;
-          s.loc = rule.loc;
-          for (const auto& l : rule.body) s.lits.push_back(compileLit(s, l, 0));
-          stmts.push_back(std::move(s));
-          srcs.push_back(&rule);
-        }
-      for (;;) {
-        bool added = false;
-        for (size_t k = 0; k < stmts.size(); ++k) {
-          Stmt& s = stmts[k];
-          const Rule& rule = *srcs[k];
-          cur_loc_ = rule.loc;
-          int h = rule_head_attr_[static_cast<size_t>(&rule - prog_.rules.data())];
-          std::vector<CTerm> hargs;
-          for (const auto& a : rule.head->attr.args) hargs.push_back(compile(s, a));
-          CTerm hval = compile(s, rule.head->value);
-          typeSlots(s, rule.variable_sorts);
-          std::vector<int> required;
-          for (const auto& a : hargs) termVars(a, required);
-          termVars(hval, required);
-          std::vector<std::pair<std::vector<int>, int>> news;
-          runJoin(s, required, [&](const std::vector<int>& b, const std::vector<GLit>&,
-                                   const std::vector<int>&) {
-            std::vector<int> args;
-            for (const auto& a : hargs) {
-              int v = evalTerm(a, b);
-              if (v < 0) return;
-              args.push_back(v);
-            }
-            int v = evalTerm(hval, b);
+      evaluateComponent(c, comp, edges, rules_of);
+    }
+  }
+
+  /// @brief The static rules of one strongly connected component (attributes c, dependencies
+  /// evaluated), to their fixpoint when it is recursive; refuses negation inside it.
+  void evaluateComponent(const std::vector<int>& c, const std::vector<int>& comp,
+                         const CompactGraph& edges, const CompactGraph& rules_of) {
+    for (int a : c)
+      for (size_t k = 0; k < edges.degree(static_cast<size_t>(a)); ++k)
+        if (edges.negative[static_cast<size_t>(edges.start[static_cast<size_t>(a)]) + k] &&
+            !g_.attr_dynamic[static_cast<size_t>(edges.to(static_cast<size_t>(a), k))] &&
+            comp[static_cast<size_t>(edges.to(static_cast<size_t>(a), k))] == comp[static_cast<size_t>(a)])
+          throw OutsideFragmentError(prog_.attributes[a].loc.str() + ": attribute '" +
+                      prog_.attributes[a].name +
+                      "' depends on itself through negation (non-stratified); this is "
+                      "outside the native reasoner's fast path (use the ASP back end)");
+    bool recursive = c.size() > 1;
+    for (int a : c)
+      for (size_t k = 0; k < edges.degree(static_cast<size_t>(a)); ++k)
+        if (edges.to(static_cast<size_t>(a), k) == a) recursive = true;
+    std::vector<Stmt> stmts;
+    std::vector<const Rule*> srcs;
+    for (int a : c)
+      for (size_t k = 0; k < rules_of.degree(static_cast<size_t>(a)); ++k) {
+        const Rule& rule = prog_.rules[static_cast<size_t>(rules_of.to(static_cast<size_t>(a), k))];
+        Stmt s;
+        s.loc = rule.loc;
+        for (const auto& l : rule.body) s.lits.push_back(compileLit(s, l, 0));
+        stmts.push_back(std::move(s));
+        srcs.push_back(&rule);
+      }
+    for (;;) {
+      bool added = false;
+      for (size_t k = 0; k < stmts.size(); ++k) {
+        Stmt& s = stmts[k];
+        const Rule& rule = *srcs[k];
+        cur_loc_ = rule.loc;
+        int h = rule_head_attr_[static_cast<size_t>(&rule - prog_.rules.data())];
+        std::vector<CTerm> hargs;
+        for (const auto& a : rule.head->attr.args) hargs.push_back(compile(s, a));
+        CTerm hval = compile(s, rule.head->value);
+        typeSlots(s, rule.variable_sorts);
+        std::vector<int> required;
+        for (const auto& a : hargs) termVars(a, required);
+        termVars(hval, required);
+        std::vector<std::pair<std::vector<int>, int>> news;
+        runJoin(s, required, [&](const std::vector<int>& b, const std::vector<GLit>&,
+                                 const std::vector<int>&) {
+          std::vector<int> args;
+          for (const auto& a : hargs) {
+            int v = evalTerm(a, b);
             if (v < 0) return;
-            // ground only within the declared sorts: `p(X + 1) :- p(X).` stops at the end of
-            // p's argument sort instead of counting forever
-            if (!argsInSorts(h, args)) return;
-            const int rs = attr_range_sort_[static_cast<size_t>(h)];
-            if (rs >= 0 && posInSort(rs, v) < 0) return;
-            news.push_back({args, v});
-            spend(0, 0);
-          });
-          for (auto& nv : news) {
-            FactSet& f = facts_[static_cast<size_t>(h)];
-            if (f.add(nv.first, nv.second)) {
-              added = true;
-              spend(1, 0);
-              auto it = f.by_args.find(nv.first);
-              if (it->second.size() > 1)
-                throw IncoherentError(rule.loc.str() + ": attribute " + instanceName(h, nv.first) +
-                                      " gets two values (" + syms_->text(it->second[0]) + " and " +
-                                      syms_->text(it->second[1]) + ")");
-            }
+            args.push_back(v);
+          }
+          int v = evalTerm(hval, b);
+          if (v < 0) return;
+          // ground only within the declared sorts: `p(X + 1) :- p(X).` stops at the end of
+          // p's argument sort instead of counting forever
+          if (!argsInSorts(h, args)) return;
+          const int rs = attr_range_sort_[static_cast<size_t>(h)];
+          if (rs >= 0 && posInSort(rs, v) < 0) return;
+          news.push_back({args, v});
+          spend(0, 0);
+        });
+        for (auto& nv : news) {
+          FactSet& f = facts_[static_cast<size_t>(h)];
+          if (f.add(nv.first, nv.second)) {
+            added = true;
+            spend(1, 0);
+            auto it = f.by_args.find(nv.first);
+            if (it->second.size() > 1)
+              throw IncoherentError(rule.loc.str() + ": attribute " + instanceName(h, nv.first) +
+                                    " gets two values (" + syms_->text(it->second[0]) + " and " +
+                                    syms_->text(it->second[1]) + ")");
           }
         }
-        if (!recursive || !added) break;
       }
+      if (!recursive || !added) break;
     }
   }
 
@@ -1435,6 +1442,53 @@ class Grounder {
 
 }  // namespace
 
+namespace {
+
+/// A dependency of the relevance cone: attribute `from` depends on `to` (through `not`: negative).
+struct ConeEdge {
+  int from, to;
+  bool negative;
+};
+
+/// @brief Every attribute of a strongly connected component with a `not` edge inside joins the
+/// seeds (see relevanceCone).
+void addNegativeLoopSeeds(size_t n, const std::vector<ConeEdge>& loops, std::vector<int>& seeds) {
+  const CompactGraph g = CompactGraph::fromEdges(n, loops);
+  int ncomp = 0;
+  const std::vector<int> comp = stronglyConnectedComponents(g, ncomp);
+  std::vector<char> negative(static_cast<size_t>(ncomp), 0);
+  for (size_t v = 0; v < n; ++v)
+    for (size_t k = 0; k < g.degree(v); ++k)
+      if (g.negative[static_cast<size_t>(g.start[v]) + k] &&
+          comp[static_cast<size_t>(g.to(v, k))] == comp[v])
+        negative[static_cast<size_t>(comp[v])] = 1;
+  for (size_t v = 0; v < n; ++v)
+    if (negative[static_cast<size_t>(comp[v])]) seeds.push_back(static_cast<int>(v));
+}
+
+/// @brief The cone: every attribute the seeds depend on (a flag per attribute id).
+std::vector<char> closeCone(size_t n, const std::vector<ConeEdge>& deps, const std::vector<int>& seeds) {
+  const CompactGraph parents = CompactGraph::fromEdges(n, deps);
+  std::vector<char> in(n, 0);
+  std::vector<int> work;
+  for (int s : seeds) {
+    if (in[static_cast<size_t>(s)]) continue;
+    in[static_cast<size_t>(s)] = 1;
+    work.push_back(s);
+    while (!work.empty()) {
+      const size_t v = static_cast<size_t>(work.back());
+      work.pop_back();
+      for (size_t k = 0; k < parents.degree(v); ++k) {
+        const int p = parents.to(v, k);
+        if (!in[static_cast<size_t>(p)]) in[static_cast<size_t>(p)] = 1, work.push_back(p);
+      }
+    }
+  }
+  return in;
+}
+
+}  // namespace
+
 std::set<std::string> relevanceCone(const Program& program, const std::set<std::string>& names) {
   // Attributes as dense ids (their declaration index; names that no declaration has come
   // after them), edges as one array each: the cone of a 10^5-rule program costs no set of
@@ -1454,10 +1508,7 @@ std::set<std::string> relevanceCone(const Program& program, const std::set<std::
     return id < na ? program.attributes[static_cast<size_t>(id)].name : undeclared.name(id - na);
   };
   auto count = [&]() { return static_cast<size_t>(na) + undeclared.size(); };
-  struct Edge {
-    int from, to;
-    bool negative;
-  };
+  using Edge = ConeEdge;
   // Relevance: an attribute depends on the attributes in the bodies of its random selection
   // rules (dynamic ranges included), of its pr-atoms and of the rules defining it.
   std::vector<Edge> deps;
@@ -1526,36 +1577,8 @@ std::set<std::string> relevanceCone(const Program& program, const std::set<std::
   // c :- not b.` splits one into several). The attributes of a strongly connected component
   // with a `not` edge inside join every cone, so the native engine either handles them
   // exactly (locally stratified ground rules) or refuses the program as outside its fragment.
-  {
-    const CompactGraph g = CompactGraph::fromEdges(n, loops);
-    int ncomp = 0;
-    const std::vector<int> comp = stronglyConnectedComponents(g, ncomp);
-    std::vector<char> negative(static_cast<size_t>(ncomp), 0);
-    for (size_t v = 0; v < n; ++v)
-      for (size_t k = 0; k < g.degree(v); ++k)
-        if (g.negative[static_cast<size_t>(g.start[v]) + k] &&
-            comp[static_cast<size_t>(g.to(v, k))] == comp[v])
-          negative[static_cast<size_t>(comp[v])] = 1;
-    for (size_t v = 0; v < n; ++v)
-      if (negative[static_cast<size_t>(comp[v])]) seeds.push_back(static_cast<int>(v));
-  }
-  // The cone: everything the seeds depend on.
-  const CompactGraph parents = CompactGraph::fromEdges(n, deps);
-  std::vector<char> in(n, 0);
-  std::vector<int> work;
-  for (int s : seeds) {
-    if (in[static_cast<size_t>(s)]) continue;
-    in[static_cast<size_t>(s)] = 1;
-    work.push_back(s);
-    while (!work.empty()) {
-      const size_t v = static_cast<size_t>(work.back());
-      work.pop_back();
-      for (size_t k = 0; k < parents.degree(v); ++k) {
-        const int p = parents.to(v, k);
-        if (!in[static_cast<size_t>(p)]) in[static_cast<size_t>(p)] = 1, work.push_back(p);
-      }
-    }
-  }
+  addNegativeLoopSeeds(n, loops, seeds);
+  const std::vector<char> in = closeCone(n, deps, seeds);
   std::vector<const std::string*> out;
   for (size_t v = 0; v < n; ++v)
     if (in[v]) out.push_back(&nameOf(static_cast<int>(v)));
