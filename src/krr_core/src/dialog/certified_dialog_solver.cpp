@@ -174,7 +174,7 @@ class CertifiedDialogSolver::Impl {
   int revealed_ = 1;                          // the slot revealed by the upper bound
 
   // --- search ---
-  struct Node {  // 24 bytes: most nodes are never expanded, so they are what memory holds
+  struct Node {  // 24 bytes
     double upper, lower;
     std::uint32_t group;  ///< its simplex (see groupTable_), kNoGroup if none
     /// The shallowest expanded node with the same statistics when this one was created
@@ -332,9 +332,6 @@ class CertifiedDialogSolver::Impl {
   void applyExclusion(std::int16_t* key, int k, std::size_t v, bool keepOnlyV) const;
 
   // --- bounds ---
-  /// Exact value of the sub-dialog with the revealed slot known: key's revealed section
-  /// holds {value, 0, ...}, the others are canonical; depth = key[0].
-  double subDialogValue(const std::int16_t* key, const Eigen::VectorXd* hint = nullptr);
   struct SubScratch {  // one per depth: the sub-dialog recursion's buffers
     std::vector<std::int16_t> own, kid;
     std::vector<std::size_t> perm;
@@ -347,7 +344,8 @@ class CertifiedDialogSolver::Impl {
   /// One question of the sub-dialog node in sc (its value; the children in sc.kidIdx /
   /// kidPerm, the room-paid sums in sc.accT).
   double subQuestion(SubScratch& sc, const Question& q, std::size_t fixed);
-  /// subDialogValue's node: its index in subTable_, or kNone when cut off (then *value is
+  /// The sub-dialog node of a key (revealed section {value, 0, ...}, the others canonical;
+  /// depth = key[0]): its index in subTable_, or kNone when cut off (then *value is
   /// the full-information bound).
   std::size_t subNode(const std::int16_t* key, const Eigen::VectorXd* hint, double* value);
   /// The sub-dialog's optimal plan at a new node as a vector over every request (the plan's
@@ -1137,13 +1135,6 @@ double CertifiedDialogSolver::Impl::roomCeiling(const Eigen::VectorXd& b) const 
     if (sum > 0.0) theta = std::max(theta, hi / sum);
   }
   return std::min(theta, 1.0);
-}
-
-double CertifiedDialogSolver::Impl::subDialogValue(const std::int16_t* key,
-                                                   const Eigen::VectorXd* hint) {
-  double v;
-  subNode(key, hint, &v);
-  return v;
 }
 
 double CertifiedDialogSolver::Impl::upperRelaxation(const std::int16_t* key,

@@ -129,7 +129,7 @@ struct CertifiedSolverOptions {
   /// A new node's lower bound is also the best "ask one question about the room, then commit
   /// to the room best for its answer" plan (commitLower's plans, one turn later).
   bool roomLookahead = true;
-  /// Children that no trial has entered are kept in their parent (16 bytes each: bounds as
+  /// Children that no trial has entered are kept in their parent (8 bytes each: bounds as
   /// floats rounded outwards) instead of as nodes (about 70 bytes each): most never are.
   bool keepLeaves = true;
 };
