@@ -142,7 +142,8 @@ int main(int argc, char** argv) {
         mark(r);
         if (done || r.stop != SolveStop::kRunning) {
           row(r);
-          std::printf("# %s: stopped by %s\n", name.c_str(), toString(r.stop));
+          std::printf("# %s: stopped by %s; bounds crossed: %zu (0 unless a bound is wrong)\n",
+                      name.c_str(), toString(r.stop), r.crossings);
           break;
         }
         while (ck < sizeof(checkpoints) / sizeof(checkpoints[0]) && r.seconds >= checkpoints[ck]) {

@@ -37,9 +37,19 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
 constexpr int kSlots = 3;
 constexpr std::size_t kMaxValues = 64;  // values of one slot
-/// Penalty levels 1 - theta of the room-paid bound (upperRelaxation), largest first.
-constexpr int kNumPaidLevels = 10;
-constexpr double kPaidLevels[kNumPaidLevels] = {1.0, 0.5, 0.3, 0.2, 0.1, 0.05, 0.03, 0.02, 0.01, 0.005};
+/// Penalty levels 1 - theta of the room-paid bound (upperRelaxation), largest first
+/// (paidLevels_): theta's odds on a grid of kPaidPerDoubling steps per doubling from 1/(m-1)
+/// up. A question about the room multiplies the odds by at most its likelihood ratio G, so
+/// it moves the level on by a whole number of steps (exactly when G is a power of 2).
+constexpr int kNumPaidLevels = 48;
+constexpr int kPaidPerDoubling = 3;
+
+/// @brief x as a float no smaller than x (upper bounds stored in floats stay upper bounds).
+float floatUp(double x) {
+  float f = static_cast<float>(x);
+  if (static_cast<double>(f) < x) f = std::nextafter(f, std::numeric_limits<float>::infinity());
+  return f;
+}
 
 /// @brief Open-addressing table of fixed-stride int16 keys -> dense indices (a 32-bit hash
 /// tag beside each slot spares most key comparisons).
@@ -356,10 +366,20 @@ class CertifiedDialogSolver::Impl {
   static constexpr std::uint32_t kNoAlpha = std::numeric_limits<std::uint32_t>::max();
   std::vector<std::int16_t> subChoice_;    // per sub node: question index, or kSubServe
   /// The room paid for (upperRelaxation, proof in the file comment): per sub node and level
-  /// k, T_k = the value of the relaxation in which the room is known but, until a question
-  /// about it is asked, serving earns the room-known serve minus kPaidLevels[k] Y+(stats).
-  /// subT_[node * kNumPaidLevels + k]; nodes made without it (none for the office) have none.
-  std::vector<double> subT_;
+  /// k, T_k = the value of the relaxation in which the room is known but serving earns the
+  /// room-known serve minus paidLevels_[k] Y+(stats), and each question about the room
+  /// moves the level on by its PaidStep. subT_[node * kNumPaidLevels + k] (floats rounded
+  /// up); nodes made without it (none for the office) have none.
+  std::vector<float> subT_;
+  std::vector<double> paidLevels_;
+  /// A kind of question about the room (cost, likelihood ratio G): after it, no room is
+  /// more likely than theta G / (theta G + 1 - theta) if none was more than theta before,
+  /// so level k moves on to next[k] (kNumPaidLevels: no penalty left).
+  struct PaidStep {
+    double cost, ratio;
+    int next[kNumPaidLevels];
+  };
+  std::vector<PaidStep> paidSteps_;
   /// Gmax(r, r*): the best serve reward when the true room is r and the served request's
   /// room r* != r (m x m, row r), bounding every wrong-room serve.
   std::vector<double> wrongRoom_;
@@ -388,6 +408,8 @@ class CertifiedDialogSolver::Impl {
                         std::vector<std::size_t>* bestRoom) const;
   /// theta(b): the most likely any room can become without a question about it.
   double roomCeiling(const Eigen::VectorXd& b) const;
+  /// paidLevels_ and paidSteps_ for a room slot of m values (after roomLooks_).
+  void initPaidLevels(std::size_t m);
   std::vector<std::uint32_t> subAlphaAt_;  // per sub node: offset in subAlpha_, or kNoAlpha
   std::vector<double> subAlpha_;
   std::vector<double> alphaBuf_;
@@ -441,6 +463,13 @@ class CertifiedDialogSolver::Impl {
   } childScratch_;
   /// A kept child's slot: floats rounded outwards (the kept bounds stay bounds).
   static void packSlot(double upper, double lower, std::uint32_t* w);
+  /// max(upper, lower), counting a crossing when upper < lower beyond rounding: valid
+  /// bounds never cross, so a crossing is a bug (CertifiedReport::crossings).
+  double uncrossed(double upper, double lower) {
+    if (upper < lower - 1e-6 * (1.0 + std::abs(lower))) ++crossings_;
+    return std::max(upper, lower);
+  }
+  std::size_t crossings_ = 0;
   bool memoryExceeded() const;
   std::size_t bytes() const;
   bool run(std::size_t maxMore);
@@ -656,6 +685,7 @@ CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::Vector
         for (std::size_t r = 0; r < m; ++r) L.lik.push_back(answerLikelihood(q, o, r));
       roomLooks_.push_back(std::move(L));
     }
+    initPaidLevels(m);
   }
 
   posOf_.clear();
@@ -925,16 +955,18 @@ std::size_t CertifiedDialogSolver::Impl::subNode(const std::int16_t* key,
       const auto mIns = marginTable_.insert(sc.kid.data());
       if (mIns.second) marginValue_.push_back(std::max(0.0, roomServeMargin(sc.own.data())));
       const double y = marginValue_[mIns.first];
-      for (int k = 0; k < kNumPaidLevels; ++k) sc.bestT[k] = v - kPaidLevels[k] * y;
+      for (int k = 0; k < kNumPaidLevels; ++k) sc.bestT[k] = v - paidLevels_[static_cast<std::size_t>(k)] * y;
     }
     if (depth < horizon_) {
       marginals(sc.b, sc.m);
       double stallCost = kInf;  // questions on the known slot inform nothing: a stall
+      double pureStall = kInf;  // a question that informs nothing at all
       int stallQ = kSubServe;
       for (std::size_t qi = 0; qi < questions_.size(); ++qi) {
         const Question& q = questions_[qi];
         if (q.kind == QKind::kStall || q.slot == revealed_) {
           if (q.cost < stallCost) stallCost = q.cost, stallQ = static_cast<int>(qi);
+          if (q.kind == QKind::kStall) pureStall = std::min(pureStall, q.cost);
           continue;
         }
         const double qv = subQuestion(sc, q, fixed);
@@ -955,10 +987,19 @@ std::size_t CertifiedDialogSolver::Impl::subNode(const std::int16_t* key,
         double cv;
         const std::size_t ci = subNode(ck.data(), &same, &cv);
         const double qv = -stallCost + gamma_ * cv;
-        // A question about the room ends the penalty (the room is known from then on: the
-        // next turn's room-known value); a true stall keeps it, and V bounds that too.
-        if (o_.roomPaidBound)
-          for (int k = 0; k < kNumPaidLevels; ++k) sc.bestT[k] = std::max(sc.bestT[k], qv);
+        // A question about the room moves the penalty's level on (PaidStep); a true stall
+        // keeps it.
+        if (o_.roomPaidBound) {
+          const float* tc = ci != kNone && (ci + 1) * kNumPaidLevels <= subT_.size()
+                                ? &subT_[ci * kNumPaidLevels] : nullptr;
+          auto childT = [&](int j) { return j < kNumPaidLevels && tc ? static_cast<double>(tc[j]) : cv; };
+          if (pureStall < kInf)
+            for (int k = 0; k < kNumPaidLevels; ++k)
+              sc.bestT[k] = std::max(sc.bestT[k], -pureStall + gamma_ * childT(k));
+          for (const PaidStep& st : paidSteps_)
+            for (int k = 0; k < kNumPaidLevels; ++k)
+              sc.bestT[k] = std::max(sc.bestT[k], -st.cost + gamma_ * childT(st.next[k]));
+        }
         if (qv > v) {
           v = qv;
           choice = stallQ;
@@ -973,7 +1014,7 @@ std::size_t CertifiedDialogSolver::Impl::subNode(const std::int16_t* key,
   subChoice_.push_back(static_cast<std::int16_t>(choice));
   if (o_.roomPaidBound && subT_.size() == idx * kNumPaidLevels) {
     for (int k = 0; k < kNumPaidLevels; ++k)
-      subT_.push_back(ok ? std::min(sc.bestT[k], v) : v);
+      subT_.push_back(floatUp(ok ? std::min(sc.bestT[k], v) : v));
   }
   subAlphaAt_.push_back(ok ? subPlanAlpha(sc, choice, serveA) : kNoAlpha);
   *value = v;
@@ -1123,6 +1164,38 @@ double CertifiedDialogSolver::Impl::lookaheadValue(const Eigen::VectorXd& b,
   return best;
 }
 
+void CertifiedDialogSolver::Impl::initPaidLevels(std::size_t m) {
+  paidLevels_.resize(kNumPaidLevels);
+  // theta >= 1/m: odds from 1/(m - 1) up (one value: no penalty at all).
+  const double low = m > 1 ? -std::log2(static_cast<double>(m - 1)) : kInf;
+  for (int k = 0; k < kNumPaidLevels; ++k)
+    paidLevels_[static_cast<std::size_t>(k)] =
+        1.0 / (1.0 + std::exp2(low + static_cast<double>(k) / kPaidPerDoubling));
+  paidSteps_.clear();
+  for (const RoomLook& L : roomLooks_) {
+    // G: the largest ratio of one answer's likelihoods over the rooms (infinite when an
+    // answer excludes a room: the level then drops to none).
+    double g = 1.0;
+    for (std::size_t o = 0; o < L.answers; ++o) {
+      const double* lik = &L.lik[o * m];
+      const double hi = *std::max_element(lik, lik + m), lo = *std::min_element(lik, lik + m);
+      if (hi > 0.0) g = std::max(g, lo > 0.0 ? hi / lo : kInf);
+    }
+    const double cost = questions_[L.qi].cost;
+    bool seen = false;
+    for (const PaidStep& st : paidSteps_) seen = seen || (st.cost <= cost && st.ratio >= g);
+    if (seen) continue;
+    PaidStep st{cost, g, {}};
+    // theta' / (1 - theta') <= G theta / (1 - theta): the odds move up log2 G doublings,
+    // rounded down to whole steps (a smaller penalty: the relaxation only gains); past the
+    // grid, no penalty (kNumPaidLevels).
+    const double steps = g == kInf ? kNumPaidLevels : std::floor(std::log2(g) * kPaidPerDoubling);
+    for (int k = 0; k < kNumPaidLevels; ++k)
+      st.next[k] = static_cast<int>(std::min<double>(kNumPaidLevels, k + steps));
+    paidSteps_.push_back(st);
+  }
+}
+
 double CertifiedDialogSolver::Impl::roomCeiling(const Eigen::VectorXd& b) const {
   double theta = 0.0;
   for (const auto& g : otherGroups_) {
@@ -1173,7 +1246,7 @@ double CertifiedDialogSolver::Impl::upperRelaxation(const std::int16_t* key,
   if (o_.roomPaidBound) {
     const double slack = 1.0 - roomCeiling(b);
     for (int k = 0; k < kNumPaidLevels && level == kNumPaidLevels; ++k)
-      if (kPaidLevels[k] <= slack) level = k;
+      if (paidLevels_[static_cast<std::size_t>(k)] <= slack) level = k;
   }
   double paid = 0.0;
   for (std::size_t r = 0; r < rc.n; ++r) {
@@ -1364,7 +1437,7 @@ std::size_t CertifiedDialogSolver::Impl::nodeFor(const std::int16_t* key, int de
   if (group != kNoGroup || head != n) {
     const double cut = effUpper(n);
     if (cut < nodes_[n].upper) ++sharedCuts_;
-    nodes_[n].upper = std::max(cut, lower);
+    nodes_[n].upper = uncrossed(cut, lower);
   }
   return n;
 }
@@ -1388,6 +1461,7 @@ void CertifiedDialogSolver::Impl::newBounds(const std::int16_t* key, int depth,
     upper = std::max(serve, upperRelaxation(key, b, o_.commitLower ? &commit : nullptr,
                                             o_.shareUpperBounds ? &group : nullptr));
     lower = std::max(lower, commit);  // a plan the robot can run
+    upper = uncrossed(upper, lower);
   }
   // The same statistics reached in fewer turns: share its upper bound (never the other way).
   head = kNoHead;
@@ -1474,7 +1548,7 @@ CertifiedDialogSolver::Impl::Backup CertifiedDialogSolver::Impl::backup(std::siz
   nd.upper = std::min(nd.upper, bestU);
   nd.lower = std::max(nd.lower, bestL);
   nd.upper = std::min(nd.upper, effUpper(n));
-  if (nd.upper < nd.lower) nd.upper = nd.lower;  // rounding
+  nd.upper = uncrossed(nd.upper, nd.lower);
   notePoint(n);
   return r;
 }
@@ -1517,7 +1591,7 @@ std::size_t CertifiedDialogSolver::Impl::childBounds(const std::int16_t* key,
         std::uint32_t g, h;
         newBounds(kid.data(), depth + 1, &pb, u, l, g, h);
         // the shared bounds as they are now (a kept child's bound is not revisited)
-        packSlot(std::max(sharedUpper(kid.data(), u, g, h, kNone), l), l, &freshSlots_[2 * pos]);
+        packSlot(uncrossed(sharedUpper(kid.data(), u, g, h, kNone), l), l, &freshSlots_[2 * pos]);
         unpackSlot(&freshSlots_[2 * pos], cu, cl);
       } else {
         c = nodeFor(kid.data(), depth + 1, &pb);
@@ -1529,7 +1603,7 @@ std::size_t CertifiedDialogSolver::Impl::childBounds(const std::int16_t* key,
   }
   if (c != kNone) {
     cl = nodes_[c].lower;
-    cu = std::max(effUpper(c), cl);
+    cu = uncrossed(effUpper(c), cl);
   }
   return c;
 }
@@ -1602,7 +1676,7 @@ std::size_t CertifiedDialogSolver::Impl::bytes() const {
          slotChunks_.size() * kSlotChunkWords * sizeof(std::uint32_t) +
          (slotChunk_.capacity() + slotAt_.capacity()) * sizeof(std::uint32_t) +
          subValue_.capacity() * sizeof(double) + subChoice_.capacity() * sizeof(std::int16_t) +
-         subT_.capacity() * sizeof(double) + marginTable_.bytes() +
+         subT_.capacity() * sizeof(float) + marginTable_.bytes() +
          marginValue_.capacity() * sizeof(double) +
          subAlphaAt_.capacity() * sizeof(std::uint32_t) + subAlpha_.capacity() * sizeof(double);
 }
@@ -1976,6 +2050,7 @@ CertifiedReport CertifiedDialogSolver::report() const {
   r.subNodes = impl_->subTable_.size();
   r.subCapped = impl_->subCapped_;
   r.sharedCuts = impl_->sharedCuts_;
+  r.crossings = impl_->crossings_;
   r.bytes = impl_->bytes();
   r.stop = impl_->stop_;
   return r;
@@ -1992,7 +2067,7 @@ std::vector<CertifiedDialogSolver::NodeBounds> CertifiedDialogSolver::nodeBounds
     if (!m.belief(key, nb.belief)) continue;
     nb.turnsUsed = m.turnsUsed_ + key[0];
     nb.lower = m.nodes_[n].lower;
-    nb.upper = std::max(m.effUpper(n), m.nodes_[n].lower);
+    nb.upper = m.effUpper(n);  // raw: a crossing shows
     out.push_back(std::move(nb));
     // Its kept children (not nodes), with the bounds a backup reads.
     if (!m.leafCache_ || !m.expandedFlags_[n] || key[0] >= m.horizon_) continue;
@@ -2019,15 +2094,14 @@ std::vector<CertifiedDialogSolver::NodeBounds> CertifiedDialogSolver::nodeBounds
 }
 
 std::size_t CertifiedDialogSolver::rootAction() const {
+  // The exported policy's action (an unexpanded root's lower bound can be a frontier plan,
+  // which starts with a question).
   const Impl& m = *impl_;
-  const std::int16_t* k = m.table_.key(m.rootIndex_);
-  const std::size_t q = m.lowerChoice(k);
-  if (q != kNone) return m.questions_[q].action;
   Eigen::VectorXd b;
-  m.belief(k, b);
-  std::size_t a = 0;
-  m.serveValue(b, &a);
-  return m.d_.serveAction(a);
+  m.belief(m.table_.key(m.rootIndex_), b);
+  pomdp::Belief full = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(m.nReq_ + 1));
+  full.head(static_cast<Eigen::Index>(m.nReq_)) = b;
+  return policy().bestAction(full, m.turnsUsed_);
 }
 
 pomdp::TurnLimitedPolicy CertifiedDialogSolver::policy() const {

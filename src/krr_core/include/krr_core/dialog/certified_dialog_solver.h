@@ -149,6 +149,9 @@ struct CertifiedReport {
   std::size_t subNodes = 0;   ///< nodes of the revealed-slot sub-dialogs (upper bound)
   std::size_t subCapped = 0;  ///< sub-dialog values cut off by the memory budget or timeout
   std::size_t sharedCuts = 0;  ///< new nodes whose upper bound another node's lowered
+  /// Upper bounds found below lower ones (beyond rounding) and raised to them: 0 unless a
+  /// bound is wrong (the tests and the benchmark check it).
+  std::size_t crossings = 0;
   std::size_t bytes = 0;      ///< memory held by the tables
   SolveStop stop = SolveStop::kRunning;
   double gap() const { return upper - lower; }
@@ -181,7 +184,7 @@ class CertifiedDialogSolver {
   bool runTrials(std::size_t trials);
   CertifiedReport report() const;
 
-  /// @brief The lower bound's greedy action at the root (a model action index).
+  /// @brief The exported policy's action at the root (a model action index).
   std::size_t rootAction() const;
   /// @brief The lower bound's policy as alpha vectors tagged with their turns (see the file
   /// comment); its value at the root belief is report().lower.
