@@ -1617,8 +1617,9 @@ void CertifiedDialogSolver::Impl::packSlot(double upper, double lower, std::uint
 }
 
 void CertifiedDialogSolver::Impl::trial() {
-  // HSVI's trial precision: the target gap at the root, grown by 1 / discount per level.
-  double thr = o_.precision;
+  // HSVI's trial precision: a fraction of the target gap at the root (trialTarget), grown by
+  // 1 / discount per level.
+  double thr = o_.precision * o_.trialTarget;
   std::vector<std::size_t> path{rootIndex_};
   std::vector<std::pair<double, std::size_t>> cand;
   const bool lowerGuided = o_.lowerGuidedEvery > 0 && trials_ % o_.lowerGuidedEvery == 1;

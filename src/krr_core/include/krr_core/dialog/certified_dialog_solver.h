@@ -132,6 +132,10 @@ struct CertifiedSolverOptions {
   /// Children that no trial has entered are kept in their parent (8 bytes each: bounds as
   /// floats rounded outwards) instead of as nodes (about 70 bytes each): most never are.
   bool keepLeaves = true;
+  /// A trial stops at a node whose gap is at most trialTarget x precision (HSVI's epsilon).
+  /// At 1, the root's gap only approaches the precision: nodes just inside it are never
+  /// entered again (br 0.1 learned: 1.015 after 300 s; at 0.1, <= 1 after 30 s).
+  double trialTarget = 0.1;
 };
 
 /// @brief Why a solve stopped.
