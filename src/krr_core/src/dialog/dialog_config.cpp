@@ -100,6 +100,14 @@ void DialogConfig::validate() const {
   if (speech_plog.empty()) bad("knowledge.speech", "\"\"", "must be a file");
 }
 
+void readSolverSettings(const YAML::Node& node, const std::string& path, DialogConfig& c) {
+  YamlSection s(node, path, "solver", {"precision", "timeout", "max_trials"});
+  c.solver_precision = s.number("precision", c.solver_precision, 0, kInf, YamlSection::kLowerOpen);
+  c.solver_timeout = s.number("timeout", c.solver_timeout, 0, kInf, YamlSection::kLowerOpen);
+  c.solver_max_trials = static_cast<std::size_t>(
+      s.integer("max_trials", static_cast<long>(c.solver_max_trials), 0, 1000000000));
+}
+
 DialogConfig loadDialogConfig(const std::string& path) {
   const YAML::Node root = loadYamlFile(path, "dialog config");
   if (!root || root.IsNull()) throw ConfigError(path + ": empty dialog config");
@@ -140,13 +148,7 @@ DialogConfig loadDialogConfig(const std::string& path) {
     c.failure_penalty = s.number("failure_penalty", c.failure_penalty, 0, kInf);
     c.nav_discount = s.number("discount", c.nav_discount, 0, 1, YamlSection::kLowerOpen);
   }
-  if (top.has("solver")) {
-    YamlSection s(top.get("solver"), path, "solver", {"precision", "timeout", "max_trials"});
-    c.solver_precision = s.number("precision", c.solver_precision, 0, kInf, YamlSection::kLowerOpen);
-    c.solver_timeout = s.number("timeout", c.solver_timeout, 0, kInf, YamlSection::kLowerOpen);
-    c.solver_max_trials = static_cast<std::size_t>(
-        s.integer("max_trials", static_cast<long>(c.solver_max_trials), 0, 1000000000));
-  }
+  if (top.has("solver")) readSolverSettings(top.get("solver"), path, c);
   if (top.has("learning")) {
     YamlSection s(top.get("learning"), path, "learning",
               {"max_episodes_per_task", "convergence_episodes", "rounds", "mode"});

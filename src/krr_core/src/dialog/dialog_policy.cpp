@@ -113,9 +113,11 @@ pomdp::TurnLimitedPolicy solveDialogPolicy(const DialogPomdp& dialog,
   if (!cache_dir.empty()) {
     std::ostringstream key;
     key.precision(17);
-    key << "certified v2|" << solverFingerprint() << "|" << limit << "|" << so.precision << "|"
+    // v3: the room-paid bound's chain of levels and trials aimed at trialTarget x precision.
+    key << "certified v3|" << solverFingerprint() << "|" << limit << "|" << so.precision << "|"
         << so.maxTrials << "|" << so.seed << "|" << so.lowerGuidedEvery << "|"
-        << so.commitLower << "|" << dialog.exportCassandra();
+        << so.commitLower << "|" << so.shareUpperBounds << so.roomPaidBound << so.roomLookahead
+        << so.keepLeaves << "|" << so.trialTarget << "|" << dialog.exportCassandra();
     char name[64];
     std::snprintf(name, sizeof(name), "policy_%016llx",
                   static_cast<unsigned long long>(stableHash(key.str())));

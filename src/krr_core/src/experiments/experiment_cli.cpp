@@ -57,7 +57,10 @@ DialogConfig loadDeliveryExperimentConfig(const ExperimentPaths& paths) {
   DialogConfig c = dialog::loadDialogConfig(paths.dialog_yaml);
   const std::string& file = paths.delivery_yaml;
   detail::ExperimentBase b = detail::experimentBaseOf(c.rmaxParams(), 0.0, 1.0);
-  const YamlSection top(parseYaml(readFile(file), file), file, "", {"planning", "rmax_learning"});
+  const YamlSection top(parseYaml(readFile(file), file), file, "",
+                        {"planning", "rmax_learning", "solver"});
+  // The experiments' own dialog-solver budget (Tables I and II on certified policies).
+  if (top.has("solver")) dialog::readSolverSettings(top.get("solver"), file, c);
   if (top.has("planning") && top.get("planning").IsMap() && top.get("planning")["discount"]) {
     throw ConfigError(file + ": field 'planning.discount': not a setting of the delivery "
                       "experiments (their trips' discount is config/dialog.yaml's "

@@ -2,6 +2,10 @@
 #include <gtest/gtest.h>
 
 #include "krr_core/common/errors.h"
+#include <fstream>
+
+#include "krr_core/dialog/dialog_config.h"
+#include "krr_core/experiments/experiment_cli.h"
 #include "krr_core/experiments/experiment_paths.h"
 #include "../dialog/delivery_test_support.h"
 
@@ -24,6 +28,24 @@ TEST(ExperimentPaths, ResolvesTheRepositoryFiles) {
   }
   EXPECT_THROW(ExperimentPaths::find(delivery_test::tempDir("no_repo"), "office_30x30"),
                krr::ConfigError);
+}
+
+TEST(ExperimentPaths, TheDeliveryExperimentsNameOnlyTheSolverSettingsTheyChange) {
+  ExperimentPaths p = ExperimentPaths::find(delivery_test::repo(""), "office_30x30");
+  const krr::dialog::DialogConfig base = krr::dialog::loadDialogConfig(p.dialog_yaml);
+  p.delivery_yaml = delivery_test::tempDir("solver_override") + "/delivery_trials.yaml";
+  std::ofstream(p.delivery_yaml) << "solver:\n  max_trials: 77\n";
+  const krr::dialog::DialogConfig c = krr::experiments::loadDeliveryExperimentConfig(p);
+  EXPECT_EQ(c.solver_max_trials, 77u);
+  EXPECT_EQ(c.solver_precision, base.solver_precision);  // not named: config/dialog.yaml's
+  EXPECT_EQ(c.solver_timeout, base.solver_timeout);
+  std::ofstream(p.delivery_yaml) << "solver:\n  max_trails: 77\n";
+  try {
+    krr::experiments::loadDeliveryExperimentConfig(p);
+    ADD_FAILURE() << "no error";
+  } catch (const krr::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("max_trails"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

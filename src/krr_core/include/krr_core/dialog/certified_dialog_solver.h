@@ -20,8 +20,9 @@
  * Search: HSVI-style trials over that DAG, with one scalar lower and upper bound per node
  * (no alpha vectors, no interpolation: nodes are exact beliefs). A trial follows the action
  * of the best upper bound and samples an answer with probability proportional to
- * P(answer) x bound gap (a seeded stream: runs are reproducible), and backs up both bounds
- * exactly on the way back. At turnLimit the node's value is exact (serve the best request).
+ * P(answer) x (bound gap - epsilon) (a seeded stream: runs are reproducible), stops where the
+ * gap is at most epsilon = trialTarget x precision, and backs up both bounds exactly on the
+ * way back. At turnLimit the node's value is exact (serve the best request).
  *
  * Bounds at a node that has not been expanded:
  *  - lower: the best of three plans the robot can run, valued exactly: serve now; commit to
@@ -44,12 +45,17 @@
  *    there with the full-information value, which is larger still: the bound stays a proof,
  *    only looser.
  *  - upper, the room paid for (roomPaidBound), the tighter of the two: a relaxation M in
- *    which the room r is revealed at the node, but until the robot asks a question about it,
- *    serving earns the room-known serve serve_r(x') minus pen(x') = (1 - theta) Y+(x')
- *    (x': the other slots' statistics then); after such a question, the room-known value
- *    V_r from the next turn on. M's value is sum_r w_r T_r, T_r an exact dynamic programme
- *    over the sub-dialog's statistics, solved with the sub-dialog for ten levels of
- *    1 - theta (the largest level <= 1 - theta(b) is used: a smaller penalty, valid too).
+ *    which the room r is revealed at the node, but serving earns the room-known serve
+ *    serve_r(x') minus pen(x') = (1 - theta) Y+(x') (x': the other slots' statistics then),
+ *    where theta bounds how likely any room can be by then. theta starts at theta(b) and
+ *    each question about the room moves it on: an answer multiplies a room's odds by at
+ *    most G (the question's largest ratio of one answer's likelihoods over the rooms), so
+ *    theta' <= theta G / (theta G + 1 - theta) whatever the answer. theta's odds live on a
+ *    grid of three steps per doubling (48 levels; G = 16 and 4 for the office move whole
+ *    steps, other G are rounded down; theta(b) is rounded up: smaller penalties, valid
+ *    too), and a question about the room costs its own cost. M's value is sum_r w_r T_r,
+ *    T_r an exact dynamic programme over the sub-dialog's statistics and the level, solved
+ *    with the sub-dialog.
  *    Why V <= value(M): a real policy runs in M (its room answers drawn from the revealed
  *    room) with the same costs, and the same rewards after a question about the room. When
  *    it serves without one, its expected reward given what it heard is the blind serve
@@ -59,10 +65,12 @@
  *    VOI = min_{r*} sum_{r != r*} w_r (serve_r - Gmax(r, r*)) >= (1 - max_r w_r) Y, with
  *    Gmax(r, r*) = max over requests s of room r and a of room r* != r of R(s, a) (every
  *    wrong-room serve earns at most that) and Y = min_{r != r*} (serve_r - Gmax(r, r*)).
- *    Without a question about the room, answers about the other slots only reweight them,
- *    so no room's posterior exceeds theta(b) = max over the other slots' values (i, p) of
- *    b(r | i, p). Hence pen <= VOI: in M the policy loses nothing. The proof holds for any
- *    discount; tests: EveryNodeBracketsItsExactValue (brute force at every node).
+ *    Answers about the other slots only reweight them, so no room's posterior exceeds
+ *    the max over the other slots' values (i, p) of b(r | i, p), which is theta(b) before
+ *    any question about the room and at most the level's theta after (the bound above
+ *    holds for each b(. | i, p)). Hence pen <= VOI: in M the policy loses nothing. The
+ *    proof holds for any discount; tests: EveryNodeBracketsItsExactValue (brute force at
+ *    every node), and CertifiedReport::crossings (an upper bound below a lower one) stays 0.
  * Expanded nodes take the Bellman backup of their children's bounds (upper: the minimum of
  * the backup and the relaxation; both stay valid).
  *

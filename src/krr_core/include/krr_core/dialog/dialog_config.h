@@ -20,6 +20,8 @@
 #include <cstdint>
 #include <string>
 
+#include <yaml-cpp/yaml.h>
+
 #include "krr_core/mdp/rmax_agent.h"
 
 namespace krr {
@@ -91,6 +93,11 @@ struct DialogConfig {
 /// @brief Load and validate a dialog.yaml. Unknown fields are errors.
 /// @throws ConfigError naming file, field and value (also for unreadable or broken YAML).
 DialogConfig loadDialogConfig(const std::string& path);
+
+/// @brief A `solver` block (precision, timeout, max_trials) read over c's: config/dialog.yaml's,
+/// or an experiment file's override of it (its own fields only; unknown fields are errors).
+/// @throws ConfigError naming file, field and value.
+void readSolverSettings(const YAML::Node& node, const std::string& path, DialogConfig& c);
 
 }  // namespace dialog
 }  // namespace krr
