@@ -3,11 +3,13 @@
 // knowledge base exactly as delivery_trials builds them).
 //
 // Usage: bench_dialog_pomdp [--timeout 60] [--trials 4000] [--seed 1] [--root DIR]
-//                           [--learned-cache DIR|none] [--models 0.1:learned,0.7:outdated]
+//                           [--learned-cache DIR|none] [--models 0.1:learned,0.7:outdated,node]
 //                           [--export DIR] [--sarsop PATH]
-// Per model, single-threaded and cold:
-//  - the configured policy (config/dialog.yaml's solver block, what dialog_node and the
-//    experiments run): its certified bounds at the prior, solve time and size;
+// Per model (and dialog_node's: the knowledge base's navigation model, no learned knowledge),
+// single-threaded and cold:
+//  - the configured policy (the experiments' solver budget, config/experiments/
+//    delivery_trials.yaml over config/dialog.yaml; dialog_node's: config/dialog.yaml's): its
+//    certified bounds at the prior, solve time and size;
 //  - a fresh solve up to --timeout: bounds at checkpoints of solver time, the first time the
 //    certified gap fell to <= 4, 2 and 1 reward, and the search's memory;
 //  - the configured policy in --trials delivery trials: reward, expected reward,
@@ -27,7 +29,11 @@
 #include "krr_core/common/format.h"
 #include "krr_core/common/resource_locator.h"
 #include "krr_core/common/resources.h"
+#include "krr_core/dialog/delivery_navigation.h"
+#include "krr_core/dialog/dialog_config.h"
+#include "krr_core/dialog/dialog_knowledge.h"
 #include "krr_core/experiments/delivery_experiment.h"
+#include "krr_core/kb/navigation_knowledge.h"
 #include "krr_core/experiments/experiment_cli.h"
 #include "krr_core/experiments/experiment_paths.h"
 #include "krr_core/pomdp/cassandra_io.h"
@@ -39,6 +45,158 @@ using namespace krr;
 using namespace krr::dialog;
 using namespace krr::experiments;
 
+namespace {
+
+/// @brief The model's header line (with P^N from the shop to each room) and, with --export,
+/// its Cassandra files, plain and with the turn counter.
+void modelHeader(const std::string& name, const DialogPomdp& d, const Eigen::VectorXd& reach,
+                 int turnLimit, const std::string& exportDir) {
+  std::printf("\n## %s: %zu states, %zu actions, P^N(shop, room):", name.c_str(),
+              d.model().getS(), d.model().getA());
+  for (Eigen::Index r = 0; r < reach.size(); ++r) std::printf(" %.3f", reach(r));
+  std::printf("\n");
+  if (exportDir.empty()) return;
+  makeDirectories(exportDir);
+  pomdp::saveCassandra(exportDir + "/dialog_" + name + ".pomdp", d.model());
+  pomdp::saveCassandra(exportDir + "/dialog_" + name + "_turns.pomdp",
+                       pomdp::withTurnCounter(d.model(), d.model().initialBelief(), turnLimit));
+}
+
+/// @brief The configured policy (solveDialogPolicy with `cfg`'s budget, uncached): its
+/// certified bounds at the prior, time and size.
+pomdp::TurnLimitedPolicy configuredPolicy(const std::string& name, const std::string& what,
+                                          const DialogPomdp& d, const DialogConfig& cfg) {
+  PolicyReport conf;
+  pomdp::TurnLimitedPolicy policy = solveDialogPolicy(d, cfg, "", &conf);
+  std::printf("# %s: configured policy (%s, %zu trials): lower %.3f upper %.3f gap %.3f in "
+              "%.2f s, %zu vectors, stopped by %s\n", name.c_str(), what.c_str(),
+              conf.bounds.trials, conf.bounds.lower, conf.bounds.upper, conf.bounds.gap(),
+              conf.seconds, policy.size(),
+              conf.reproducible ? (conf.converged ? "precision" : "trial budget") : "timeout");
+  return policy;
+}
+
+/// @brief A fresh solve, cold, single-threaded: bounds at checkpoints of solver time, the
+/// first times the gap fell to 4, 2 and 1, and the search's memory.
+void freshSolve(const std::string& name, const DialogPomdp& d, double timeout) {
+  const double checkpoints[] = {0.25, 0.5, 1, 2, 4, 8, 16, 32, 64, 128, 256};
+  const double marks[] = {4.0, 2.0, 1.0};
+  CertifiedSolverOptions so;
+  so.precision = 1.0;  // the target gap at the prior
+  so.timeout = timeout;
+  so.maxTrials = 0;
+  CertifiedDialogSolver solver(d, Eigen::VectorXd(), 0, so);
+  double reached[3] = {-1, -1, -1};
+  auto mark = [&](const CertifiedReport& r) {
+    for (int k = 0; k < 3; ++k)
+      if (reached[k] < 0 && r.gap() <= marks[k]) reached[k] = r.seconds;
+  };
+  std::printf("%9s %10s %10s %8s %9s %10s %10s %10s %9s\n", "time_s", "lower", "upper",
+              "gap", "trials", "nodes", "expanded", "sub_nodes", "MiB");
+  auto row = [&](const CertifiedReport& r) {
+    std::printf("%9.3f %10.3f %10.3f %8.3f %9zu %10zu %10zu %10zu %9.1f\n", r.seconds, r.lower,
+                r.upper, r.gap(), r.trials, r.nodes, r.expanded, r.subNodes, r.bytes / 1048576.0);
+    std::fflush(stdout);
+  };
+  row(solver.report());
+  mark(solver.report());
+  std::size_t ck = 0;
+  for (;;) {
+    const bool done = solver.runTrials(100);
+    const CertifiedReport r = solver.report();
+    mark(r);
+    if (done || r.stop != SolveStop::kRunning) {
+      row(r);
+      std::printf("# %s: stopped by %s; bounds crossed: %zu (0 unless a bound is wrong)\n",
+                  name.c_str(), toString(r.stop), r.crossings);
+      break;
+    }
+    while (ck < sizeof(checkpoints) / sizeof(checkpoints[0]) && r.seconds >= checkpoints[ck]) {
+      if (ck + 1 == sizeof(checkpoints) / sizeof(checkpoints[0]) ||
+          r.seconds < checkpoints[ck + 1])
+        row(r);
+      ++ck;
+    }
+  }
+  for (int k = 0; k < 3; ++k) {
+    if (reached[k] >= 0) std::printf("# %s: gap <= %g after %.3f s\n", name.c_str(), marks[k], reached[k]);
+    else std::printf("# %s: gap <= %g not reached in %.1f s (gap %.3f)\n", name.c_str(), marks[k],
+                     solver.report().seconds, solver.report().gap());
+  }
+  std::printf("# %s: search memory %.1f MiB (%zu nodes, %zu sub-dialog nodes), peak RSS so "
+              "far %.1f MiB\n", name.c_str(), solver.report().bytes / 1048576.0,
+              solver.report().nodes, solver.report().subNodes, peakRssMiB());
+}
+
+/// @brief SARSOP's pomdpsol on the model with the turn counter, for the same timeout: its last
+/// bounds line.
+void runSarsop(const std::string& name, const DialogPomdp& d, int turnLimit, double timeout,
+               const std::string& sarsop, const std::string& exportDir) {
+  const std::string dir = exportDir.empty() ? "/tmp/krr_bench_dialog" : exportDir;
+  makeDirectories(dir);
+  const std::string file = dir + "/dialog_" + name + "_turns.pomdp";
+  pomdp::saveCassandra(file, pomdp::withTurnCounter(d.model(), d.model().initialBelief(),
+                                                    turnLimit));
+  // pomdpsol asserts a discount below 1. The model with the turn counter ends within
+  // turn_limit + 1 steps, so 0.99999 moves no value by more than 2e-4 of its size.
+  std::string sarsopNote;
+  if (d.model().getDiscount() >= 1.0) {
+    std::string text = readFile(file);
+    const std::size_t at = text.find("discount:");
+    if (at != std::string::npos) {
+      const std::size_t eol = text.find('\n', at);
+      text.replace(at, eol - at, "discount: 0.99999");
+      writeFileAtomic(file, text);
+      sarsopNote = " (its file with discount 0.99999: pomdpsol needs < 1)";
+    }
+  }
+  const std::string cmd = "'" + sarsop + "' --timeout " + formatNumber(timeout, 6) +
+                          " --output /dev/null '" + file + "' 2>&1";
+  std::string out, last;
+  if (FILE* pipe = ::popen(cmd.c_str(), "r")) {
+    char buf[4096];
+    while (std::fgets(buf, sizeof(buf), pipe)) out += buf;
+    ::pclose(pipe);
+  }
+  // The last progress row of pomdpsol's table: time #Trial #Backup LBound UBound ...
+  std::size_t pos = 0;
+  while (pos < out.size()) {
+    const std::size_t end = out.find('\n', pos);
+    const std::string line = out.substr(pos, end == std::string::npos ? std::string::npos : end - pos);
+    double t, lb, ub;
+    long tr, bk;
+    if (std::sscanf(line.c_str(), " %lf %ld %ld %lf %lf", &t, &tr, &bk, &lb, &ub) == 5) last = line;
+    if (end == std::string::npos) break;
+    pos = end + 1;
+  }
+  std::printf("# %s: SARSOP %s, %.0f s%s: %s\n", name.c_str(), sarsop.c_str(), timeout,
+              sarsopNote.c_str(), last.empty() ? "no bounds line in its output" : last.c_str());
+}
+
+/// @brief The policy in delivery trials: reward, expected reward, identification, forced serves.
+void deliveryTrials(const std::string& name, DeliveryExperiment& ex, std::size_t trials) {
+  const auto res = ex.runTrials(0, trials, 1);
+  double reward = 0, sq = 0, exp = 0, esq = 0, forced = 0, correct = 0;
+  for (const auto& r : res) {
+    reward += r.reward.total();
+    sq += r.reward.total() * r.reward.total();
+    exp += r.expected_reward;
+    esq += r.expected_reward * r.expected_reward;
+    forced += r.delivery.forced;
+    correct += r.correct;
+  }
+  const double n = static_cast<double>(res.size());
+  const double mean = reward / n, emean = exp / n;
+  const double ci = 1.96 * std::sqrt(std::max(0.0, sq / n - mean * mean) / n);
+  const double eci = 1.96 * std::sqrt(std::max(0.0, esq / n - emean * emean) / n);
+  std::printf("# %s: policy in %zu delivery trials: reward %.2f +- %.2f, expected reward "
+              "%.2f +- %.2f, identified %.3f, forced serves %.4f%s\n", name.c_str(),
+              res.size(), mean, ci, emean, eci, correct / n, forced / n,
+              forced / n < 0.01 ? "" : "  (ABOVE 1%)");
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   double timeout = 60.0;
   std::size_t trials = 4000;
@@ -46,6 +204,7 @@ int main(int argc, char** argv) {
   std::string root, cache, exportDir, sarsop;
   bool haveCache = false;
   std::vector<std::pair<double, KnowledgeCondition>> models;
+  bool nodeModel = false;
   OptionParser cli("bench_dialog_pomdp",
                    "The certified dialog solver on the dialog models of Table I: bounds at the\n"
                    "prior over solver time, the configured policy in delivery trials.");
@@ -59,6 +218,10 @@ int main(int argc, char** argv) {
   cli.add("--models", "br:condition,...", "models to solve",
           [&](const std::string& v) {
             for (const std::string& item : splitOption(v)) {
+              if (item == "node") {
+                nodeModel = true;
+                continue;
+              }
               const auto colon = item.find(':');
               if (colon == std::string::npos)
                 throw ConfigError("option --models: '" + item + "' is not br:condition");
@@ -66,25 +229,26 @@ int main(int argc, char** argv) {
                                 conditionFromString(item.substr(colon + 1))});
             }
           },
-          "0.1,0.5,0.7 x learned,outdated");
+          "0.1,0.5,0.7 x learned,outdated, and node (dialog_node's model)");
   cli.add("--export", "DIR", "write each model as Cassandra .pomdp (plain and with turns)",
           &exportDir);
   cli.add("--sarsop", "PATH", "also run SARSOP's pomdpsol on the model with turns (same timeout)",
           &sarsop);
   if (const auto status = cli.parse(argc, argv)) return *status;
-  if (models.empty())
+  if (models.empty() && !nodeModel) {
+    nodeModel = true;
     for (double br : {0.1, 0.5, 0.7})
       for (auto c : {KnowledgeCondition::kLearned, KnowledgeCondition::kOutdated}) models.push_back({br, c});
+  }
   try {
     const ExperimentPaths paths = ExperimentPaths::find(root);
     const DialogConfig cfg = loadDeliveryExperimentConfig(paths);
     const kb::NavDomain dom = kb::NavDomain::load(paths.navigation_yaml, paths.domain,
                                                   paths.geometry, paths.navigation_plog);
-    std::printf("# turn limit %d, precision %g, trial budget %zu (config/dialog.yaml); "
-                "solver timeout %g s per model; %zu delivery trials per model\n",
-                cfg.turn_limit, cfg.solver_precision, cfg.solver_max_trials, timeout, trials);
-    const double checkpoints[] = {0.25, 0.5, 1, 2, 4, 8, 16, 32, 64, 128, 256};
-    const double marks[] = {4.0, 2.0, 1.0};
+    std::printf("# turn limit %d, precision %g (config/dialog.yaml), the experiments' trial budget "
+                "%zu (config/experiments/delivery_trials.yaml); solver timeout %g s per model; "
+                "%zu delivery trials per model\n", cfg.turn_limit, cfg.solver_precision,
+                cfg.solver_max_trials, timeout, trials);
     for (const auto& [br, condition] : models) {
       DeliveryExperimentOptions o;
       o.blocking_rate = br;
@@ -95,132 +259,31 @@ int main(int argc, char** argv) {
       DeliveryExperiment ex(dom, cfg, o, false);
       const DialogPomdp& d = ex.dialog();
       const std::string name = "br" + formatNumber(br, 3) + "_" + toString(condition);
-      std::printf("\n## %s: %zu states, %zu actions, P^N(shop, room):", name.c_str(),
-                  d.model().getS(), d.model().getA());
+      Eigen::VectorXd reach(static_cast<Eigen::Index>(ex.navigation().numRooms()));
       for (std::size_t r = 0; r < ex.navigation().numRooms(); ++r)
-        std::printf(" %.3f", ex.navigation().toRoom(r).reach);
-      std::printf("\n");
-      if (!exportDir.empty()) {
-        makeDirectories(exportDir);
-        pomdp::saveCassandra(exportDir + "/dialog_" + name + ".pomdp", d.model());
-        pomdp::saveCassandra(exportDir + "/dialog_" + name + "_turns.pomdp",
-                             pomdp::withTurnCounter(d.model(), d.model().initialBelief(), cfg.turn_limit));
-      }
-      // The configured policy: what dialog_node and the experiments run.
-      PolicyReport conf;
-      const pomdp::TurnLimitedPolicy policy = solveDialogPolicy(d, cfg, "", &conf);
-      std::printf("# %s: configured policy (%zu trials): lower %.3f upper %.3f gap %.3f in %.2f s, "
-                  "%zu vectors, stopped by %s\n", name.c_str(), conf.bounds.trials,
-                  conf.bounds.lower, conf.bounds.upper, conf.bounds.gap(), conf.seconds,
-                  policy.size(), conf.reproducible ? (conf.converged ? "precision" : "trial budget")
-                                                   : "timeout");
-      ex.setPolicy(policy);
-      // A fresh solve, cold, single-threaded: bounds at checkpoints of solver time.
-      CertifiedSolverOptions so;
-      so.precision = 1.0;  // the target gap at the prior
-      so.timeout = timeout;
-      so.maxTrials = 0;
-      CertifiedDialogSolver solver(d, Eigen::VectorXd(), 0, so);
-      double reached[3] = {-1, -1, -1};
-      auto mark = [&](const CertifiedReport& r) {
-        for (int k = 0; k < 3; ++k)
-          if (reached[k] < 0 && r.gap() <= marks[k]) reached[k] = r.seconds;
-      };
-      std::printf("%9s %10s %10s %8s %9s %10s %10s %10s %9s\n", "time_s", "lower", "upper",
-                  "gap", "trials", "nodes", "expanded", "sub_nodes", "MiB");
-      auto row = [&](const CertifiedReport& r) {
-        std::printf("%9.3f %10.3f %10.3f %8.3f %9zu %10zu %10zu %10zu %9.1f\n", r.seconds, r.lower,
-                    r.upper, r.gap(), r.trials, r.nodes, r.expanded, r.subNodes, r.bytes / 1048576.0);
-        std::fflush(stdout);
-      };
-      row(solver.report());
-      mark(solver.report());
-      std::size_t ck = 0;
-      for (;;) {
-        const bool done = solver.runTrials(100);
-        const CertifiedReport r = solver.report();
-        mark(r);
-        if (done || r.stop != SolveStop::kRunning) {
-          row(r);
-          std::printf("# %s: stopped by %s; bounds crossed: %zu (0 unless a bound is wrong)\n",
-                      name.c_str(), toString(r.stop), r.crossings);
-          break;
-        }
-        while (ck < sizeof(checkpoints) / sizeof(checkpoints[0]) && r.seconds >= checkpoints[ck]) {
-          if (ck + 1 == sizeof(checkpoints) / sizeof(checkpoints[0]) ||
-              r.seconds < checkpoints[ck + 1])
-            row(r);
-          ++ck;
-        }
-      }
-      for (int k = 0; k < 3; ++k) {
-        if (reached[k] >= 0) std::printf("# %s: gap <= %g after %.3f s\n", name.c_str(), marks[k], reached[k]);
-        else std::printf("# %s: gap <= %g not reached in %.1f s (gap %.3f)\n", name.c_str(), marks[k],
-                         solver.report().seconds, solver.report().gap());
-      }
-      std::printf("# %s: search memory %.1f MiB (%zu nodes, %zu sub-dialog nodes), peak RSS so "
-                  "far %.1f MiB\n", name.c_str(), solver.report().bytes / 1048576.0,
-                  solver.report().nodes, solver.report().subNodes, peakRssMiB());
-      if (!sarsop.empty()) {
-        const std::string dir = exportDir.empty() ? "/tmp/krr_bench_dialog" : exportDir;
-        makeDirectories(dir);
-        const std::string file = dir + "/dialog_" + name + "_turns.pomdp";
-        pomdp::saveCassandra(file, pomdp::withTurnCounter(d.model(), d.model().initialBelief(),
-                                                          cfg.turn_limit));
-        // pomdpsol asserts a discount below 1. The model with the turn counter ends within
-        // turn_limit + 1 steps, so 0.99999 moves no value by more than 2e-4 of its size.
-        std::string sarsopNote;
-        if (d.model().getDiscount() >= 1.0) {
-          std::string text = readFile(file);
-          const std::size_t at = text.find("discount:");
-          if (at != std::string::npos) {
-            const std::size_t eol = text.find('\n', at);
-            text.replace(at, eol - at, "discount: 0.99999");
-            writeFileAtomic(file, text);
-            sarsopNote = " (its file with discount 0.99999: pomdpsol needs < 1)";
-          }
-        }
-        const std::string cmd = "'" + sarsop + "' --timeout " + formatNumber(timeout, 6) +
-                                " --output /dev/null '" + file + "' 2>&1";
-        std::string out, last;
-        if (FILE* pipe = ::popen(cmd.c_str(), "r")) {
-          char buf[4096];
-          while (std::fgets(buf, sizeof(buf), pipe)) out += buf;
-          ::pclose(pipe);
-        }
-        // The last progress row of pomdpsol's table: time #Trial #Backup LBound UBound ...
-        std::size_t pos = 0;
-        while (pos < out.size()) {
-          const std::size_t end = out.find('\n', pos);
-          const std::string line = out.substr(pos, end == std::string::npos ? std::string::npos : end - pos);
-          double t, lb, ub;
-          long tr, bk;
-          if (std::sscanf(line.c_str(), " %lf %ld %ld %lf %lf", &t, &tr, &bk, &lb, &ub) == 5) last = line;
-          if (end == std::string::npos) break;
-          pos = end + 1;
-        }
-        std::printf("# %s: SARSOP %s, %.0f s%s: %s\n", name.c_str(), sarsop.c_str(), timeout,
-                    sarsopNote.c_str(), last.empty() ? "no bounds line in its output" : last.c_str());
-      }
-      if (trials == 0) continue;
-      const auto res = ex.runTrials(0, trials, 1);
-      double reward = 0, sq = 0, exp = 0, esq = 0, forced = 0, correct = 0;
-      for (const auto& r : res) {
-        reward += r.reward.total();
-        sq += r.reward.total() * r.reward.total();
-        exp += r.expected_reward;
-        esq += r.expected_reward * r.expected_reward;
-        forced += r.delivery.forced;
-        correct += r.correct;
-      }
-      const double n = static_cast<double>(res.size());
-      const double mean = reward / n, emean = exp / n;
-      const double ci = 1.96 * std::sqrt(std::max(0.0, sq / n - mean * mean) / n);
-      const double eci = 1.96 * std::sqrt(std::max(0.0, esq / n - emean * emean) / n);
-      std::printf("# %s: policy in %zu delivery trials: reward %.2f +- %.2f, expected reward "
-                  "%.2f +- %.2f, identified %.3f, forced serves %.4f%s\n", name.c_str(),
-                  res.size(), mean, ci, emean, eci, correct / n, forced / n,
-                  forced / n < 0.01 ? "" : "  (ABOVE 1%)");
+        reach(static_cast<Eigen::Index>(r)) = ex.navigation().toRoom(r).reach;
+      modelHeader(name, d, reach, cfg.turn_limit, exportDir);
+      ex.setPolicy(configuredPolicy(name, "the experiments'", d, cfg));
+      freshSolve(name, d, timeout);
+      if (!sarsop.empty()) runSarsop(name, d, cfg.turn_limit, timeout, sarsop, exportDir);
+      if (trials > 0) deliveryTrials(name, ex, trials);
+    }
+    if (nodeModel) {
+      // dialog_node's model (~model_source local or reasoner): the knowledge base's navigation
+      // model (no learned knowledge) and config/dialog.yaml, whose solver budget is the
+      // robot's.
+      const DialogConfig nodeCfg = loadDialogConfig(paths.dialog_yaml);
+      kb::NavDomain nd = kb::NavDomain::load(paths.navigation_yaml, paths.domain, paths.geometry,
+                                             paths.navigation_plog);
+      nd.knowledge_files = {paths.geometry, paths.navigation_plog};
+      kb::NavigationKnowledge nk(*nd.grid, nd.knowledge_files);
+      const DialogKnowledge know(nodeCfg.office_plog, nodeCfg.speech_plog);
+      const TripTable t = deliveryNavigationFromKnowledge(nd, nk, nodeCfg, know.base().rooms)->trips();
+      const DialogPomdp d(know.buildSpec(t, nodeCfg));
+      modelHeader("dialog_node", d, t.reachFromShop(), nodeCfg.turn_limit, exportDir);
+      configuredPolicy("dialog_node", "config/dialog.yaml's, the robot's", d, nodeCfg);
+      freshSolve("dialog_node", d, timeout);
+      if (!sarsop.empty()) runSarsop("dialog_node", d, nodeCfg.turn_limit, timeout, sarsop, exportDir);
     }
     std::printf("\n# peak RSS %.1f MiB\n", peakRssMiB());
   } catch (const std::exception& e) {
