@@ -31,9 +31,13 @@ grep -E "delivery [0-9]+ ended|hidden request|I am delivering" "$OUT/sim/roslaun
   | sed -e 's/\x1b\[[0-9;]*m//g' -e 's/^/  /' || echo "  (no delivery finished: see the log)"
 
 echo "== evaluation (rosrun krr_eval evaluate, output in $OUT/eval)"
-# Tables I and II rest on dialog policies certified within config/dialog.yaml's precision of
-# the optimum at the prior (config/experiments/delivery_trials.yaml's solver budget; the gaps
-# are in report.md, exp2_policies): evaluate refuses to report on uncertified ones.
+# The dialog policies (config/dialog.yaml's 1500 trials) are not certified to its precision:
+# the solver certifies gap <= 1 in 20-60 s per model (bench_dialog_pomdp), but such a policy has
+# about 130 k vectors and the decision rule scans them all (16 ms per delivery trial against
+# 0.17 ms: the evaluation would take hours). Report them anyway, with their certified bounds
+# (report.md, exp2_policies).
+echo "   (--allow-unconverged: Table I/II rest on dialog policies with certified bounds, not on"
+echo "    certified optimal ones; their gaps are in report.md)"
 EVAL_START=$(date +%s)
-rosrun krr_eval evaluate --out "$OUT/eval" "$@"
+rosrun krr_eval evaluate --out "$OUT/eval" --allow-unconverged "$@"
 echo "== evaluation: $(( $(date +%s) - EVAL_START )) s wall (report: $OUT/eval/report.md)"

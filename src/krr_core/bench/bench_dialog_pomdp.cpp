@@ -246,9 +246,9 @@ int main(int argc, char** argv) {
     const kb::NavDomain dom = kb::NavDomain::load(paths.navigation_yaml, paths.domain,
                                                   paths.geometry, paths.navigation_plog);
     std::printf("# turn limit %d, precision %g (config/dialog.yaml), the experiments' trial budget "
-                "%zu (config/experiments/delivery_trials.yaml); solver timeout %g s per model; "
-                "%zu delivery trials per model\n", cfg.turn_limit, cfg.solver_precision,
-                cfg.solver_max_trials, timeout, trials);
+                "%zu (config/dialog.yaml, or config/experiments/delivery_trials.yaml's solver "
+                "block); solver timeout %g s per model; %zu delivery trials per model\n",
+                cfg.turn_limit, cfg.solver_precision, cfg.solver_max_trials, timeout, trials);
     for (const auto& [br, condition] : models) {
       DeliveryExperimentOptions o;
       o.blocking_rate = br;
