@@ -1,7 +1,5 @@
 #include "krr_core/dialog/dialog_session.h"
 
-#include <cmath>
-
 #include "krr_core/common/errors.h"
 #include "krr_core/dialog/dialog_policy.h"
 
@@ -70,24 +68,17 @@ std::size_t phrasedConfirm(const DialogPomdp& d, std::size_t a, const pomdp::Bel
 std::size_t decideAction(const DialogPomdp& d, const pomdp::TurnLimitedPolicy& policy,
                          const pomdp::Belief& b, int turns) {
   const std::size_t a = policy.bestAction(b, turns);
+  const auto mostLikely = [&] {
+    Eigen::Index best = 0;
+    b.head(static_cast<Eigen::Index>(d.numRequests())).maxCoeff(&best);
+    return d.serveAction(static_cast<std::size_t>(best));
+  };
   if (turns >= d.spec().turnLimit) {
     if (!d.isServe(a))
       throw ConfigError("dialog: the policy asks '" + d.model().actionNames()[a] + "' after " +
                         std::to_string(turns) + " questions, at the turn limit where it must " +
                         "serve (was it solved without the limit?)");
-    // The serve of the best expected reward, the most likely request among equals (only
-    // the most likely request could earn less than the policy's guarantee when rewards differ).
-    Eigen::Index likeliest = 0;
-    b.head(static_cast<Eigen::Index>(d.numRequests())).maxCoeff(&likeliest);
-    const Eigen::MatrixXd& r = d.model().rewardMatrix();
-    const auto value = [&](std::size_t s) { return b.dot(r.col(static_cast<Eigen::Index>(d.serveAction(s)))); };
-    std::size_t best = static_cast<std::size_t>(likeliest);
-    double bestValue = value(best);
-    for (std::size_t s = 0; s < d.numRequests(); ++s) {
-      const double v = value(s);
-      if (v > bestValue + 1e-9 * (1.0 + std::abs(bestValue))) bestValue = v, best = s;
-    }
-    return d.serveAction(best);
+    return mostLikely();
   }
   if (!d.isServe(a)) return phrasedConfirm(d, a, b);
   const double serve = policy.lookahead(d.model(), b, a, turns, true);
