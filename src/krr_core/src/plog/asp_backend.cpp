@@ -280,7 +280,10 @@ class WorldMeasure {
       }
       alpha += a.probability;
     }
-    if (alpha > 1.0 + kSumTolerance) {
+    // Off by more than rounding: above 1, or below 1 with every possible value assigned (the
+    // missing mass would go to no value); the native engine's rule (checkProbabilitySum).
+    const bool all_assigned = static_cast<long long>(s.assigned.size()) == s.npos;
+    if (alpha > 1.0 + kSumTolerance || (all_assigned && alpha < 1.0 - kSumTolerance)) {
       if (!raise) return -1.0;
       std::vector<Assigned> sorted = s.assigned;
       std::sort(sorted.begin(), sorted.end(), [this](const Assigned& a, const Assigned& b) {
@@ -292,8 +295,10 @@ class WorldMeasure {
         list += " " + attr + "=" + values_[a.value] + ":" + p.probability_text + " (" +
                 where(p.loc) + ")";
       }
-      throw IncoherentError("AspBackend: the probabilities assigned to " + attr + " sum to " +
-                            std::to_string(alpha) + " > 1 in a possible world:" + list);
+      throw IncoherentError("AspBackend: the probabilities assigned to " +
+                            std::string(alpha > 1.0 ? "" : "all the possible values of ") + attr +
+                            " sum to " + std::to_string(alpha) + (alpha > 1.0 ? " > 1" : " < 1") +
+                            " in a possible world:" + list);
     }
     for (const auto& a : s.assigned) {
       if (a.value == s.value) return a.probability;
