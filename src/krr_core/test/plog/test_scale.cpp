@@ -226,6 +226,24 @@ TEST(PlogScale, ProbabilitySumsBelowOneWithinRoundingOrWithFreeValuesAreAnswered
   }
 }
 
+// A part of a probability that does not fit a double: 10^400 / (2 * 10^400) was inf / inf =
+// nan, refused as "outside [0,1]"; 1 / 10^400 was silently 0. Refused at the number's token.
+TEST(PlogScale, ProbabilityNumbersBeyondADoubleAreRefusedAtTheirToken) {
+  const std::string big = "1" + std::string(400, '0'), big2 = "2" + std::string(400, '0');
+  const std::string head = "v = {a, b}.\nx : v.\n[r] random(x).\n";
+  for (const auto& [pr, col] : {std::pair<std::string, std::string>{big + "/" + big2, "11"},
+                                {"1/" + big, "13"}}) {
+    try {
+      parseProgram(head + "pr(x=a) = " + pr + ".\n", "big.plog");
+      ADD_FAILURE() << pr.substr(0, 50) << " accepted";
+    } catch (const ParseError& e) {
+      const std::string m = e.what();
+      EXPECT_EQ(m.rfind("big.plog:4:" + col + ": number ", 0), 0u) << m;
+      EXPECT_NE(m.find("too large for a double"), std::string::npos) << m;
+    }
+  }
+}
+
 TEST(PlogScale, ExactDecimalsNeedNoRepair) {
   Reasoner r;
   r.setBackend(Backend::Native);
