@@ -165,6 +165,9 @@ class WorldMeasure {
     return scn;
   }
 
+  /// @brief The renormalisations met so far (see renormalisation), each once.
+  const std::vector<std::string>& warnings() const { return warnings_; }
+
  private:
   struct Decoded {
     enum Kind : std::uint8_t { kQ, kEv, kVal, kScn, kChosen, kEmpty, kPra } kind = kVal;
@@ -345,13 +348,8 @@ class WorldMeasure {
     return 1.0 / alpha;
   }
 
- public:
-  /// @brief The renormalisations met so far (see renormalisation), each once.
-  const std::vector<std::string>& warnings() const { return warnings_; }
-
- private:
-  mutable std::unordered_set<std::uint32_t> warned_;
-  mutable std::vector<std::string> warnings_;
+  mutable std::unordered_set<std::uint32_t> warned_;  ///< terms already reported
+  mutable std::vector<std::string> warnings_;         ///< warnings()
   const Program& program_;
   std::size_t specs_;
   const std::vector<std::string>* atoms_ = nullptr;
