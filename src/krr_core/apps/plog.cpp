@@ -144,6 +144,11 @@ static int mainBody(int argc, char** argv) {
     for (const auto& j : jobs) queries.push_back(j.query);
     std::vector<std::string> errors;
     const std::vector<double> p = asp_backend.probabilities(r.program(), queries, &errors);
+    // probability sums renormalised within rounding, as the native engine reports them
+    for (const auto& w : asp_backend.warnings()) {
+      std::cerr << w << "\n";
+      warnings_json += (warnings_json.empty() ? "" : ", ") + krr::jsonString(w);
+    }
     for (size_t i = 0; i < jobs.size(); ++i) {
       if (!errors[i].empty() || std::isnan(p[i])) {
         std::cerr << located(jobs[i].query.loc, errors[i]) << "\n";

@@ -24,6 +24,7 @@
 #include <set>
 #include <sstream>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "krr_core/common/errors.h"
 #include "krr_core/plog/parser.h"
@@ -37,6 +38,9 @@ namespace {
 
 /// Slack on sums of assigned probabilities (they are decimal fractions read as doubles).
 constexpr double kSumTolerance = 1e-9;
+/// Per assigned value, the noise of adding exact decimals: sums within it are kept as written
+/// (the native engine's kSumNoise).
+constexpr double kSumNoise = 8 * 2.220446049250313e-16;
 
 /// Numerators and denominators of the specs of one clingo run.
 struct GroupResult {
@@ -44,6 +48,7 @@ struct GroupResult {
   std::vector<std::string> error;  ///< incoherence met in a world of the query's evidence
   std::vector<std::size_t> worlds;  ///< per scenario
   std::vector<std::size_t> scenario;  ///< per spec
+  std::vector<std::string> warnings;  ///< probability sums renormalised within rounding
 };
 
 /// The P-log measure of clingo's answer sets. Every distinct shown atom is decoded once
@@ -159,6 +164,9 @@ class WorldMeasure {
     }
     return scn;
   }
+
+  /// @brief The renormalisations met so far (see renormalisation), each once.
+  const std::vector<std::string>& warnings() const { return warnings_; }
 
  private:
   struct Decoded {
@@ -280,7 +288,10 @@ class WorldMeasure {
       }
       alpha += a.probability;
     }
-    if (alpha > 1.0 + kSumTolerance) {
+    // Off by more than rounding: above 1, or below 1 with every possible value assigned (the
+    // missing mass would go to no value); the native engine's rule (checkProbabilitySum).
+    const bool all_assigned = static_cast<long long>(s.assigned.size()) == s.npos;
+    if (alpha > 1.0 + kSumTolerance || (all_assigned && alpha < 1.0 - kSumTolerance)) {
       if (!raise) return -1.0;
       std::vector<Assigned> sorted = s.assigned;
       std::sort(sorted.begin(), sorted.end(), [this](const Assigned& a, const Assigned& b) {
@@ -292,11 +303,14 @@ class WorldMeasure {
         list += " " + attr + "=" + values_[a.value] + ":" + p.probability_text + " (" +
                 where(p.loc) + ")";
       }
-      throw IncoherentError("AspBackend: the probabilities assigned to " + attr + " sum to " +
-                            std::to_string(alpha) + " > 1 in a possible world:" + list);
+      throw IncoherentError("AspBackend: the probabilities assigned to " +
+                            std::string(alpha > 1.0 ? "" : "all the possible values of ") + attr +
+                            " sum to " + std::to_string(alpha) + (alpha > 1.0 ? " > 1" : " < 1") +
+                            " in a possible world:" + list);
     }
+    const double scale = renormalisation(t, alpha, all_assigned);
     for (const auto& a : s.assigned) {
-      if (a.value == s.value) return a.probability;
+      if (a.value == s.value) return a.probability * scale;
     }
     const long long beta = s.npos - static_cast<long long>(s.assigned.size());
     if (beta <= 0) {
@@ -308,6 +322,34 @@ class WorldMeasure {
     return rest / static_cast<double>(beta);
   }
 
+  /// @brief 1 / alpha when the sum alpha of term t's assigned probabilities is within
+  /// rounding of 1 but off by more than the noise of exact decimals (above 1, or below it with
+  /// every possible value assigned), else 1: the native engine's renormalisation, reported
+  /// once per term in warnings() in its words.
+  double renormalisation(std::uint32_t t, double alpha, bool all_assigned) const {
+    const Selected& s = sel_[t];
+    const double dev = std::fabs(alpha - 1.0);
+    const double noise = kSumNoise * static_cast<double>(std::max<std::size_t>(1, s.assigned.size()));
+    if (!((alpha > 1.0 || all_assigned) && dev > noise && dev <= kSumTolerance)) return 1.0;
+    if (warned_.insert(t).second) {
+      std::vector<Assigned> by_atom = s.assigned;
+      std::sort(by_atom.begin(), by_atom.end(),
+                [](const Assigned& a, const Assigned& b) { return a.pr < b.pr; });
+      std::ostringstream os;
+      os.precision(17);
+      os << where(program_.pr_atoms[static_cast<std::size_t>(by_atom[0].pr)].loc)
+         << ": warning: probabilities assigned to the values of " << terms_[t] << " sum to "
+         << alpha << ", within rounding of 1: renormalised (pr-atoms at";
+      for (const auto& a : by_atom)
+        os << " " << where(program_.pr_atoms[static_cast<std::size_t>(a.pr)].loc);
+      os << ")";
+      warnings_.push_back(os.str());
+    }
+    return 1.0 / alpha;
+  }
+
+  mutable std::unordered_set<std::uint32_t> warned_;  ///< terms already reported
+  mutable std::vector<std::string> warnings_;         ///< warnings()
   const Program& program_;
   std::size_t specs_;
   const std::vector<std::string>* atoms_ = nullptr;
@@ -458,6 +500,7 @@ GroupResult runScenarios(const Program& program,
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   ++stats.clingo_runs;
   stats.worlds += worlds;
+  g.warnings = wm.warnings();
   for (std::size_t s = 0; s < scenarios.size(); ++s) {
     // No world satisfies a constrained scenario's evidence: run again with the evidence as
     // a flag, to tell a program without possible worlds from evidence of probability zero.
@@ -499,6 +542,9 @@ GroupResult runGroup(const Program& program, const std::vector<Intervention>& do
       out.scenario[k] = out.worlds.size();
     }
     out.worlds.push_back(r.worlds.at(0));
+    for (const auto& w : r.warnings)
+      if (std::find(out.warnings.begin(), out.warnings.end(), w) == out.warnings.end())
+        out.warnings.push_back(w);
   }
   return out;
 }
@@ -519,6 +565,11 @@ double ratio(const GroupResult& g, std::size_t k, const std::string& text) {
 }
 
 }  // namespace
+
+void AspBackend::noteWarnings(const std::vector<std::string>& warnings) {
+  for (const auto& w : warnings)
+    if (std::find(warnings_.begin(), warnings_.end(), w) == warnings_.end()) warnings_.push_back(w);
+}
 
 double AspBackend::probability(const Program& program, const Query& query) {
   return probabilities(program, {query}).at(0);
@@ -566,6 +617,7 @@ std::vector<double> AspBackend::probabilities(const Program& program,
     try {
       GroupResult g =
           runScenarios(program, scenarios, specs, query_scenario, options_, stats_);
+      noteWarnings(g.warnings);
       for (std::size_t i = 0; i < queries.size(); ++i) answer(g, i, i);
       return out;
     } catch (const IncoherentError&) {
@@ -589,6 +641,7 @@ std::vector<double> AspBackend::probabilities(const Program& program,
       group_specs.push_back(specs[i]);
     }
     GroupResult r = runGroup(program, scenarios[g], group_specs, options_, stats_);
+    noteWarnings(r.warnings);
     for (std::size_t k = 0; k < members.size(); ++k) answer(r, k, members[k]);
   }
   return out;
@@ -625,6 +678,7 @@ std::vector<std::pair<std::string, double>> AspBackend::distribution(
   std::vector<std::pair<std::string, double>> out;
   if (specs.empty()) return out;
   GroupResult g = runGroup(program, interventions, specs, options_, stats_);
+  noteWarnings(g.warnings);
   for (std::size_t k = 0; k < specs.size(); ++k) {
     out.emplace_back(toString(range->values[k]), ratio(g, k, specs[k].text));
   }

@@ -19,7 +19,54 @@ constexpr double kSumTolerance = 1e-9;
 /// @brief Per assigned value, the floating-point noise of adding exact decimals (0.1 + 0.2 +
 /// 0.7 = 1 + 2.2e-16): sums within it of 1 are kept as written, without a warning.
 constexpr double kSumNoise = 8 * 2.220446049250313e-16;
+
+/// @brief The pr-atoms that assign the values of gi in one row, as " file:line:col" each.
+std::string assigningAtoms(const GInstance& gi, const std::vector<double>& assigned,
+                           const std::vector<int>& assigned_by, size_t nv) {
+  std::string at;
+  for (size_t k = 0; k < nv; ++k)
+    if (assigned[k] >= 0) at += " " + gi.prs[static_cast<size_t>(assigned_by[k])].loc.str();
+  return at;
 }
+
+/// @brief The one rule for probability sums (the .pomdp reader's, checkDistributionSum): off by
+/// more than rounding (kSumTolerance) is an error naming the pr-atoms, above 1 or, when every
+/// possible value is assigned, below 1 (the mass would be lost, not given to other values);
+/// within it, but more than the noise of adding exact decimals, the assigned probabilities are
+/// renormalised and the repair is reported in warnings.
+/// @return the sum after any renormalisation. @throws IncoherentError
+double checkProbabilitySum(const GInstance& gi, std::vector<double>& assigned,
+                           const std::vector<int>& assigned_by, size_t nv, bool all_assigned,
+                           double sum, int nassigned, std::vector<std::string>& warnings) {
+  const double dev = std::fabs(sum - 1.0);
+  if ((sum > 1.0 || all_assigned) && dev > kSumNoise * nassigned && dev <= kSumTolerance) {
+    std::ostringstream os;
+    os.precision(17);
+    for (size_t k = 0; k < nv; ++k)
+      if (assigned[k] >= 0) {
+        os << gi.prs[static_cast<size_t>(assigned_by[k])].loc.str() << ": warning: ";
+        break;
+      }
+    os << "probabilities assigned to the values of " << gi.name << " sum to " << sum
+       << ", within rounding of 1: renormalised (pr-atoms at"
+       << assigningAtoms(gi, assigned, assigned_by, nv) << ")";
+    if (std::find(warnings.begin(), warnings.end(), os.str()) == warnings.end())
+      warnings.push_back(os.str());
+    for (size_t k = 0; k < nv; ++k)
+      if (assigned[k] >= 0) assigned[k] /= sum;
+    return 1.0;
+  }
+  if (sum > 1.0 + kSumTolerance || (all_assigned && sum < 1.0 - kSumTolerance)) {
+    std::ostringstream os;
+    os << "probabilities assigned to " << (sum > 1.0 ? "the values" : "all the possible values")
+       << " of " << gi.name << " sum to " << sum << (sum > 1.0 ? " > 1" : " < 1")
+       << " in a possible world (pr-atoms at" << assigningAtoms(gi, assigned, assigned_by, nv)
+       << ")";
+    throw IncoherentError(os.str());
+  }
+  return sum;
+}
+}  // namespace
 
 ExactEngine::ExactEngine(const GroundProgram& g) : g_(g) {
   const size_t n = g.instances.size();
@@ -640,42 +687,8 @@ void ExactEngine::buildCpt(int inst, Factor& f) {
         sum += pr.probability;
         ++nassigned;
       }
-      // The one rule for probability sums (the .pomdp reader's, checkDistributionSum): off by
-      // more than rounding (kSumTolerance, relative) is an error naming the pr-atoms; within
-      // it, but more than the noise of adding exact decimals, the assigned probabilities are
-      // renormalised and the repair is reported.
-      const bool all_assigned = nassigned == npossible && nassigned > 0;
-      const double dev = std::fabs(sum - 1.0);
-      if ((sum > 1.0 || all_assigned) && dev > kSumNoise * std::max(1, nassigned) &&
-          dev <= kSumTolerance) {
-        std::ostringstream os;
-        os.precision(17);
-        bool first = true;
-        for (size_t k = 0; k < NV; ++k)
-          if (assigned[k] >= 0) {
-            if (first) os << gi.prs[static_cast<size_t>(assigned_by[k])].loc.str() << ": warning: ";
-            first = false;
-          }
-        os << "probabilities assigned to the values of " << gi.name << " sum to " << sum
-           << ", within rounding of 1: renormalised (pr-atoms at";
-        for (size_t k = 0; k < NV; ++k)
-          if (assigned[k] >= 0) os << " " << gi.prs[static_cast<size_t>(assigned_by[k])].loc.str();
-        os << ")";
-        if (std::find(warnings_.begin(), warnings_.end(), os.str()) == warnings_.end())
-          warnings_.push_back(os.str());
-        for (size_t k = 0; k < NV; ++k)
-          if (assigned[k] >= 0) assigned[k] /= sum;
-        sum = 1.0;
-      }
-      if (sum > 1.0 + kSumTolerance) {
-        std::ostringstream os;
-        os << "probabilities assigned to the values of " << gi.name << " sum to " << sum
-           << " > 1 in a possible world (pr-atoms at";
-        for (size_t k = 0; k < NV; ++k)
-          if (assigned[k] >= 0) os << " " << gi.prs[static_cast<size_t>(assigned_by[k])].loc.str();
-        os << ")";
-        throw IncoherentError(os.str());
-      }
+      sum = checkProbabilitySum(gi, assigned, assigned_by, NV, nassigned == npossible && nassigned > 0,
+                                sum, std::max(1, nassigned), warnings_);
       int rest = npossible - nassigned;
       double share = rest > 0 ? std::max(0.0, 1.0 - sum) / rest : 0.0;
       for (size_t k = 0; k < NV; ++k) {

@@ -640,6 +640,18 @@ class Parser {
     endStatement();
   }
 
+  /// @brief A probability's number or a fraction's part, refused at its token when it does
+  /// not fit a double (a 400-digit 10...0/20...0 was inf / inf = nan, reported as a value
+  /// outside [0, 1]; a 400-digit denominator made any numerator 0).
+  double finiteProbabilityPart(const Token& t) {
+    const double v = std::strtod(t.text.c_str(), nullptr);
+    if (!std::isfinite(v))
+      throw ParseError(t.loc, "number " +
+                                  (t.text.size() > 40 ? t.text.substr(0, 40) + "..." : t.text) +
+                                  " in probability is too large for a double");
+    return v;
+  }
+
   void parsePr(RawStmt& st) {
     st.kind = RawStmt::Kind::Pr;
     st.priority = generation_;
@@ -655,12 +667,12 @@ class Parser {
     if (n.kind == Tok::Int || n.kind == Tok::Decimal) {
       next();
       txt = n.text;
-      v = std::strtod(n.text.c_str(), nullptr);
+      v = finiteProbabilityPart(n);
       if (accept(Tok::Slash)) {
         const Token& d = peek();
         if (d.kind != Tok::Int && d.kind != Tok::Decimal) fail(d, "denominator");
         next();
-        double dv = std::strtod(d.text.c_str(), nullptr);
+        double dv = finiteProbabilityPart(d);
         if (dv == 0) throw ParseError(d.loc, "zero denominator in probability");
         v /= dv;
         txt += "/" + d.text;

@@ -1197,7 +1197,11 @@ double Reasoner::probability(const Query& q) {
   std::set<std::string> attrs;
   collectAttrs(q, attrs);
   return dispatch<double>(attrs, [&]() { return nativeProbability(q); },
-                          [&]() { return asp().probability(program_, q); });
+                          [&]() {
+                            const double p = asp().probability(program_, q);
+                            noteWarnings(asp().warnings());
+                            return p;
+                          });
 }
 
 std::vector<GCondition> Reasoner::prepareEngine(const GroundProgram& g, const Query& q,
@@ -1249,6 +1253,7 @@ std::vector<ValueProb> Reasoner::distribution(const std::string& attribute_term,
         std::vector<ValueProb> out;
         for (const auto& vp : asp().distribution(program_, at, ev.observations, ev.interventions))
           if (vp.second > 0) out.push_back({vp.first, vp.second});
+        noteWarnings(asp().warnings());
         return out;
       });
 }
@@ -1335,6 +1340,7 @@ Table Reasoner::tableQuery(const std::string& target, const std::vector<std::str
               if (vp.second > 0) r.distribution.push_back({vp.first, vp.second});
             }
             r.undefined_probability = std::max(0.0, 1.0 - sum);
+            noteWarnings(asp().warnings());
           } catch (const IncoherentError&) {
             r.consistent = false;
           }

@@ -27,7 +27,7 @@ place(alice, office1). place(bob, office2).
 random(curr_cell).
 random(next_cell : {C1 : leftof(C, C1)}) :- curr_cell = C.
 [r] pr(curr_room(P)=R|place(P,R)=true)=8/10.
-pr(next_cell=C1 | curr_cell=C, leftof(C,C1), C <> 3) = 0.9.
+pr(next_cell=C1 | curr_cell=C, leftof(C,C1), C <> 3) = 1.
 pr(curr_cell = 2) = 0.3.
 :- curr_cell = 5, not curr_room(alice) = lab.
 obs(curr_room(bob) = office2).

@@ -137,7 +137,8 @@ class AspBackend {
   std::string translate(const Program& program) const;
 
   /// @brief P(query formula | program evidence, query obs, query do).
-  /// @throws IncoherentError when an assigned probability sum exceeds 1 in a world, two
+  /// @throws IncoherentError when an assigned probability sum exceeds 1 in a world (or falls
+  ///         short of it with every possible value assigned) by more than rounding, two
   ///         random selections or conflicting pr-atoms apply to one attribute term, or the
   ///         evidence has probability 0 (no possible world, or zero total measure).
   /// @throws krr::Error when clingo is missing, fails or times out (message names the file).
@@ -174,6 +175,11 @@ class AspBackend {
   std::vector<QueryAnswer> answerProgramQueries(const Program& program);
   /// @}
 
+  /// @brief Probability sums within rounding of 1 that the calls so far renormalised
+  /// (`file:line:col: warning: ...`, as ExactEngine::warnings), each once: the repair is
+  /// reported whichever back end answers.
+  const std::vector<std::string>& warnings() const { return warnings_; }
+
   /// @brief Figures of the calls made since construction or resetStats().
   const AspStats& stats() const { return stats_; }
   /// @brief Zero the statistics.
@@ -187,6 +193,10 @@ class AspBackend {
   AspOptions options_;
   AspStats stats_;
   bool multi_shot_failed_ = false;  ///< clingo could not run the Lua multi-shot script
+  std::vector<std::string> warnings_;  ///< warnings()
+
+  /// @brief Adds a run's renormalisation warnings to warnings(), once each.
+  void noteWarnings(const std::vector<std::string>& warnings);
 };
 
 /// @brief Comment line that the translation writes before the ASP rules of each P-log
