@@ -353,6 +353,21 @@ double executedValue(const DialogPomdp& d, const pomdp::TurnLimitedPolicy& polic
   return v;
 }
 
+/// Solve d with o and execute the exported policy over every answer from the prior: it earns at
+/// least its exported value, which is at least the certified lower bound. @return the report.
+CertifiedReport solveAndExecute(const DialogPomdp& d, const CertifiedSolverOptions& o,
+                                const std::string& label) {
+  const pomdp::Model& m = d.model();
+  CertifiedDialogSolver solver(d, Eigen::VectorXd(), 0, o);
+  solver.solve();
+  const pomdp::TurnLimitedPolicy policy = solver.policy();
+  const double exported = policy.value(m.initialBelief(), 0);
+  EXPECT_GE(exported, solver.report().lower - 1e-6) << label;
+  DecisionMemo memo;
+  EXPECT_GE(executedValue(d, policy, memo, m.initialBelief(), 0), exported - 1e-9) << label;
+  return solver.report();
+}
+
 TEST(CertifiedDialogSolver, TheExecutedPolicyEarnsItsExportedValueAtEveryBudget) {
   // The robot's decision rule, executed over every answer, earns at least the exported
   // policy's value at the prior, whichever bounds and budget made the policy: the exported
@@ -364,20 +379,12 @@ TEST(CertifiedDialogSolver, TheExecutedPolicyEarnsItsExportedValueAtEveryBudget)
   s.delivery = Eigen::MatrixXd::Identity(30, 30);
   s.serveCost = Eigen::MatrixXd();
   const DialogPomdp d(s);
-  const pomdp::Model& m = d.model();
   for (const bool bounds : {false, true})
     for (const std::size_t trials : {100u, 300u, 600u}) {
       CertifiedSolverOptions o;
       o.maxTrials = trials;
       o.roomPaidBound = o.roomLookahead = bounds;
-      CertifiedDialogSolver solver(d, Eigen::VectorXd(), 0, o);
-      solver.solve();
-      const pomdp::TurnLimitedPolicy policy = solver.policy();
-      const double exported = policy.value(m.initialBelief(), 0);
-      EXPECT_GE(exported, solver.report().lower - 1e-6);
-      DecisionMemo memo;
-      EXPECT_GE(executedValue(d, policy, memo, m.initialBelief(), 0), exported - 1e-9)
-          << "bounds " << bounds << ", " << trials << " trials";
+      solveAndExecute(d, o, "bounds " + std::to_string(bounds) + ", " + std::to_string(trials) + " trials");
     }
 }
 
@@ -415,21 +422,15 @@ TEST(CertifiedDialogSolver, CommitPlansAreExactPlansTheRobotRuns) {
   // (exactly computed, not simulated), and the commit plans beat serving at once.
   CertifiedSolverOptions o;
   o.maxTrials = 200;
-  CertifiedDialogSolver solver(d, Eigen::VectorXd(), 0, o);
-  solver.solve();
-  const pomdp::TurnLimitedPolicy policy = solver.policy();
-  const double exported = policy.value(m.initialBelief(), 0);
-  EXPECT_GE(exported, solver.report().lower - 1e-6);
-  DecisionMemo memo;
-  EXPECT_GE(executedValue(d, policy, memo, m.initialBelief(), 0), exported - 1e-9);
+  const CertifiedReport with = solveAndExecute(d, o, "from the prior");
   o.commitLower = false;
   CertifiedDialogSolver without(d, Eigen::VectorXd(), 0, o);
   without.solve();
-  EXPECT_GT(solver.report().lower, without.report().lower + 1.0)
-      << "with commit plans " << solver.report().lower << ", without " << without.report().lower;
+  EXPECT_GT(with.lower, without.report().lower + 1.0)
+      << "with commit plans " << with.lower << ", without " << without.report().lower;
   const double exact = CertifiedDialogSolver::exactValue(d);
-  EXPECT_LE(solver.report().lower, exact + 1e-9);
-  EXPECT_GE(solver.report().upper, exact - 1e-9);
+  EXPECT_LE(with.lower, exact + 1e-9);
+  EXPECT_GE(with.upper, exact - 1e-9);
 }
 
 TEST(CertifiedDialogSolver, AgreesWithTheGenericSolverOnTheTurnCounterModel) {
