@@ -32,9 +32,9 @@ grep -E "delivery [0-9]+ ended|hidden request|I am delivering" "$OUT/sim/roslaun
 
 echo "== evaluation (rosrun krr_eval evaluate, output in $OUT/eval)"
 # The dialog policies (config/dialog.yaml's 1500 trials) are not certified to its precision:
-# the solver certifies gap <= 1 in 20-60 s per model (bench_dialog_pomdp), but such a policy has
-# about 130 k vectors and the decision rule scans them all (16 ms per delivery trial against
-# 0.17 ms: the evaluation would take hours). Report them anyway, with their certified bounds
+# the solver certifies gap <= 1 in 12-35 s per model (bench_dialog_pomdp), but such a policy
+# has 126-147 k vectors and the decision rule scans them all (about 17 ms per delivery trial:
+# Table I's 240 k trials would take hours). Report them anyway, with their certified bounds
 # (report.md, exp2_policies).
 echo "   (--allow-unconverged: Table I/II rest on dialog policies with certified bounds, not on"
 echo "    certified optimal ones; their gaps are in report.md)"

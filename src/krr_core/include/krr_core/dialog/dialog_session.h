@@ -139,7 +139,7 @@ class DialogSession {
  * the reward's best serve can be a cheap probe to a near room (seed 17 of
  * DialogKnowledge.EveryServeIsTheMostLikelyRequest: P 0.001 against 0.25), while the certified
  * plans assume the best-reward serve; on a 6-turn office model the executed value fell below
- * the exported one by up to 0.08 (CertifiedDialogSolver tests). A confirmation on a slot of two
+ * the exported one by up to 0.14 (CertifiedDialogSolver tests). A confirmation on a slot of two
  * values names the value the belief favours (the same experiment either way).
  * @throws ConfigError when the policy asks at the turn limit.
  */
