@@ -29,6 +29,7 @@
 #include "krr_core/common/format.h"
 #include "krr_core/common/resource_locator.h"
 #include "krr_core/common/resources.h"
+#include "krr_core/common/subprocess.h"
 #include "krr_core/dialog/delivery_navigation.h"
 #include "krr_core/dialog/dialog_config.h"
 #include "krr_core/dialog/dialog_knowledge.h"
@@ -150,13 +151,16 @@ void runSarsop(const std::string& name, const DialogPomdp& d, int turnLimit, dou
       sarsopNote = " (its file with discount 0.99999: pomdpsol needs < 1)";
     }
   }
-  const std::string cmd = "'" + sarsop + "' --timeout " + formatNumber(timeout, 6) +
-                          " --output /dev/null '" + file + "' 2>&1";
+  // Its own time limit, with a minute's slack for its set-up and the end of its last backup.
+  Subprocess sol({sarsop, "--timeout", formatNumber(timeout, 6), "--output", "/dev/null", file});
+  sol.setStdout(Subprocess::Stream::pipe()).setStderr(Subprocess::Stream::pipe());
   std::string out, last;
-  if (FILE* pipe = ::popen(cmd.c_str(), "r")) {
-    char buf[4096];
-    while (std::fgets(buf, sizeof(buf), pipe)) out += buf;
-    ::pclose(pipe);
+  try {
+    sol.start();
+    const SubprocessResult r = sol.wait(timeout + 60.0);
+    out = r.out + r.err;
+  } catch (const SubprocessError& e) {
+    out = std::string("cannot run it: ") + e.what();
   }
   // The last progress row of pomdpsol's table: time #Trial #Backup LBound UBound ...
   std::size_t pos = 0;
@@ -169,8 +173,9 @@ void runSarsop(const std::string& name, const DialogPomdp& d, int turnLimit, dou
     if (end == std::string::npos) break;
     pos = end + 1;
   }
+  if (last.empty()) last = "no bounds line in its output" + (out.empty() ? "" : ": " + out.substr(0, 200));
   std::printf("# %s: SARSOP %s, %.0f s%s: %s\n", name.c_str(), sarsop.c_str(), timeout,
-              sarsopNote.c_str(), last.empty() ? "no bounds line in its output" : last.c_str());
+              sarsopNote.c_str(), last.c_str());
 }
 
 /// @brief The policy in delivery trials: reward, expected reward, identification, forced serves.
