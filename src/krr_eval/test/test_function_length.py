@@ -2,30 +2,14 @@
 suites so that test/run_all.sh counts it: no function in src/ outside tests is longer than 120
 lines unless test/function_length_allowlist.txt lists it, and every entry there is still long.
 """
-import os
-import subprocess
-import sys
-import tempfile
+import functools
 import unittest
 
-from krr_eval import paths
+import checker_support
 
-SCRIPT = os.path.join(paths.root(), "test", "check_function_length.py")
-
-
-def run(root=None):
-    cmd = [sys.executable, SCRIPT] + (["--root", root] if root else [])
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=120)
-
-
-def run_on_tree(files):
-    """The checker on a temporary tree holding `files` ({relative path: text})."""
-    with tempfile.TemporaryDirectory() as root:
-        for rel, text in files.items():
-            os.makedirs(os.path.dirname(os.path.join(root, rel)), exist_ok=True)
-            with open(os.path.join(root, rel), "w") as f:
-                f.write(text)
-        return run(root)
+CHECKER = checker_support.script("check_function_length.py")
+run = functools.partial(checker_support.run, CHECKER)
+run_on_tree = functools.partial(checker_support.run_on_tree, CHECKER)
 
 
 def body(lines):

@@ -3,30 +3,15 @@ that test/run_all.sh counts it: no experiment header in library or node code, no
 in a generic one, no ROS header in the core, no toy problem (examples) outside tests and
 benchmarks, and every module header declaring its code in the module's namespace (krr::<m>).
 """
+import functools
 import os
-import subprocess
-import sys
-import tempfile
 import unittest
 
-from krr_eval import paths
+import checker_support
 
-SCRIPT = os.path.join(paths.root(), "test", "check_layering.py")
-
-
-def run(root=None):
-    cmd = [sys.executable, SCRIPT] + (["--root", root] if root else [])
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=120)
-
-
-def run_on_tree(files):
-    """The checker on a temporary tree holding `files` ({relative path: text})."""
-    with tempfile.TemporaryDirectory() as root:
-        for rel, text in files.items():
-            os.makedirs(os.path.dirname(os.path.join(root, rel)), exist_ok=True)
-            with open(os.path.join(root, rel), "w") as f:
-                f.write(text)
-        return run(root)
+CHECKER = checker_support.script("check_layering.py")
+run = functools.partial(checker_support.run, CHECKER)
+run_on_tree = functools.partial(checker_support.run_on_tree, CHECKER)
 
 
 class LayeringTest(unittest.TestCase):

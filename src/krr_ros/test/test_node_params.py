@@ -34,6 +34,18 @@ class TestNodeParams(unittest.TestCase):
         rospy.init_node('test_node_params')
         cls.counter = 0
 
+    def exit_output(self, node, name, params, label):
+        """Start `node` as `name` with `params`; it must exit with code 1: its output."""
+        proc = SpawnedNode(node, name, params).start()
+        try:
+            rc = proc.wait_exit(30)
+        finally:
+            proc.kill()
+            proc.clear_params()
+        self.assertEqual(rc, 1, '%s %s: exit code %s, output:\n%s' % (node, label, rc,
+                                                                      proc.output))
+        return proc.output
+
     def refused(self, node, changes, needle, remove=()):
         params = shipped(node)
         params.update(changes)
@@ -41,16 +53,9 @@ class TestNodeParams(unittest.TestCase):
             params.pop(k)
         TestNodeParams.counter += 1
         name = 'bad_%s_%d' % (node.split('_')[0], self.counter)
-        proc = SpawnedNode(node, name, params).start()
-        try:
-            rc = proc.wait_exit(30)
-        finally:
-            proc.kill()
-            proc.clear_params()
-        self.assertEqual(rc, 1, '%s %s: exit code %s, output:\n%s' % (node, changes, rc,
-                                                                      proc.output))
-        self.assertIn('/%s/' % name, proc.output)  # the parameter is named with its node
-        self.assertIn(needle, proc.output)
+        output = self.exit_output(node, name, params, changes)
+        self.assertIn('/%s/' % name, output)  # the parameter is named with its node
+        self.assertIn(needle, output)
 
     def test_reasoner_node(self):
         self.refused('reasoner_node', {'discount': 2.0}, 'discount = 2: must be in [1e-06, 1]')
@@ -111,15 +116,9 @@ class TestNodeParams(unittest.TestCase):
         params = shipped('dialog_node')
         params.pop('learned_file')  # dialog_node learns nothing
         params['language_config'] = bad
-        proc = SpawnedNode('dialog_node', 'bad_site_dialog', params).start()
-        try:
-            rc = proc.wait_exit(30)
-        finally:
-            proc.kill()
-            proc.clear_params()
-        self.assertEqual(rc, 1, proc.output)
+        output = self.exit_output('dialog_node', 'bad_site_dialog', params, 'stale synonyms')
         for needle in (bad, "room9", "carol", 'cannot start'):
-            self.assertIn(needle, proc.output)
+            self.assertIn(needle, output)
 
     def test_reasoner_node_refuses_a_site_with_other_knowledge(self):
         """A reasoner given another building's knowledge (domain_files without the dialog's
@@ -134,18 +133,12 @@ class TestNodeParams(unittest.TestCase):
             fh.write(text)  # the same content, another file: a copy left behind by a new site
         params = shipped('reasoner_node')
         params['domain_files'] = [other]
-        proc = SpawnedNode('reasoner_node', 'bad_site_reasoner', params).start()
-        try:
-            rc = proc.wait_exit(30)
-        finally:
-            proc.kill()
-            proc.clear_params()
-        self.assertEqual(rc, 1, proc.output)
+        output = self.exit_output('reasoner_node', 'bad_site_reasoner', params, 'other knowledge')
         for needle in ('cannot start', "parameters of /bad_site_reasoner: field 'domain_files'",
                        "value '[%s]'" % other,
                        os.path.join(ROOT, 'config', 'dialog.yaml') + "'s knowledge.office",
                        os.path.join(ROOT, 'config', 'office.plog')):
-            self.assertIn(needle, proc.output)
+            self.assertIn(needle, output)
         # The same knowledge with check_site: false starts (a test's own files on purpose).
         params['check_site'] = False
         proc = SpawnedNode('reasoner_node', 'unchecked_site_reasoner', params).start()

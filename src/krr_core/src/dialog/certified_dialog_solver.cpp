@@ -512,6 +512,9 @@ CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::Vector
                       std::to_string(sp.turnLimit) + "]");
   if (!(o_.precision > 0.0) || !(o_.timeout >= 0.0))
     throw ConfigError("certified dialog solver: precision must be > 0 and timeout >= 0");
+  if (!(o_.trialTarget >= 0.0 && o_.trialTarget <= 1.0))
+    throw ConfigError("certified dialog solver: trialTarget " + std::to_string(o_.trialTarget) +
+                      " must be in [0, 1] (a fraction of the precision)");
   if (!(gamma_ > 0.0 && gamma_ <= 1.0))
     throw ConfigError("certified dialog solver: discount " + std::to_string(gamma_) +
                       " outside (0, 1]");

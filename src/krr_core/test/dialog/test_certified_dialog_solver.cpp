@@ -478,6 +478,11 @@ TEST(CertifiedDialogSolver, RefusesBadInput) {
   CertifiedSolverOptions o;
   o.precision = 0.0;
   EXPECT_THROW(CertifiedDialogSolver(d, Eigen::VectorXd(), 0, o), ConfigError);
+  for (const double t : {-0.1, 1.5, std::nan("")}) {
+    CertifiedSolverOptions bad;
+    bad.trialTarget = t;
+    EXPECT_THROW(CertifiedDialogSolver(d, Eigen::VectorXd(), 0, bad), ConfigError) << t;
+  }
 }
 
 }  // namespace
