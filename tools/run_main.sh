@@ -31,13 +31,9 @@ grep -E "delivery [0-9]+ ended|hidden request|I am delivering" "$OUT/sim/roslaun
   | sed -e 's/\x1b\[[0-9;]*m//g' -e 's/^/  /' || echo "  (no delivery finished: see the log)"
 
 echo "== evaluation (rosrun krr_eval evaluate, output in $OUT/eval)"
-# The dialog policies (config/dialog.yaml's 1500 trials) are not certified to its precision:
-# the solver certifies gap <= 1 in 12-35 s per model (bench_dialog_pomdp), but such a policy
-# has 126-147 k vectors and the decision rule scans them all (about 17 ms per delivery trial:
-# Table I's 240 k trials would take hours). Report them anyway, with their certified bounds
-# (report.md, exp2_policies).
-echo "   (--allow-unconverged: Table I/II rest on dialog policies with certified bounds, not on"
-echo "    certified optimal ones; their gaps are in report.md)"
+# Table I/II rest on certified dialog policies (config/experiments/delivery_trials.yaml: solved
+# until the bound gap at the prior is <= 1; 12-35 s per model, cached); evaluate refuses
+# uncertified ones.
 EVAL_START=$(date +%s)
-rosrun krr_eval evaluate --out "$OUT/eval" --allow-unconverged "$@"
+rosrun krr_eval evaluate --out "$OUT/eval" "$@"
 echo "== evaluation: $(( $(date +%s) - EVAL_START )) s wall (report: $OUT/eval/report.md)"

@@ -14,9 +14,12 @@
 //    certified gap fell to <= 4, 2 and 1 reward, and the search's memory;
 //  - the configured policy in --trials delivery trials: reward, expected reward,
 //    identification and forced-serve rate (serves forced by the 20-turn limit);
+//  - the robot's decision latency on the configured policy, on a plan and scanning (--trials
+//    simulated dialogs, and a scan at up to 500 random beliefs: a turn's worst case);
 //  - with --sarsop PATH: SARSOP (pomdpsol) on the same model with the turn counter in the state,
 //    exported as Cassandra .pomdp, for the same --timeout; its last bounds line is printed.
 // --export writes each model as Cassandra .pomdp, plain and with the turn counter.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -41,6 +44,9 @@
 #include "krr_core/pomdp/turn_counter_model.h"
 #include "krr_core/dialog/certified_dialog_solver.h"
 #include "krr_core/dialog/dialog_policy.h"
+#include "krr_core/dialog/dialog_session.h"
+#include "krr_core/experiments/belief_entropy_survey.h"
+#include "krr_core/common/random.h"
 
 using namespace krr;
 using namespace krr::dialog;
@@ -200,6 +206,54 @@ void deliveryTrials(const std::string& name, DeliveryExperiment& ex, std::size_t
               forced / n < 0.01 ? "" : "  (ABOVE 1%)");
 }
 
+/// @brief Quantiles of a sample (sorted in place): "median M ms, max X ms".
+std::string latency(std::vector<double>& ms) {
+  if (ms.empty()) return "none";
+  std::sort(ms.begin(), ms.end());
+  char buf[96];
+  std::snprintf(buf, sizeof(buf), "%zu, median %.4f ms, max %.3f ms", ms.size(),
+                ms[ms.size() / 2], ms.back());
+  return buf;
+}
+
+/// @brief The robot's decision latency on the configured policy: each nextAction() of
+/// `dialogs` simulated dialogs (answers drawn from the model), on a plan (no scan) or scanning
+/// the policy; and a scan at random beliefs (Table II's sampler), which is what a belief the
+/// search never reached costs the robot (the worst case of a turn).
+void decisionLatency(const std::string& name, const DialogPomdp& d,
+                     const pomdp::TurnLimitedPolicy& policy, std::size_t dialogs,
+                     std::uint64_t seed) {
+  std::vector<double> onPlan, scans, random;
+  const pomdp::Model& m = d.model();
+  DialogSession s(d, nullptr, &policy);
+  for (std::size_t k = 0; k < dialogs; ++k) {
+    Rng rng = makeRng(seed, "bench/latency", k);
+    std::size_t truth = 0;
+    for (double u = uniform01(rng); truth + 1 < d.numRequests(); ++truth)
+      if ((u -= d.spec().prior(static_cast<Eigen::Index>(truth))) < 0) break;
+    s.reset();
+    for (;;) {
+      const bool planned = s.plan() >= 0;
+      const Stopwatch clock;
+      const std::size_t a = s.nextAction();
+      (planned ? onPlan : scans).push_back(1e3 * clock.seconds());
+      if (d.isServe(a)) break;
+      s.act(a);
+      s.observe(a, std::get<1>(m.sampleSOR(truth, a, rng)));
+    }
+  }
+  const BeliefEntropySurvey survey(d, policy, BeliefSamplerOptions{}, seed);
+  for (std::size_t k = 0; k < std::min<std::size_t>(dialogs, 500); ++k) {
+    const pomdp::Belief b = survey.belief(k);
+    const Stopwatch clock;
+    decideAction(d, policy, b, 0);
+    random.push_back(1e3 * clock.seconds());
+  }
+  std::printf("# %s: decision latency (%zu vectors): on a plan %s; scans %s; scans at random "
+              "beliefs %s\n", name.c_str(), policy.size(), latency(onPlan).c_str(),
+              latency(scans).c_str(), latency(random).c_str());
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -269,6 +323,7 @@ int main(int argc, char** argv) {
         reach(static_cast<Eigen::Index>(r)) = ex.navigation().toRoom(r).reach;
       modelHeader(name, d, reach, cfg.turn_limit, exportDir);
       ex.setPolicy(configuredPolicy(name, "the experiments'", d, cfg));
+      decisionLatency(name, d, ex.policy(), trials, seed);
       freshSolve(name, d, timeout);
       if (!sarsop.empty()) runSarsop(name, d, cfg.turn_limit, timeout, sarsop, exportDir);
       if (trials > 0) deliveryTrials(name, ex, trials);
@@ -286,7 +341,9 @@ int main(int argc, char** argv) {
       const TripTable t = deliveryNavigationFromKnowledge(nd, nk, nodeCfg, know.base().rooms)->trips();
       const DialogPomdp d(know.buildSpec(t, nodeCfg));
       modelHeader("dialog_node", d, t.reachFromShop(), nodeCfg.turn_limit, exportDir);
-      configuredPolicy("dialog_node", "config/dialog.yaml's, the robot's", d, nodeCfg);
+      const pomdp::TurnLimitedPolicy nodePolicy =
+          configuredPolicy("dialog_node", "config/dialog.yaml's, the robot's", d, nodeCfg);
+      decisionLatency("dialog_node", d, nodePolicy, trials, seed);
       freshSolve("dialog_node", d, timeout);
       if (!sarsop.empty()) runSarsop("dialog_node", d, nodeCfg.turn_limit, timeout, sarsop, exportDir);
     }

@@ -93,7 +93,8 @@ class EndToEndTest(unittest.TestCase):
             # --quick (a smoke run) reports them as such without the flag; a run that is not
             # --quick refuses to report the table without it.
             self.run_exp("exp2", extra=())
-            res = self.run_exp("exp2", extra=("--trials", "exp2=200"), quick=False, expect_rc=1)
+            res = self.run_exp("exp2", extra=("--trials", "exp2=200", "--solver-trials", "300"),
+                               quick=False, expect_rc=1)
             self.assertIn("--allow-unconverged", res.stdout)
             self.assertIn("not certified", res.stdout)
 

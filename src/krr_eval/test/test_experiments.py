@@ -148,6 +148,21 @@ class ContextTest(unittest.TestCase):
         with self.assertRaises(ValueError):
             experiments.Context("/tmp", None, scale=0)
 
+    def test_solver_budget_policy(self):
+        # The experiment file's (certified: no option) > --quick's > --solver-trials > replay.
+        self.assertEqual(experiments.solver_args(experiments.Context("/tmp", None), "exp2"), [])
+        quick = experiments.Context("/tmp", None, quick=True)
+        self.assertEqual(experiments.solver_args(quick, "exp4"), ["--solver-trials", "1500"])
+        self.assertEqual(quick.params["exp4"]["solver_trials"], 1500)
+        given = experiments.Context("/tmp", None, quick=True, solver_trials=200)
+        self.assertEqual(experiments.solver_args(given, "exp2"), ["--solver-trials", "200"])
+        self.assertEqual(given.params["exp2"]["solver_trials"], 200)
+        replay = experiments.Context("/tmp", None, solver_trials=200,
+                                     recorded={"exp2": {"solver_trials": None}})
+        self.assertEqual(experiments.solver_args(replay, "exp2"), [])
+        with self.assertRaises(ValueError):
+            experiments.Context("/tmp", None, solver_trials=-1)
+
     def test_paper_defaults(self):
         self.assertEqual(experiments.DEFAULTS["exp1"]["trials"], 1000)
         # exp2: the paired CI must resolve 1 reward unit (issue 11), not the paper's 10,000.

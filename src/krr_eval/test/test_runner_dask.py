@@ -33,8 +33,11 @@ class DaskRunnerTest(unittest.TestCase):
 
     def test_dask_matches_local(self):
         specs = [
-            TrialSpec("d1", "delivery_trials", ["--br", "0.1", "--condition", "outdated"], 5, 17),
-            TrialSpec("d7", "delivery_trials", ["--br", "0.7", "--condition", "learned"], 5, 11),
+            # a small solver budget: the test compares runners, not policies
+            TrialSpec("d1", "delivery_trials", ["--br", "0.1", "--condition", "outdated",
+                                                "--solver-trials", "300"], 5, 17),
+            TrialSpec("d7", "delivery_trials", ["--br", "0.7", "--condition", "learned",
+                                                "--solver-trials", "300"], 5, 11),
             TrialSpec("nav", "nav_transfer", ["--domain", "office_50x50", "--target-episodes", "3"],
                       5, 5, trials_flag="--trials-out", scratch_flags=("--out",)),
         ]

@@ -293,37 +293,47 @@ class CertifiedDialogSolver::Impl {
   /// Probability of reaching each actual (shifted) key under the lower bound's policy; keys
   /// below `floor` are not followed further.
   std::unordered_map<std::string, double> policyReach(double floor) const;
-  /// Alpha vector (over requests) of the lower bound's plan from an actual (unsorted) key.
-  const Eigen::VectorXd& planVector(const std::int16_t* key,
-                                    const std::unordered_map<std::string, double>& reach,
-                                    double floor,
-                                    std::unordered_map<std::string, std::size_t>& memo,
-                                    std::vector<Eigen::VectorXd>& vectors,
-                                    std::vector<std::pair<std::size_t, int>>& tags) const;
-  /// A frontier node's plan when it beats serving (alpha, action: serving's on entry): its
-  /// commit plan, or a question about the room and then commit plans (see upperRelaxation).
+  /// The exported plans: vectors over requests with their action and turn, and per vector
+  /// the vector continuing it after each model observation (-1: none; kServeNext - a: the
+  /// "serve a" plan, appended by policy() after these).
+  struct PlanExport {
+    std::unordered_map<std::string, std::size_t> memo;
+    std::vector<Eigen::VectorXd> vectors;
+    std::vector<std::pair<std::size_t, int>> tags;
+    std::vector<long> next;  // vectors.size() x obs
+    std::size_t obs = 0;
+  };
+  static constexpr long kServeNext = -2;
+  /// Index of the lower bound's plan's vector from an actual (unsorted) key.
+  std::size_t planVector(const std::int16_t* key,
+                         const std::unordered_map<std::string, double>& reach, double floor,
+                         PlanExport& ex) const;
+  /// A frontier node's plan when it beats serving (alpha, action: serving's on entry; next:
+  /// its continuations): its commit plan, or a question about the room and then commit plans
+  /// (see upperRelaxation).
   void frontierPlan(const std::int16_t* key, const Eigen::VectorXd& b, double reach,
-                    Eigen::VectorXd& alpha, std::size_t& action,
-                    std::unordered_map<std::string, std::size_t>& memo,
-                    std::vector<Eigen::VectorXd>& vectors,
-                    std::vector<std::pair<std::size_t, int>>& tags) const;
+                    Eigen::VectorXd& alpha, std::size_t& action, std::vector<long>& next,
+                    PlanExport& ex) const;
   /// A commit plan's vectors (see upperRelaxation): r's sub-dialog plan from an actual sub
   /// key (revealed section {r, 0, ...}, the other slots in actual order, shifted), each node's
   /// vector added with its action and turn (the executor needs them all); plans end by
-  /// serving below the reach floor. @return the index of the key's vector in `vectors`.
+  /// serving below the reach floor. @return the index of the key's vector.
   std::size_t subPlanVector(const std::int16_t* subKey, double reach, double floor,
-                            std::unordered_map<std::string, std::size_t>& memo,
-                            std::vector<Eigen::VectorXd>& vectors,
-                            std::vector<std::pair<std::size_t, int>>& tags) const;
+                            PlanExport& ex) const;
   /// alpha += discount x P(answer | request) x child, per request: one answer's share of a
   /// question's vector.
   void addAnswer(Eigen::VectorXd& alpha, const Question& q, std::size_t answer,
                  const Eigen::VectorXd& child) const;
-  /// Store a plan's vector with its action and turn under memo key mk; @return its index.
+  /// The model observation of answer `answer` to an actual question (ask: the value's,
+  /// confirm: yes for 1, no for 0).
+  std::size_t observationOf(const Question& q, std::size_t answer) const;
+  /// next[o] = child for every observation the model allows after q (its answer unused).
+  void continueOnAny(const Question& q, long child, std::vector<long>& next) const;
+  /// Store a plan's vector with its action, turn and continuations under memo key mk;
+  /// @return its index.
   std::size_t addVector(const Eigen::VectorXd& alpha, std::size_t action, int depth,
-                        const std::string& mk, std::unordered_map<std::string, std::size_t>& memo,
-                        std::vector<Eigen::VectorXd>& vectors,
-                        std::vector<std::pair<std::size_t, int>>& tags) const;
+                        const std::string& mk, const std::vector<long>& next,
+                        PlanExport& ex) const;
   /// Belief over requests of a key (any order of values, canonical or not); `fixedSlot` >= 0:
   /// restricted to requests whose value of that slot is `fixedValue`. @return false if empty.
   bool belief(const std::int16_t* key, Eigen::VectorXd& b, int fixedSlot = -1,
@@ -1830,13 +1840,12 @@ std::unordered_map<std::string, double> CertifiedDialogSolver::Impl::policyReach
   return reach;
 }
 
-const Eigen::VectorXd& CertifiedDialogSolver::Impl::planVector(
+std::size_t CertifiedDialogSolver::Impl::planVector(
     const std::int16_t* key, const std::unordered_map<std::string, double>& reach, double floor,
-    std::unordered_map<std::string, std::size_t>& memo,
-    std::vector<Eigen::VectorXd>& vectors, std::vector<std::pair<std::size_t, int>>& tags) const {
+    PlanExport& ex) const {
   const std::string mk(reinterpret_cast<const char*>(key), stride_ * sizeof(std::int16_t));
-  const auto it = memo.find(mk);
-  if (it != memo.end()) return vectors[it->second];
+  const auto it = ex.memo.find(mk);
+  if (it != ex.memo.end()) return it->second;
 
   const int depth = key[0];
   std::vector<std::int16_t> canon(key, key + stride_);
@@ -1845,7 +1854,9 @@ const Eigen::VectorXd& CertifiedDialogSolver::Impl::planVector(
   std::size_t choice = lowerChoice(canon.data());
   const auto rit = reach.find(mk);
   const bool truncated = rit == reach.end() || rit->second < floor;
-  if (truncated) choice = kNone;  // rarely reached: its plan is the frontier's below
+  // Rarely reached: its plan is the frontier's below (its commit plan, whose value the
+  // search's lower bound counts at unexpanded nodes, rather than serving at once).
+  if (truncated) choice = kNone;
   Eigen::VectorXd b;
   belief(key, b);
   std::size_t serveA = 0;
@@ -1854,9 +1865,10 @@ const Eigen::VectorXd& CertifiedDialogSolver::Impl::planVector(
   std::size_t action;
   alpha = serveR_.col(static_cast<Eigen::Index>(serveA));  // serve now
   action = d_.serveAction(serveA);
+  std::vector<long> next(ex.obs, -1);
   if (choice == kNone) {
-    if (o_.commitLower && !truncated && depth < horizon_)
-      frontierPlan(key, b, rit->second, alpha, action, memo, vectors, tags);
+    if (o_.commitLower && depth < horizon_)
+      frontierPlan(key, b, truncated ? 0.0 : rit->second, alpha, action, next, ex);
   } else {
     const Question q = actualQuestion(choice, perm);
     action = q.action;
@@ -1867,22 +1879,26 @@ const Eigen::VectorXd& CertifiedDialogSolver::Impl::planVector(
     for (std::size_t answer = 0; answer < numAnswers(q); ++answer) {
       childKey(key, q, answer, kid.data());
       canonicalize(kid.data(), nullptr, 0, false);
-      Eigen::VectorXd sub;
+      const bool stall = q.kind == QKind::kStall;
+      long scratch = -1;
+      long& cont = stall ? scratch : next[observationOf(q, answer)];
       if (answerProb(m[q.slot], q, answer) > 1e-300) {
-        sub = planVector(kid.data(), reach, floor, memo, vectors, tags);
-      } else {
-        sub = serveR_.col(static_cast<Eigen::Index>(serveA));  // unreachable here: serve
+        const std::size_t ci = planVector(kid.data(), reach, floor, ex);
+        cont = static_cast<long>(ci);
+        if (stall) continueOnAny(q, cont, next);
+        addAnswer(alpha, q, answer, ex.vectors[ci]);
+      } else {  // unreachable here: serve
+        cont = kServeNext - static_cast<long>(serveA);
+        addAnswer(alpha, q, answer, serveR_.col(static_cast<Eigen::Index>(serveA)));
       }
-      addAnswer(alpha, q, answer, sub);
     }
   }
-  return vectors[addVector(alpha, action, depth, mk, memo, vectors, tags)];
+  return addVector(alpha, action, depth, mk, next, ex);
 }
 
 void CertifiedDialogSolver::Impl::frontierPlan(
     const std::int16_t* key, const Eigen::VectorXd& b, double reach, Eigen::VectorXd& alpha,
-    std::size_t& action, std::unordered_map<std::string, std::size_t>& memo,
-    std::vector<Eigen::VectorXd>& vectors, std::vector<std::pair<std::size_t, int>>& tags) const {
+    std::size_t& action, std::vector<long>& next, PlanExport& ex) const {
   // The plan behind a commit lower bound, when it beats serving now.
   const SlotCode& rc = slot_[revealed_];
   std::vector<std::int16_t> sub(key, key + stride_), canonSub(stride_);
@@ -1946,29 +1962,30 @@ void CertifiedDialogSolver::Impl::frontierPlan(
     ++sub[0];
     for (std::size_t o = 0; o < roomLooks_[look].answers; ++o) {
       sub[rc.offset] = static_cast<std::int16_t>(lookRoom[o]);
-      const std::size_t vi = subPlanVector(sub.data(), reach, 0.0, memo, vectors, tags);
-      addAnswer(alpha, q, o, vectors[vi]);
+      const std::size_t vi = subPlanVector(sub.data(), reach, 0.0, ex);
+      next[observationOf(q, o)] = static_cast<long>(vi);
+      addAnswer(alpha, q, o, ex.vectors[vi]);
     }
     --sub[0];
   } else if (bestR != kNone) {
     sub[rc.offset] = static_cast<std::int16_t>(bestR);
     // Followed to its end (floor 0): the sub-dialog is finite and its plans memoised, and
     // a commit plan cut by serving early loses most of its value.
-    const std::size_t vi = subPlanVector(sub.data(), reach, 0.0, memo, vectors, tags);
-    alpha = vectors[vi];
-    action = tags[vi].first;
+    const std::size_t vi = subPlanVector(sub.data(), reach, 0.0, ex);
+    alpha = ex.vectors[vi];
+    action = ex.tags[vi].first;
+    next.assign(ex.next.begin() + static_cast<long>(vi * ex.obs),
+                ex.next.begin() + static_cast<long>((vi + 1) * ex.obs));
   }
 }
 
 std::size_t CertifiedDialogSolver::Impl::subPlanVector(
-    const std::int16_t* subKey, double reach, double floor,
-    std::unordered_map<std::string, std::size_t>& memo, std::vector<Eigen::VectorXd>& vectors,
-    std::vector<std::pair<std::size_t, int>>& tags) const {
+    const std::int16_t* subKey, double reach, double floor, PlanExport& ex) const {
   // "S" + key: sub keys share planVector's memo without meeting its (shorter) keys
   const std::string mk = "S" + std::string(reinterpret_cast<const char*>(subKey),
                                            stride_ * sizeof(std::int16_t));
-  const auto it = memo.find(mk);
-  if (it != memo.end()) return it->second;
+  const auto it = ex.memo.find(mk);
+  if (it != ex.memo.end()) return it->second;
   const int depth = subKey[0];
   const SlotCode& rc = slot_[revealed_];
   const std::size_t fixed = static_cast<std::size_t>(subKey[rc.offset]);
@@ -1983,6 +2000,7 @@ std::size_t CertifiedDialogSolver::Impl::subPlanVector(
   belief(own.data(), b, revealed_, fixed);
   Eigen::VectorXd alpha(static_cast<Eigen::Index>(nReq_));
   std::size_t action;
+  std::vector<long> next(ex.obs, -1);
   if (choice == kSubServe) {
     std::size_t a = 0;
     serveValue(b, &a);
@@ -1995,8 +2013,9 @@ std::size_t CertifiedDialogSolver::Impl::subPlanVector(
     std::vector<std::int16_t> kid(subKey, subKey + stride_);
     if (q.kind == QKind::kStall || q.slot == revealed_) {  // asked, its answer not used
       ++kid[0];
-      const Eigen::VectorXd sub = vectors[subPlanVector(kid.data(), reach, floor, memo, vectors, tags)];
-      alpha += gamma_ * sub;
+      const std::size_t ci = subPlanVector(kid.data(), reach, floor, ex);
+      continueOnAny(q, static_cast<long>(ci), next);
+      alpha += gamma_ * ex.vectors[ci];
     } else {
       std::array<Eigen::VectorXd, kSlots> m;
       marginals(b, m);
@@ -2004,13 +2023,13 @@ std::size_t CertifiedDialogSolver::Impl::subPlanVector(
         const double p = answerProb(m[q.slot], q, answer);
         childKey(subKey, q, answer, kid.data());
         canonicalize(kid.data(), nullptr, 1 << revealed_, false);
-        const Eigen::VectorXd sub =
-            vectors[subPlanVector(kid.data(), reach * p, floor, memo, vectors, tags)];
-        addAnswer(alpha, q, answer, sub);
+        const std::size_t ci = subPlanVector(kid.data(), reach * p, floor, ex);
+        next[observationOf(q, answer)] = static_cast<long>(ci);
+        addAnswer(alpha, q, answer, ex.vectors[ci]);
       }
     }
   }
-  return addVector(alpha, action, depth, mk, memo, vectors, tags);
+  return addVector(alpha, action, depth, mk, next, ex);
 }
 
 void CertifiedDialogSolver::Impl::addAnswer(Eigen::VectorXd& alpha, const Question& q,
@@ -2020,14 +2039,24 @@ void CertifiedDialogSolver::Impl::addAnswer(Eigen::VectorXd& alpha, const Questi
         gamma_ * answerLikelihood(q, answer, parts_[s][q.slot]) * child(static_cast<Eigen::Index>(s));
 }
 
+std::size_t CertifiedDialogSolver::Impl::observationOf(const Question& q, std::size_t answer) const {
+  if (q.kind == QKind::kConfirm) return answer == 1 ? d_.obsYes() : d_.obsNo();
+  return q.slot == 0 ? d_.obsItem(answer) : q.slot == 1 ? d_.obsRoom(answer) : d_.obsPerson(answer);
+}
+
+void CertifiedDialogSolver::Impl::continueOnAny(const Question& q, long child,
+                                                std::vector<long>& next) const {
+  for (std::size_t o : d_.model().possibleObservations(q.action)) next[o] = child;
+}
+
 std::size_t CertifiedDialogSolver::Impl::addVector(
     const Eigen::VectorXd& alpha, std::size_t action, int depth, const std::string& mk,
-    std::unordered_map<std::string, std::size_t>& memo, std::vector<Eigen::VectorXd>& vectors,
-    std::vector<std::pair<std::size_t, int>>& tags) const {
-  vectors.push_back(alpha);
-  tags.push_back({action, turnsUsed_ + depth});
-  memo.emplace(mk, vectors.size() - 1);
-  return vectors.size() - 1;
+    const std::vector<long>& next, PlanExport& ex) const {
+  ex.vectors.push_back(alpha);
+  ex.tags.push_back({action, turnsUsed_ + depth});
+  ex.next.insert(ex.next.end(), next.begin(), next.end());
+  ex.memo.emplace(mk, ex.vectors.size() - 1);
+  return ex.vectors.size() - 1;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -2112,24 +2141,28 @@ pomdp::TurnLimitedPolicy CertifiedDialogSolver::policy() const {
   const Impl& m = *impl_;
   const int limit = m.d_.spec().turnLimit;
   pomdp::TurnLimitedPolicy pol(m.nReq_ + 1, limit);
-  std::unordered_map<std::string, std::size_t> memo;
-  std::vector<Eigen::VectorXd> vectors;
-  std::vector<std::pair<std::size_t, int>> tags;
+  Impl::PlanExport ex;
+  ex.obs = m.d_.model().getO();
   std::vector<std::int16_t> k0(m.stride_, 0);
   const double floor = 1e-7;  // reach probability below which a plan ends at the frontier
   const auto reach = m.policyReach(floor);
-  m.planVector(k0.data(), reach, floor, memo, vectors, tags);
+  m.planVector(k0.data(), reach, floor, ex);
   Eigen::VectorXd full(static_cast<Eigen::Index>(m.nReq_ + 1));
-  for (std::size_t i = 0; i < vectors.size(); ++i) {
-    full.head(static_cast<Eigen::Index>(m.nReq_)) = vectors[i];
+  for (std::size_t i = 0; i < ex.vectors.size(); ++i) {
+    full.head(static_cast<Eigen::Index>(m.nReq_)) = ex.vectors[i];
     full(static_cast<Eigen::Index>(m.nReq_)) = 0.0;
-    pol.add(full, tags[i].first, tags[i].second);
+    pol.add(full, ex.tags[i].first, ex.tags[i].second);
   }
   for (std::size_t a = 0; a < m.nReq_; ++a) {  // "serve now" plans, usable at every turn
     full.head(static_cast<Eigen::Index>(m.nReq_)) = m.serveR_.col(static_cast<Eigen::Index>(a));
     full(static_cast<Eigen::Index>(m.nReq_)) = 0.0;
     pol.add(full, m.d_.serveAction(a), limit);
   }
+  const long served = static_cast<long>(ex.vectors.size());
+  for (long& n : ex.next)
+    if (n <= Impl::kServeNext) n = served + (Impl::kServeNext - n);
+  ex.next.resize(pol.size() * ex.obs, -1);  // serve plans end: no continuation
+  pol.setPlans(ex.obs, std::move(ex.next));
   return pol;
 }
 

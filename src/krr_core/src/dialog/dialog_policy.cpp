@@ -85,8 +85,11 @@ void readBounds(const std::string& file, PolicyReport& r) {
 
 std::string policyMismatch(const pomdp::TurnLimitedPolicy& policy, const DialogPomdp& dialog) {
   if (policy.numStates() == dialog.model().getS() &&
-      policy.turnLimit() == dialog.spec().turnLimit)
-    return "";
+      policy.turnLimit() == dialog.spec().turnLimit) {
+    if (!policy.hasPlans() || policy.numObservations() == dialog.model().getO()) return "";
+    return "policy's plans have " + std::to_string(policy.numObservations()) +
+           " observations, the dialog model " + std::to_string(dialog.model().getO());
+  }
   return "policy has " + std::to_string(policy.numStates()) + " states and turn limit " +
          std::to_string(policy.turnLimit()) + ", the dialog model " +
          std::to_string(dialog.model().getS()) + " and " +
@@ -113,8 +116,9 @@ pomdp::TurnLimitedPolicy solveDialogPolicy(const DialogPomdp& dialog,
   if (!cache_dir.empty()) {
     std::ostringstream key;
     key.precision(17);
-    // v3: the room-paid bound's chain of levels and trials aimed at trialTarget x precision.
-    key << "certified v3|" << solverFingerprint() << "|" << limit << "|" << so.precision << "|"
+    // v3: the room-paid bound's chain of levels and trials aimed at trialTarget x precision;
+    // v4: policies carry their plans' continuations (executed in O(1) per turn).
+    key << "certified v4|" << solverFingerprint() << "|" << limit << "|" << so.precision << "|"
         << so.maxTrials << "|" << so.seed << "|" << so.lowerGuidedEvery << "|"
         << so.commitLower << "|" << so.shareUpperBounds << so.roomPaidBound << so.roomLookahead
         << so.keepLeaves << "|" << so.trialTarget << "|" << dialog.exportCassandra();

@@ -36,6 +36,8 @@ void DialogSession::reset() {
   lastQuestion_ = -1;
   finished_ = false;
   served_ = 0;
+  plan_ = asked_ = -1;
+  pending_ = DialogDecision{};
 }
 
 namespace {
@@ -63,41 +65,45 @@ std::size_t phrasedConfirm(const DialogPomdp& d, std::size_t a, const pomdp::Bel
              : a;
 }
 
+/// @brief Serve the belief's most likely request (the turn limit's rule).
+std::size_t mostLikelyServe(const DialogPomdp& d, const pomdp::Belief& b) {
+  Eigen::Index best = 0;
+  b.head(static_cast<Eigen::Index>(d.numRequests())).maxCoeff(&best);
+  return d.serveAction(static_cast<std::size_t>(best));
+}
+
 }  // namespace
 
-std::size_t decideAction(const DialogPomdp& d, const pomdp::TurnLimitedPolicy& policy,
-                         const pomdp::Belief& b, int turns) {
-  const std::size_t a = policy.bestAction(b, turns);
-  const auto mostLikely = [&] {
-    Eigen::Index best = 0;
-    b.head(static_cast<Eigen::Index>(d.numRequests())).maxCoeff(&best);
-    return d.serveAction(static_cast<std::size_t>(best));
-  };
+DialogDecision decideDialog(const DialogPomdp& d, const pomdp::TurnLimitedPolicy& policy,
+                            const pomdp::Belief& b, int turns) {
+  const std::size_t i = policy.bestIndex(b, turns);
+  const std::size_t a = policy.action(i);
   if (turns >= d.spec().turnLimit) {
     if (!d.isServe(a))
       throw ConfigError("dialog: the policy asks '" + d.model().actionNames()[a] + "' after " +
                         std::to_string(turns) + " questions, at the turn limit where it must " +
                         "serve (was it solved without the limit?)");
-    return mostLikely();
+    return {mostLikelyServe(d, b), -1};
   }
-  if (!d.isServe(a)) return phrasedConfirm(d, a, b);
+  if (!d.isServe(a)) return {phrasedConfirm(d, a, b), static_cast<long>(i)};
   const double serve = policy.lookahead(d.model(), b, a, turns, true);
   std::vector<std::size_t> questions;
   for (std::size_t q = 0; q < d.model().getA() && d.isQuestion(q); ++q) questions.push_back(q);
   const std::vector<double> values = policy.lookahead(d.model(), b, questions, turns);
-  std::size_t best = a;
+  DialogDecision best{a, static_cast<long>(i)};
   double bestValue = serve;
   for (std::size_t k = 0; k < questions.size(); ++k)
     if (values[k] > bestValue + 1e-9) {
       bestValue = values[k];
-      best = questions[k];
+      best = {questions[k], -1};
     }
-  return phrasedConfirm(d, best, b);
+  best.action = phrasedConfirm(d, best.action, b);
+  return best;
 }
 
-std::size_t DecisionMemo::decide(const DialogPomdp& d,
-                                 const pomdp::TurnLimitedPolicy& policy, const pomdp::Belief& b,
-                                 int turns) {
+DialogDecision DecisionMemo::decide(const DialogPomdp& d,
+                                    const pomdp::TurnLimitedPolicy& policy,
+                                    const pomdp::Belief& b, int turns) {
   key_.assign(reinterpret_cast<const char*>(&turns), sizeof(turns));
   key_.append(reinterpret_cast<const char*>(b.data()),
               static_cast<std::size_t>(b.size()) * sizeof(double));
@@ -107,7 +113,7 @@ std::size_t DecisionMemo::decide(const DialogPomdp& d,
     return it->second;
   }
   ++misses_;
-  const std::size_t a = decideAction(d, policy, b, turns);
+  const DialogDecision a = decideDialog(d, policy, b, turns);
   if (memo_.size() >= capacity_) memo_.clear();
   memo_.emplace(key_, a);
   return a;
@@ -119,8 +125,36 @@ std::size_t DialogSession::nextAction() const {
     if (atTurnLimit()) return dialog_.serveAction(summary().mostLikely);
     throw ConfigError("dialog session: no policy to choose the next action");
   }
-  return memo_ ? memo_->decide(dialog_, *policy_, belief_, turns_)
-               : decideAction(dialog_, *policy_, belief_, turns_);
+  if (plan_ >= 0 && !atTurnLimit()) {  // on a plan: its action, O(1)
+    const std::size_t a = policy_->action(static_cast<std::size_t>(plan_));
+    if (dialog_.isQuestion(a)) {
+      pending_ = {phrasedConfirm(dialog_, a, belief_), plan_};
+      return pending_.action;
+    }
+    // A plan's serve is its reward's best for the plan's own belief, and a commit plan never
+    // asks about the room again: served as it is only when it is the most likely request;
+    // otherwise the scan decides (never worth less than the plan at this belief).
+    if (belief_(static_cast<Eigen::Index>(dialog_.requestOfServe(a))) >=
+        belief_.head(static_cast<Eigen::Index>(dialog_.numRequests())).maxCoeff()) {
+      pending_ = {a, plan_};
+      return a;
+    }
+  }
+  pending_ = memo_ ? memo_->decide(dialog_, *policy_, belief_, turns_)
+                   : decideDialog(dialog_, *policy_, belief_, turns_);
+  return pending_.action;
+}
+
+void DialogSession::advance(std::size_t q, std::size_t o) {
+  const long asked = asked_;
+  asked_ = -1;
+  plan_ = -1;
+  if (asked < 0 || static_cast<long>(q) != lastQuestion_) return;
+  if (policy_->action(static_cast<std::size_t>(asked)) != q) {  // the phrased twin: yes <-> no
+    if (o == dialog_.obsYes()) o = dialog_.obsNo();
+    else if (o == dialog_.obsNo()) o = dialog_.obsYes();
+  }
+  plan_ = policy_->next(static_cast<std::size_t>(asked), o);
 }
 
 void DialogSession::act(std::size_t a) {
@@ -135,6 +169,9 @@ void DialogSession::act(std::size_t a) {
   }
   lastQuestion_ = static_cast<long>(a);
   ++turns_;
+  asked_ = policy_ && policy_->hasPlans() && pending_.plan >= 0 && pending_.action == a ? pending_.plan : -1;
+  plan_ = -1;
+  pending_ = DialogDecision{};
 }
 
 HearResult DialogSession::hear(const std::string& text) {
@@ -159,6 +196,8 @@ HearResult DialogSession::hear(const std::string& text) {
                         " is impossible under the current belief: ignored");
     }
   }
+  if (r.applied.size() == 1) advance(r.applied[0].action, r.applied[0].observation);
+  else if (!r.applied.empty()) plan_ = asked_ = -1;  // more than the plan's answer: off the plan
   return r;
 }
 
@@ -171,6 +210,7 @@ bool DialogSession::observe(std::size_t question, std::size_t observation) {
   pomdp::Belief next;
   if (!pomdp::tryUpdateBelief(dialog_.model(), belief_, question, observation, next)) return false;
   belief_ = std::move(next);
+  advance(question, observation);
   return true;
 }
 

@@ -34,6 +34,30 @@ void TurnLimitedPolicy::add(const Eigen::VectorXd& alpha, std::size_t action, in
   stages_.push_back(stage);
 }
 
+void TurnLimitedPolicy::setPlans(std::size_t numObservations, std::vector<long> next) {
+  const std::size_t n = alphas_.size();
+  if (numObservations == 0 || next.size() / numObservations != n || next.size() % numObservations != 0)
+    throw ConfigError("turn-limited policy: " + std::to_string(next.size()) +
+                      " continuations for " + std::to_string(n) + " vectors and " +
+                      std::to_string(numObservations) + " observations");
+  for (std::size_t k = 0; k < next.size(); ++k) {
+    const long j = next[k];
+    if (j == -1) continue;
+    const std::size_t i = k / numObservations;
+    if (j < 0 || static_cast<std::size_t>(j) >= n)
+      throw ConfigError("turn-limited policy: vector " + std::to_string(i) +
+                        " continues with vector " + std::to_string(j) + ", out of range");
+    if (stages_[static_cast<std::size_t>(j)] < std::min(stages_[i] + 1, limit_))
+      throw ConfigError("turn-limited policy: vector " + std::to_string(i) + " (stage " +
+                        std::to_string(stages_[i]) + ") continues with vector " +
+                        std::to_string(j) + " of stage " +
+                        std::to_string(stages_[static_cast<std::size_t>(j)]) +
+                        ", not usable one turn later");
+  }
+  obs_ = numObservations;
+  next_ = std::move(next);
+}
+
 std::size_t TurnLimitedPolicy::bestIndex(const Belief& b, int turns) const {
   if (static_cast<std::size_t>(b.size()) != s_)
     throw ConfigError("belief has " + std::to_string(b.size()) + " entries, policy has " +
@@ -146,21 +170,52 @@ std::vector<double> TurnLimitedPolicy::lookahead(const Model& m, const Belief& b
 
 std::string TurnLimitedPolicy::toText() const {
   std::ostringstream ss;
-  ss << "krr-turn-limited-policy 1\nstates " << s_ << "\nturn_limit " << limit_ << "\nvectors "
+  ss << "krr-turn-limited-policy " << (obs_ > 0 ? 2 : 1) << "\nstates " << s_ << "\nturn_limit " << limit_ << "\nvectors "
      << alphas_.size() << "\n";
   for (std::size_t i = 0; i < alphas_.size(); ++i) {
     ss << stages_[i] << ' ' << actions_[i];
     for (Eigen::Index k = 0; k < alphas_[i].size(); ++k) ss << ' ' << detail::fmt(alphas_[i](k));
     ss << '\n';
   }
+  if (obs_ > 0) {
+    ss << "plans " << obs_ << "\n";
+    for (std::size_t i = 0; i < alphas_.size(); ++i) {
+      for (std::size_t o = 0; o < obs_; ++o) ss << (o ? " " : "") << next_[i * obs_ + o] + 1;
+      ss << '\n';
+    }
+  }
   return ss.str();
 }
+
+namespace {
+
+/// @brief Version 2's "plans O" section (see toText).
+void readPlans(detail::TokenReader& in, TurnLimitedPolicy& p, const std::string& text,
+               const std::string& file) {
+  in.keyword("plans");
+  const detail::Tok& ot = in.need("observation count");
+  const long obs = detail::parseInt(ot, text, file);
+  if (obs < 1 || obs > 1000000) throw in.errorAt(ot, "observation count " + ot.text + " outside [1, 1000000]");
+  const std::size_t total = p.size() * static_cast<std::size_t>(obs);
+  std::vector<long> next;  // grown as read: a declared size the file cannot hold allocates nothing
+  for (std::size_t k = 0; k < total; ++k) {
+    const detail::Tok& t = in.need("continuation");
+    const long j = detail::parseInt(t, text, file);
+    if (static_cast<std::size_t>(j) > p.size())
+      throw in.errorAt(t, "continuation " + t.text + " exceeds the vector count " + std::to_string(p.size()));
+    next.push_back(j - 1);
+  }
+  p.setPlans(static_cast<std::size_t>(obs), std::move(next));
+}
+
+}  // namespace
 
 TurnLimitedPolicy TurnLimitedPolicy::fromText(const std::string& text, const std::string& file) {
   detail::TokenReader in(text, file);
   in.keyword("krr-turn-limited-policy");
   const detail::Tok& ver = in.need("version");
-  if (detail::parseInt(ver, text, file) != 1)
+  const long version = detail::parseInt(ver, text, file);
+  if (version != 1 && version != 2)
     throw in.errorAt(ver, "unsupported version '" + ver.text + "'");
   in.keyword("states");
   const auto s = static_cast<std::size_t>(in.count("state count"));
@@ -180,6 +235,7 @@ TurnLimitedPolicy TurnLimitedPolicy::fromText(const std::string& text, const std
     for (std::size_t k = 0; k < s; ++k) alpha(static_cast<Eigen::Index>(k)) = in.number("value");
     p.add(alpha, a, static_cast<int>(stage));
   }
+  if (version == 2) readPlans(in, p, text, file);
   in.finish();
   return p;
 }

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <functional>
 
 #include "krr_core/common/errors.h"
@@ -303,6 +304,8 @@ TEST(CertifiedDialogSolver, TheExecutedPolicyEarnsItsCertifiedLowerBound) {
   const int runs = 3000;
   double sum = 0.0, sq = 0.0;
   DecisionMemo memo;
+  DialogSession session(d, nullptr, &policy);
+  session.setDecisionMemo(&memo);
   for (int run = 0; run < runs; ++run) {
     // the true request from the prior
     double u = uniform01(rng), acc = 0.0;
@@ -311,10 +314,10 @@ TEST(CertifiedDialogSolver, TheExecutedPolicyEarnsItsCertifiedLowerBound) {
       acc += m.initialBelief()(static_cast<Eigen::Index>(k));
       if (u < acc) { truth = k; break; }
     }
-    pomdp::Belief b = m.initialBelief();
+    session.reset();
     double total = 0.0, disc = 1.0;
-    for (int turn = 0;; ++turn) {
-      const std::size_t a = memo.decide(d, policy, b, turn);
+    for (;;) {
+      const std::size_t a = session.nextAction();
       total += disc * m.rewardMatrix()(static_cast<Eigen::Index>(truth), static_cast<Eigen::Index>(a));
       if (d.isServe(a)) break;
       const Eigen::VectorXd z = m.observationMatrix(a).row(static_cast<Eigen::Index>(truth)).transpose();
@@ -324,7 +327,8 @@ TEST(CertifiedDialogSolver, TheExecutedPolicyEarnsItsCertifiedLowerBound) {
         c += z(o2);
         if (v < c) { obs = static_cast<std::size_t>(o2); break; }
       }
-      b = pomdp::updateBelief(m, b, a, obs);
+      session.act(a);
+      ASSERT_TRUE(session.observe(a, obs));
       disc *= m.getDiscount();
     }
     sum += total;
@@ -336,12 +340,12 @@ TEST(CertifiedDialogSolver, TheExecutedPolicyEarnsItsCertifiedLowerBound) {
   EXPECT_LE(mean - 1.96 * se, solver.report().upper) << "mean " << mean << " se " << se;
 }
 
-/// The executed policy's exact value: the robot's decision rule (decideAction) at every
-/// belief it reaches, over every answer sequence (no sampling).
+/// The exact value of the policy scanned at every belief (decideDialog, no plans followed),
+/// over every answer sequence (no sampling).
 double executedValue(const DialogPomdp& d, const pomdp::TurnLimitedPolicy& policy,
                      DecisionMemo& memo, const pomdp::Belief& b, int turn) {
   const pomdp::Model& m = d.model();
-  const std::size_t a = memo.decide(d, policy, b, turn);
+  const std::size_t a = memo.decide(d, policy, b, turn).action;
   double v = b.dot(m.rewardMatrix().col(static_cast<Eigen::Index>(a)));
   if (d.isServe(a)) return v;
   for (std::size_t o = 0; o < m.getO(); ++o) {
@@ -351,6 +355,69 @@ double executedValue(const DialogPomdp& d, const pomdp::TurnLimitedPolicy& polic
     v += m.getDiscount() * p * executedValue(d, policy, memo, next, turn + 1);
   }
   return v;
+}
+
+/// What following the plans earns and loses, exactly (every answer sequence).
+struct Executed {
+  double value = 0.0;       ///< of the robot's decisions
+  double forcedLoss = 0.0;  ///< what serving the most likely request at the turn limit cost
+                            ///< against the plan's own serve there (its reward's best)
+  std::size_t plans = 0;    ///< decisions taken on a plan (no scan)
+};
+
+/// The exact value of what the robot does (a DialogSession: plans followed, scans off them)
+/// from the session's state, weighted by `p` (the probability of reaching it).
+void sessionValue(const DialogPomdp& d, const pomdp::TurnLimitedPolicy& policy,
+                  const DialogSession& s, double p, Executed& out) {
+  const pomdp::Model& m = d.model();
+  DialogSession c = s;
+  const long plan = c.plan();
+  const std::size_t a = c.nextAction();
+  out.plans += plan >= 0 ? 1 : 0;
+  const auto reward = [&](std::size_t x) {
+    return c.belief().dot(m.rewardMatrix().col(static_cast<Eigen::Index>(x)));
+  };
+  out.value += p * reward(a);
+  if (d.isServe(a)) {
+    if (c.atTurnLimit()) {
+      const std::size_t planned = plan >= 0 ? policy.action(static_cast<std::size_t>(plan))
+                                            : policy.bestAction(c.belief(), c.turns());
+      out.forcedLoss += p * (reward(planned) - reward(a));
+    }
+    return;
+  }
+  c.act(a);
+  for (std::size_t o = 0; o < m.getO(); ++o) {
+    pomdp::Belief next;
+    double po = 0.0;
+    if (!pomdp::tryUpdateBelief(m, c.belief(), a, o, next, &po) || po <= 0.0) continue;
+    DialogSession k = c;
+    EXPECT_TRUE(k.observe(a, o));
+    sessionValue(d, policy, k, p * m.getDiscount() * po, out);
+  }
+}
+
+/// Every plan of the policy is closed: a question's vector is its cost plus, per request, the
+/// discounted continuations' vectors weighted by the answers' likelihoods (the model's own).
+void expectClosedPlans(const DialogPomdp& d, const pomdp::TurnLimitedPolicy& policy,
+                       const std::string& label) {
+  const pomdp::Model& m = d.model();
+  ASSERT_TRUE(policy.hasPlans()) << label;
+  for (std::size_t i = 0; i < policy.size(); ++i) {
+    const std::size_t a = policy.action(i);
+    if (d.isServe(a)) continue;
+    const Eigen::MatrixXd z = m.denseObservation(a);
+    for (std::size_t s = 0; s < d.numRequests(); ++s) {
+      const auto k = static_cast<Eigen::Index>(s);
+      double rhs = m.rewardMatrix()(k, static_cast<Eigen::Index>(a));
+      for (std::size_t o = 0; o < m.getO(); ++o) {
+        const long n = policy.next(i, o);
+        if (n >= 0) rhs += m.getDiscount() * z(k, static_cast<Eigen::Index>(o)) * policy.alpha(static_cast<std::size_t>(n))(k);
+        else ASSERT_EQ(z(k, static_cast<Eigen::Index>(o)), 0.0) << label << ": vector " << i << " has no continuation for observation " << o;
+      }
+      ASSERT_NEAR(policy.alpha(i)(k), rhs, 1e-9 * (1.0 + std::abs(rhs))) << label << ": vector " << i << ", request " << s;
+    }
+  }
 }
 
 /// Solve d with o and execute the exported policy over every answer from the prior: it earns at
@@ -365,6 +432,18 @@ CertifiedReport solveAndExecute(const DialogPomdp& d, const CertifiedSolverOptio
   EXPECT_GE(exported, solver.report().lower - 1e-6) << label;
   DecisionMemo memo;
   EXPECT_GE(executedValue(d, policy, memo, m.initialBelief(), 0), exported - 1e-9) << label;
+  // The robot (plans followed, a scan where it leaves them) earns at least the plan it starts
+  // on (the root's vector), but for the forced serves: at the turn limit the robot serves the
+  // most likely request, the plans their reward's best (decideDialog's comment).
+  expectClosedPlans(d, policy, label);
+  Executed e;
+  sessionValue(d, policy, DialogSession(d, nullptr, &policy), 1.0, e);
+  EXPECT_GE(e.value + e.forcedLoss, exported - 1e-9) << label;
+  EXPECT_GE(e.forcedLoss, -1e-12) << label;
+  EXPECT_GT(e.plans, 0u) << label;
+  if (e.forcedLoss > 1e-12)
+    std::printf("[ note ] %s: executed %.4f, exported %.4f, the forced serves cost %.4f\n",
+                label.c_str(), e.value, exported, e.forcedLoss);
   return solver.report();
 }
 

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "krr_core/common/errors.h"
 #include "krr_core/dialog/dialog_policy.h"
@@ -320,6 +321,76 @@ TEST(DecideAction, TheMemoDecidesExactlyLikeTheRule) {
   }
   EXPECT_GT(memo.hits(), 0u);
   EXPECT_GT(memo.misses(), 0u);
+}
+
+/// A hand-made policy with plans: vector 0 (turn 0) asks "is it for john?"; "yes" continues
+/// with vector 1 (serve `onYes`), "no" with vector 2 (serve `onNo`).
+pomdp::TurnLimitedPolicy confirmJohnPlan(const DialogPomdp& d, std::size_t onYes, std::size_t onNo) {
+  const int limit = d.spec().turnLimit;
+  pomdp::TurnLimitedPolicy p(d.model().getS(), limit);
+  p.add(constant(d, 10.0), d.confirmPerson(0), 0);
+  p.add(constant(d, 0.0), d.serveAction(onYes), limit);
+  p.add(constant(d, 0.0), d.serveAction(onNo), limit);
+  std::vector<long> next(3 * d.model().getO(), -1);
+  next[d.obsYes()] = 1;
+  next[d.obsNo()] = 2;
+  p.setPlans(d.model().getO(), next);
+  return p;
+}
+
+TEST(DialogSession, FollowsThePlanOnTheAnswerToItsQuestion) {
+  DialogPomdp d(officeSpec());
+  LanguageFrontEnd lang(d, config());
+  const std::size_t bob2 = d.requestIndex(0, 1, 1), john5 = d.requestIndex(0, 4, 0);
+  const pomdp::TurnLimitedPolicy p = confirmJohnPlan(d, john5, bob2);
+  DialogSession s(d, &lang, &p);
+  EXPECT_EQ(s.plan(), -1);  // at the prior: a scan finds vector 0
+  ASSERT_EQ(s.nextAction(), d.confirmPerson(0));
+  s.act(d.confirmPerson(0));
+  ASSERT_TRUE(s.hear("no").understood());
+  EXPECT_EQ(s.plan(), 2);
+  EXPECT_EQ(s.nextAction(), d.serveAction(bob2));  // the plan's serve: the most likely request
+  // "Is it for bob?" (the robot's wording of the plan's "john?" once bob is likelier): "yes"
+  // to it is "no" to the plan's question.
+  s.reset();
+  ASSERT_EQ(s.hear("bob").applied.size(), 1u);  // no question asked yet: off any plan
+  EXPECT_EQ(s.plan(), -1);
+  ASSERT_EQ(s.nextAction(), d.confirmPerson(1));
+  s.act(d.confirmPerson(1));
+  ASSERT_TRUE(s.hear("yes").understood());
+  EXPECT_EQ(s.plan(), 2);
+  // More than the plan's answer leaves the plan; so does not answering at all.
+  s.reset();
+  s.act(s.nextAction());
+  ASSERT_EQ(s.hear("no a coke").applied.size(), 2u);
+  EXPECT_EQ(s.plan(), -1);
+  s.reset();
+  s.act(s.nextAction());
+  EXPECT_FALSE(s.hear("blorp").understood());
+  EXPECT_EQ(s.plan(), -1);
+  ASSERT_TRUE(s.hear("no").understood());  // the answer, late: still the plan's question
+  EXPECT_EQ(s.plan(), 2);
+}
+
+TEST(DialogSession, APlanServesOnlyTheMostLikelyRequest) {
+  // The plan's serve is the reward's best for the plan's own belief; at any other belief the
+  // robot serves it only if it is the most likely request, else it scans the policy.
+  DialogPomdp d(officeSpec());
+  LanguageFrontEnd lang(d, config());
+  const std::size_t bob2 = d.requestIndex(0, 1, 1), john5 = d.requestIndex(0, 4, 0);
+  const pomdp::TurnLimitedPolicy p = confirmJohnPlan(d, bob2, john5);
+  DialogSession s(d, &lang, &p);
+  ASSERT_EQ(s.hear("a coke for bob to office2").applied.size(), 3u);
+  ASSERT_EQ(s.summary().mostLikely, bob2);
+  ASSERT_EQ(s.nextAction(), d.confirmPerson(1));  // "is it for bob?"
+  s.act(d.confirmPerson(1));
+  ASSERT_TRUE(s.hear("yes").understood());
+  ASSERT_EQ(s.plan(), 2);  // "no" to "john?": the plan serves john5
+  ASSERT_EQ(p.action(2), d.serveAction(john5));
+  // bob2 is the most likely request: the scan decides (vectors 1 and 2 tie, the lowest index
+  // wins, and no question is worth more than serving).
+  EXPECT_EQ(s.nextAction(), d.serveAction(bob2));
+  EXPECT_EQ(s.nextAction(), decideAction(d, p, s.belief(), s.turns()));
 }
 
 TEST(DialogSession, RefusesBadActionsAndPolicies) {

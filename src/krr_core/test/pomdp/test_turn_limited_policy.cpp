@@ -82,6 +82,61 @@ TEST(TurnLimitedPolicy, TextRoundTripIsExact) {
   EXPECT_EQ(q.toText(), p.toText());
 }
 
+TEST(TurnLimitedPolicy, PlansContinueOneTurnLaterAndRoundTrip) {
+  // Vector 0 (stage 0) asks; after observation 1 it continues with vector 1 (stage 1), after
+  // observation 0 with the serve plan 2 (stage 2 = the limit); observation 2 has none.
+  TurnLimitedPolicy p(2, 2);
+  p.add(Eigen::Vector2d(1, 2), 0, 0);
+  p.add(Eigen::Vector2d(3, 4), 0, 1);
+  p.add(Eigen::Vector2d(5, 6), 1, 2);
+  EXPECT_FALSE(p.hasPlans());
+  EXPECT_EQ(p.next(0, 0), -1);
+  EXPECT_EQ(p.toText().rfind("krr-turn-limited-policy 1\n", 0), 0u);  // no plans: version 1
+  p.setPlans(3, {2, 1, -1, 2, 2, -1, -1, -1, -1});
+  ASSERT_TRUE(p.hasPlans());
+  EXPECT_EQ(p.numObservations(), 3u);
+  EXPECT_EQ(p.next(0, 0), 2);
+  EXPECT_EQ(p.next(0, 1), 1);
+  EXPECT_EQ(p.next(0, 2), -1);
+  EXPECT_EQ(p.next(0, 7), -1);  // an observation beyond the plans' has no continuation
+  const TurnLimitedPolicy q = TurnLimitedPolicy::fromText(p.toText(), "p.txt");
+  ASSERT_TRUE(q.hasPlans());
+  for (std::size_t i = 0; i < 3; ++i)
+    for (std::size_t o = 0; o < 3; ++o) EXPECT_EQ(q.next(i, o), p.next(i, o));
+  EXPECT_EQ(q.toText(), p.toText());
+  // Refused, and nothing is changed: a wrong size, an index out of range, a continuation not
+  // usable one turn later (vector 1 of stage 1 continuing with itself).
+  TurnLimitedPolicy r = q;
+  EXPECT_THROW(r.setPlans(3, {2, 1}), ConfigError);
+  EXPECT_THROW(r.setPlans(0, {}), ConfigError);
+  EXPECT_THROW(r.setPlans(1, {3, -1, -1}), ConfigError);
+  EXPECT_THROW(r.setPlans(1, {-2, -1, -1}), ConfigError);
+  EXPECT_THROW(r.setPlans(1, {-1, 1, -1}), ConfigError);
+  EXPECT_EQ(r.toText(), q.toText());
+}
+
+TEST(TurnLimitedPolicy, MalformedPlansNameTheSpot) {
+  const std::string head =
+      "krr-turn-limited-policy 2\nstates 1\nturn_limit 1\nvectors 2\n0 0 1\n1 1 2\n";
+  EXPECT_EQ(TurnLimitedPolicy::fromText(head + "plans 1\n2\n0\n").next(0, 0), 1);
+  try {
+    TurnLimitedPolicy::fromText(head + "plans 1\n3\n0\n", "p.txt");
+    FAIL() << "a continuation beyond the vectors must be refused";
+  } catch (const ParseError& e) {
+    EXPECT_EQ(e.location().line, 8);
+    EXPECT_EQ(e.location().column, 1);
+  }
+  EXPECT_THROW(TurnLimitedPolicy::fromText(head + "plans 1\n2\n"), ParseError);       // short
+  EXPECT_THROW(TurnLimitedPolicy::fromText(head + "plans 0\n"), ParseError);           // no obs
+  EXPECT_THROW(TurnLimitedPolicy::fromText(head + "plans 1\n-1\n0\n"), ParseError);  // sign
+  EXPECT_THROW(TurnLimitedPolicy::fromText(head), ParseError);                        // missing
+  // A declared observation count the file cannot hold allocates nothing before it fails.
+  EXPECT_THROW(TurnLimitedPolicy::fromText(head + "plans 1000000\n1\n"), ParseError);
+  EXPECT_THROW(TurnLimitedPolicy::fromText(
+                   "krr-turn-limited-policy 3\nstates 1\nturn_limit 1\nvectors 0\n"),
+               ParseError);
+}
+
 TEST(TurnLimitedPolicy, MalformedTextNamesTheSpot) {
   const std::string head = "krr-turn-limited-policy 1\nstates 2\nturn_limit 3\nvectors 1\n";
   try {

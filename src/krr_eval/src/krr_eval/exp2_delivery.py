@@ -7,7 +7,7 @@ import numpy as np
 from . import stats
 from .paper import PAPER_TABLE1, PAPER_TABLE1_P
 from .context import (CONDITIONS, DEFAULTS, TITLES, _sub, dialog_discount, norm_room, policy_report,
-                      question_cost)
+                      question_cost, solver_args)
 from .report import Claim, Est, P, Result, Table
 from .runner import TrialSpec
 
@@ -26,7 +26,8 @@ def delivery_specs(ctx):
     n, brs = ctx.trials("exp2"), ctx.setting("exp2", "brs")
     return collections.OrderedDict(
         ((br, c), TrialSpec("delivery_br%g_%s" % (br, c), "delivery_trials",
-                            ["--br", "%g" % br, "--condition", c], ctx.seed, n,
+                            ["--br", "%g" % br, "--condition", c] + solver_args(ctx, "exp2"),
+                            ctx.seed, n,
                             min_chunk=CHEAP_TRIALS_CHUNK))
         for br in brs for c in CONDITIONS)
 
@@ -573,7 +574,7 @@ def ablation_specs(ctx):
     return collections.OrderedDict(
         (br, TrialSpec("delivery_br%g_learned_no_penalty" % br, "delivery_trials",
                        ["--br", "%g" % br, "--condition", "learned",
-                        "--wrong-delivery-penalty", "0"], ctx.seed, n,
+                        "--wrong-delivery-penalty", "0"] + solver_args(ctx, "exp2"), ctx.seed, n,
                        min_chunk=CHEAP_TRIALS_CHUNK)) for br in ctx.setting("exp2", "brs"))
 
 

@@ -5,7 +5,7 @@ import numpy as np
 
 from . import stats
 from .paper import PAPER_TABLE2
-from .context import TITLES, _sub, norm_room, policy_report
+from .context import TITLES, _sub, norm_room, policy_report, solver_args
 from .exp2_delivery import CHEAP_TRIALS_CHUNK
 from .report import Claim, Result, Table
 from .runner import TrialSpec
@@ -55,7 +55,8 @@ def entropy_specs(ctx):
     n, cond = ctx.trials("exp4"), ctx.setting("exp4", "condition")
     return collections.OrderedDict(
         (br, TrialSpec("entropy_br%g_%s" % (br, cond), "dialog_entropy",
-                       ["--br", "%g" % br, "--condition", cond], ctx.seed, n,
+                       ["--br", "%g" % br, "--condition", cond] + solver_args(ctx, "exp4"),
+                       ctx.seed, n,
                        min_chunk=CHEAP_TRIALS_CHUNK)) for br in ctx.setting("exp4", "brs"))
 
 

@@ -28,7 +28,7 @@ from .paper import (  # noqa: F401
 )
 from .context import (  # noqa: F401
     CONDITIONS, CONDITION_LABEL, DEFAULTS, QUICK, TITLES, Context, norm_room, _sub,
-    UnconvergedPolicy, solver_precision, question_cost, FORCED_LIMIT, policy_report,
+    UnconvergedPolicy, solver_precision, question_cost, FORCED_LIMIT, policy_report, solver_args,
 )
 from .exp1_navigation import (  # noqa: F401
     NAV_COLUMNS, NAV_TRIAL_COST, nav_spec, exp1_specs, exp1_nav_transfer,

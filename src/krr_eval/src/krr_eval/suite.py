@@ -82,6 +82,10 @@ def build_parser():
     ap.add_argument("--chunks-per-worker", type=int, default=4)
     ap.add_argument("--replay", metavar="DIR", help="recompute from DIR/trials/*.csv")
     ap.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    ap.add_argument("--solver-trials", type=int, metavar="N",
+                    help="dialog solver's trial budget for exp2-exp4 (default: "
+                         "config/experiments/delivery_trials.yaml's, certified; a smaller "
+                         "budget is faster, and its tables need --allow-unconverged)")
     ap.add_argument("--allow-unconverged", action="store_true",
                     help="report tables resting on dialog policies not certified to "
                          "config/dialog.yaml's precision (the report says so; a --quick "
@@ -207,11 +211,12 @@ def main(argv=None, stdout=sys.stdout, stderr=sys.stderr):
         return 2
     ctx = experiments.Context(out, runner, seed=a.seed, scale=a.trials_scale, trials=trials,
                               quick=a.quick, alpha=a.alpha, recorded=recorded, log=say,
-                              allow_unconverged=a.allow_unconverged)
+                              allow_unconverged=a.allow_unconverged,
+                              solver_trials=a.solver_trials)
     params = collections.OrderedDict([
         ("tool", "rosrun krr_eval evaluate"), ("argv", argv), ("seed", a.seed), ("alpha", a.alpha),
         ("trials_scale", a.trials_scale), ("trials_overrides", trials), ("quick", a.quick),
-        ("allow_unconverged", a.allow_unconverged),
+        ("allow_unconverged", a.allow_unconverged), ("solver_trials", a.solver_trials),
         ("workers", a.workers), ("scheduler", a.scheduler),
         ("chunks_per_worker", a.chunks_per_worker), ("replayed_from", a.replay),
         ("experiments", ctx.params), ("completed", []), ("failed", {}),

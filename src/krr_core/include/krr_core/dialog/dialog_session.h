@@ -6,7 +6,12 @@
  * robot asks what the policy (or a script) says, the user answers in free text, the language
  * front end turns the text into observations of the dialog POMDP and the session applies
  * them by exact Bayesian updates (a simulated person's answers come in as observations,
- * observe()). A turn is one robot question. This is the one place of the turn-limit rule:
+ * observe()). A turn is one robot question. With a policy that has plans
+ * (TurnLimitedPolicy::next), the session follows the plan it is on: the answer to the plan's
+ * question, alone in its utterance, leads to the plan's continuation in O(1); any other
+ * content (extra slots, several answers, a question the plan did not ask) leaves the plan,
+ * and the next decision scans the policy (decideDialog) and takes up the plan it finds. Either
+ * way the robot earns at least the value of the plan it is on. This is the one place of the turn-limit rule:
  * once the model's turnLimit questions have been asked, nextAction() serves the most likely
  * request (paper: "in case a dialog does not end after 20 turns, the robot is forced to work
  * on the most likely delivery"); the policy is solved knowing that limit
@@ -49,24 +54,31 @@ struct BeliefSummary {
   double mostLikelyProbability = 0.0;
 };
 
+/// @brief A decision and the plan it starts: the policy vector whose plan begins with the
+/// action (-1: none, e.g. a question the lookahead preferred, or the forced serve).
+struct DialogDecision {
+  std::size_t action = 0;
+  long plan = -1;
+};
+
 /**
- * @brief decideAction() remembered per (belief, turns) for one dialog model and policy. The
+ * @brief decideDialog() remembered per (belief, turns) for one dialog model and policy. The
  * belief is a function of the questions and answers so far, so the deliveries of an experiment
  * revisit the same beliefs again and again; an exact key (the belief's bits) returns exactly
- * the decision decideAction() would make. Not thread-safe: one per thread. Bounded: forgets
+ * the decision decideDialog() would make. Not thread-safe: one per thread. Bounded: forgets
  * everything past `capacity` entries.
  */
 class DecisionMemo {
  public:
   explicit DecisionMemo(std::size_t capacity = 1u << 16) : capacity_(capacity) {}
-  std::size_t decide(const DialogPomdp& dialog, const pomdp::TurnLimitedPolicy& policy,
-                     const pomdp::Belief& b, int turns);
+  DialogDecision decide(const DialogPomdp& dialog, const pomdp::TurnLimitedPolicy& policy,
+                        const pomdp::Belief& b, int turns);
   std::size_t hits() const { return hits_; }
   std::size_t misses() const { return misses_; }
 
  private:
   std::size_t capacity_;
-  std::unordered_map<std::string, std::size_t> memo_;
+  std::unordered_map<std::string, DialogDecision> memo_;
   std::string key_;
   std::size_t hits_ = 0, misses_ = 0;
 };
@@ -109,6 +121,8 @@ class DialogSession {
   const pomdp::Belief& belief() const { return belief_; }
   BeliefSummary summary() const;
   int turns() const { return turns_; }
+  /// @brief The policy vector whose plan the next decision follows, -1 when it scans.
+  long plan() const { return plan_; }
   /// @brief The last question asked, -1 if none yet.
   long lastQuestion() const { return lastQuestion_; }
   bool finished() const { return finished_; }
@@ -121,6 +135,11 @@ class DialogSession {
   const LanguageFrontEnd* language_;
   const pomdp::TurnLimitedPolicy* policy_;
   DecisionMemo* memo_ = nullptr;
+  long plan_ = -1;                  ///< plan to follow at the current belief (-1: scan)
+  long asked_ = -1;                 ///< plan whose question awaits its answer
+  mutable DialogDecision pending_;  ///< nextAction()'s last decision
+  /// @brief The answer o to question q was applied: move along the plan, or leave it.
+  void advance(std::size_t q, std::size_t o);
   pomdp::Belief belief_;
   int turns_ = 0;
   long lastQuestion_ = -1;
@@ -143,8 +162,13 @@ class DialogSession {
  * values names the value the belief favours (the same experiment either way).
  * @throws ConfigError when the policy asks at the turn limit.
  */
-std::size_t decideAction(const DialogPomdp& dialog, const pomdp::TurnLimitedPolicy& policy,
-                         const pomdp::Belief& b, int turns);
+DialogDecision decideDialog(const DialogPomdp& dialog, const pomdp::TurnLimitedPolicy& policy,
+                            const pomdp::Belief& b, int turns);
+/// @brief decideDialog()'s action.
+inline std::size_t decideAction(const DialogPomdp& dialog, const pomdp::TurnLimitedPolicy& policy,
+                                const pomdp::Belief& b, int turns) {
+  return decideDialog(dialog, policy, b, turns).action;
+}
 
 /// @brief summary() of any belief of the dialog model.
 BeliefSummary summarizeBelief(const DialogPomdp& dialog, const pomdp::Belief& b);

@@ -11,6 +11,11 @@
  * once. At turn t the policy takes the action of the best vector among those with stage >= t:
  * executed greedily this way, the policy earns at least that vector's value (the solver
  * exports only vectors of plans that stay available, see dialog::CertifiedDialogSolver).
+ *
+ * Plans (optional): each vector may also name, per observation, the vector of the plan that
+ * continues it after that answer (next()). A robot that follows them earns exactly the
+ * vector's value in O(1) per turn, instead of a scan of every vector at every turn (a
+ * certified dialog policy has about 150,000); it scans only when it leaves the plan.
  */
 #pragma once
 
@@ -34,6 +39,20 @@ class TurnLimitedPolicy {
   /// @brief Add a vector usable at turns 0..stage. @throws ConfigError on a size mismatch,
   /// a non-finite entry or a stage outside [0, turnLimit].
   void add(const Eigen::VectorXd& alpha, std::size_t action, int stage);
+
+  /**
+   * @brief Attach the plans' continuations: next[i * numObservations + o] is the vector that
+   * continues vector i after observation o, -1 for none. @throws ConfigError for a wrong size,
+   * an index out of range, or a continuation not usable one turn later (stage below
+   * min(stage(i) + 1, turnLimit)).
+   */
+  void setPlans(std::size_t numObservations, std::vector<long> next);
+  bool hasPlans() const { return obs_ > 0; }
+  std::size_t numObservations() const { return obs_; }
+  /// @brief The vector continuing vector i after observation o, -1 for none (or no plans).
+  long next(std::size_t i, std::size_t o) const {
+    return obs_ == 0 || o >= obs_ ? -1 : next_[i * obs_ + o];
+  }
 
   std::size_t numStates() const { return s_; }
   int turnLimit() const { return limit_; }
@@ -63,7 +82,8 @@ class TurnLimitedPolicy {
   Eigen::VectorXd values(const Eigen::MatrixXd& beliefs, int turns) const;
 
   /// @brief Text format: "krr-turn-limited-policy 1", "states S", "turn_limit L",
-  /// "vectors N", then N lines "stage action v1 ... vS" (exact round trip).
+  /// "vectors N", then N lines "stage action v1 ... vS" (exact round trip). With plans,
+  /// version 2 and after the vectors "plans O" and N lines of O entries, next + 1 (0: none).
   std::string toText() const;
   /// @throws ParseError with file:line:col, ConfigError for values add() refuses.
   static TurnLimitedPolicy fromText(const std::string& text, const std::string& file = "<string>");
@@ -76,6 +96,8 @@ class TurnLimitedPolicy {
   std::vector<Eigen::VectorXd> alphas_;
   std::vector<std::size_t> actions_;
   std::vector<int> stages_;
+  std::size_t obs_ = 0;
+  std::vector<long> next_;
   /// @brief The vectors of one stage, row-major and contiguous, with their indices: bestIndex
   /// is then one matrix-vector product per stage (it runs at every lookahead of every trial).
   struct StageGroup {
