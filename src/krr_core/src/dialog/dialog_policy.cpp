@@ -117,8 +117,9 @@ pomdp::TurnLimitedPolicy solveDialogPolicy(const DialogPomdp& dialog,
     std::ostringstream key;
     key.precision(17);
     // v3: the room-paid bound's chain of levels and trials aimed at trialTarget x precision;
-    // v4: policies carry their plans' continuations (executed in O(1) per turn).
-    key << "certified v4|" << solverFingerprint() << "|" << limit << "|" << so.precision << "|"
+    // v4: policies carry their plans' continuations (executed in O(1) per turn); v5: rarely
+    // reached nodes export their commit plans.
+    key << "certified v5|" << solverFingerprint() << "|" << limit << "|" << so.precision << "|"
         << so.maxTrials << "|" << so.seed << "|" << so.lowerGuidedEvery << "|"
         << so.commitLower << "|" << so.shareUpperBounds << so.roomPaidBound << so.roomLookahead
         << so.keepLeaves << "|" << so.trialTarget << "|" << dialog.exportCassandra();
