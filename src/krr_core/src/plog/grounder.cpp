@@ -1097,7 +1097,8 @@ class Grounder {
     for (size_t i = 0; i < prog_.pr_atoms.size(); ++i) {
       const PrAtom& p = prog_.pr_atoms[i];
       const int a = attrId(p.atom.attr, p.loc);
-      if (!g_.attr_in_cone[static_cast<size_t>(a)] || !headDemanded(a)) continue;
+      // (a pr-atom of an attribute that is not random is refused by groundPrAtom)
+      if (!g_.attr_in_cone[static_cast<size_t>(a)] || (g_.attr_random[a] && !headDemanded(a))) continue;
       groundPrAtom(p, pr_ids_ ? (*pr_ids_)[i] : static_cast<std::uint64_t>(i + 1));
     }
     for (size_t ri = 0; ri < prog_.rules.size(); ++ri) {
@@ -1442,15 +1443,36 @@ class Grounder {
     return false;
   }
 
-  /// @brief A pr-atom added to a restricted grounding with a dynamic atom in its body could
-  /// demand instances that were not ground.
-  bool demandsInstances(const PrAtom& p) const {
+  /// @brief A pr-atom added to a restricted grounding demands instances that were not ground:
+  /// a dynamic atom of its body, under a demanded head pattern, outside every demanded one.
+  bool demandsInstances(const PrAtom& p) {
     if (!restricted_) return false;
-    for (const auto& l : p.body)
-      if (l.kind == Literal::Kind::Atom) {
+    const int a = attrLookupTerm(p.atom.attr);
+    if (a < 0) return true;
+    const Demand& d = head_demand_[static_cast<size_t>(a)];
+    const std::vector<std::vector<int>> heads =
+        d.all ? std::vector<std::vector<int>>{std::vector<int>(p.atom.attr.args.size(), -1)} : d.pats;
+    std::unordered_map<std::string, int> bind;
+    for (const auto& pat : heads) {
+      bind.clear();
+      if (!unifyHead(p.atom.attr.args, pat, bind)) continue;
+      for (const auto& l : p.body) {
+        if (l.kind != Literal::Kind::Atom) continue;
         const int b = attrLookupTerm(l.atom.attr);
-        if (b < 0 || g_.attr_dynamic[static_cast<size_t>(b)]) return true;
+        if (b < 0) return true;
+        if (g_.attr_dynamic[static_cast<size_t>(b)] && !demanded(b, patternOf(l.atom.attr.args, bind)))
+          return true;
       }
+    }
+    return false;
+  }
+
+  /// @brief Every instance matching pat is demanded.
+  bool demanded(int a, const std::vector<int>& pat) const {
+    const Demand& d = head_demand_[static_cast<size_t>(a)];
+    if (d.all) return true;
+    for (const auto& p : d.pats)
+      if (subsumes(p, pat)) return true;
     return false;
   }
 

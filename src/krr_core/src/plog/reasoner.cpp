@@ -108,6 +108,24 @@ std::string setKey(const std::set<std::string>& s) {
   return k;
 }
 
+/// Groundings restricted to a query's instances are one per distinct query (each small): past
+/// this many in a cache, the oldest goes, so that a long-running reasoner keeps a bounded set.
+constexpr size_t kMaxRestrictedGroundings = 64;
+
+/// Drops the oldest (smallest serial) restricted grounding of `cache` when it holds more than
+/// kMaxRestrictedGroundings of them.
+template <class Cache>
+void evictOldestRestricted(Cache& cache) {
+  size_t n = 0;
+  auto oldest = cache.end();
+  for (auto it = cache.begin(); it != cache.end(); ++it) {
+    if (!it->second->g->instance_restricted) continue;
+    ++n;
+    if (oldest == cache.end() || it->second->serial < oldest->second->serial) oldest = it;
+  }
+  if (n > kMaxRestrictedGroundings) cache.erase(oldest);
+}
+
 std::string prKey(const PrAtom& p) {
   std::vector<std::string> b;
   for (const auto& l : p.body) b.push_back(toString(l));
@@ -643,6 +661,7 @@ std::shared_ptr<Reasoner::GroundEntry> Reasoner::groundEntryFor(
   stats_.ground_restricted = fresh->g->instance_restricted;
   ++stats_.full_groundings;
   ground_cache_[key] = fresh;
+  if (fresh->g->instance_restricted) evictOldestRestricted(ground_cache_);
   trimLog();
   return fresh;
 }

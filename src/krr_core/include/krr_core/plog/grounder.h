@@ -168,8 +168,8 @@ std::set<std::string> relevanceCone(const Program& program, const std::set<std::
  * (ground against the existing fact store; they may not create new attribute instances) or
  * removed. Anything else (rules with bodies, selection rules, declarations, facts of other
  * attributes, ...) needs a full grounding: apply() then returns false. So does an added
- * pr-atom with a dynamic atom in its body when the grounding is restricted to a query's
- * instances (ClosedCone::atoms): it could demand instances that were not ground.
+ * pr-atom whose body reads instances that a grounding restricted to a query's instances
+ * (ClosedCone::atoms) did not ground.
  */
 class IncrementalGrounder {
  public:
