@@ -675,9 +675,11 @@ std::string Reasoner::coneAtomsKey(const std::string& all_key, const std::set<st
                                    const std::vector<AttributeTerm>* atoms,
                                    std::vector<AttributeTerm>& all_atoms) {
   if (!atoms) return "";
-  auto pt = cone_pays_.find(all_key);
+  // (the threshold is part of the key: setLimits may change it)
+  const std::string pays_key = all_key + "#" + std::to_string(limits_.cone_restrict_min_instances);
+  auto pt = cone_pays_.find(pays_key);
   if (pt == cone_pays_.end() || pt->second.first != structure_version_)
-    pt = cone_pays_.insert_or_assign(all_key, std::make_pair(structure_version_,
+    pt = cone_pays_.insert_or_assign(pays_key, std::make_pair(structure_version_,
              instanceConePays(program_, cone, limits_.cone_restrict_min_instances))).first;
   if (!pt->second.second) return "";
   all_atoms = *atoms;

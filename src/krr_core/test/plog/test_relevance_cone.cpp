@@ -109,6 +109,19 @@ TEST(PlogRelevanceCone, ALargeConeIsGroundEntirely) {
   EXPECT_EQ(r->stats().ground_instances, 9u);
 }
 
+TEST(PlogRelevanceCone, AnAttributeDemandedAtManyPatternsIsGroundEntirely) {
+  // 256 instances of p demanded: 256 ground; one more: all 400^2 (kMaxDemandPatterns)
+  for (int k : {256, 257}) {
+    Reasoner r;
+    r.setBackend(Backend::Native);
+    r.loadString(bigRelation(400), "many.plog");
+    std::string q = "?{";
+    for (int i = 1; i <= k; ++i) q += (i > 1 ? ", p(" : "p(") + std::to_string(i) + "," + std::to_string(i) + ")=true";
+    EXPECT_NEAR(std::log2(r.probability(q + "}")), -k, 1e-9);
+    EXPECT_EQ(r.stats().ground_instances, k == 256 ? 256u : 160000u);
+  }
+}
+
 TEST(PlogRelevanceCone, BudgetsHoldWhenTheConeIsLarge) {
   const std::string text = bigRelation(2300) + "any : boolean.\nany = true :- p(X, Y) = true.\n";
   Reasoner r;
@@ -181,6 +194,13 @@ TEST(PlogRelevanceCone, SmallConesAreNotRestrictedByDefault) {
   EXPECT_NEAR(r.probability("?{p(1,2)=true}"), 0.5, 1e-12);
   EXPECT_FALSE(r.stats().ground_restricted);
   EXPECT_EQ(r.stats().ground_instances, 9u);
+  // the threshold applies from the next query on
+  GroundingLimits lim;
+  lim.cone_restrict_min_instances = 0;
+  r.setLimits(lim);
+  EXPECT_NEAR(r.probability("?{p(1,2)=true}"), 0.5, 1e-12);
+  EXPECT_TRUE(r.stats().ground_restricted);
+  EXPECT_EQ(r.stats().ground_instances, 1u);
   Program p = parseProgram(text, "small.plog");
   EXPECT_FALSE(instanceConePays(p, {"p"}, 10000));
   EXPECT_TRUE(instanceConePays(p, {"p"}, 9));
