@@ -134,11 +134,11 @@ struct GroundProgram {
 /// demands every instance at its position; an attribute demanded at more than a few hundred
 /// patterns is ground entirely). Attributes in every cone (constraints, derived attributes that
 /// may get two values, loops through `not`, dynamic ranges, and their ancestors: the cone of
-/// no name) are ground entirely. Sound because P-log's measure factorises: each instance
-/// outside the restricted cone is defined by statements about itself, whose bodies lie outside
-/// it too; nothing outside couples worlds (those statements are ground entirely), so for every
-/// assignment of the cone the measures of the worlds extending it sum to the cone's marginal,
-/// and the query's probability, a ratio of such marginals, is unchanged.
+/// no name) are ground entirely. Sound because P-log's measure factorises along the cone: no
+/// statement defining a demanded instance reads an instance outside (demand is closed over
+/// bodies), and outside nothing removes or splits worlds (what could is ground entirely), so
+/// the worlds extending an assignment of the cone have measures summing to its marginal: the
+/// query's probability, a ratio of such marginals, is unchanged.
 GroundProgram groundProgram(const Program& program, const std::set<std::string>& cone_attributes,
                             const GroundingLimits& limits = GroundingLimits(),
                             const std::vector<AttributeTerm>* cone_atoms = nullptr);
