@@ -1,10 +1,12 @@
 /**
  * @file bench_plog_scale.cpp
- * @brief Issue 24: growth of the P-log front end (parse + ground + answer, in process) on three
+ * @brief Issue 24: growth of the P-log front end (parse + ground + answer, in process) on four
  * generated classes at several sizes: flat sums `?{a = 1+1+...+1}`, distinct 0-ary facts
- * `qN.`, rule chains `b_i :- b_{i+1}.` Prints seconds per size (thread CPU time, the median
- * of --repeat runs), the fitted log-log slope per class and whether the issue's targets hold:
- * exponent <= 1.2, a 20000-term sum <= 0.1 s, 1 MB of facts <= 1 s, a 100000-rule chain <= 2 s.
+ * `qN.`, rule chains `b_i :- b_{i+1}.`, and a query about one atom of an n x n random
+ * relation (its relevance cone is that atom). Prints seconds per size (thread CPU time, the
+ * median of --repeat runs), the fitted log-log slope per class and whether the issue's targets
+ * hold: exponent <= 1.2, a 20000-term sum <= 0.1 s, 1 MB of facts <= 1 s, a 100000-rule chain
+ * <= 2 s, one atom of a 10000 x 10000 relation <= 0.1 s.
  *
  * Usage: bench_plog_scale [--repeat N] [--quick]
  */
@@ -36,6 +38,11 @@ std::string chainProgram(int n) {
   std::string s;
   for (int i = 0; i < n; ++i) s += "b" + std::to_string(i) + " :- b" + std::to_string(i + 1) + ".\n";
   return s + "b" + std::to_string(n) + ".\n?{b0}.\n";
+}
+
+std::string relationProgram(int n) {
+  return "n = {1.." + std::to_string(n) + "}.\np : n, n -> boolean.\nrandom(p(X, Y)).\n"
+         "?{p(1, 1) = true}.\n";
 }
 
 double runOnce(const std::string& text) {
@@ -70,7 +77,8 @@ int main(int argc, char** argv) {
   bool quick = false;
   krr::OptionParser cli("bench_plog_scale",
                         "Growth of the P-log front end (parse + ground + answer) on generated\n"
-                        "sums, facts and rule chains; fitted log-log slopes and the targets.");
+                        "sums, facts, rule chains and one atom of an n x n relation; fitted\n"
+                        "log-log slopes and the targets.");
   cli.add("--repeat", "N", "runs per size (the median is printed; at least 1)", &repeat);
   cli.flag("--quick", "the three smallest sizes only, without the time targets", &quick);
   if (const auto status = cli.parse(argc, argv)) return *status;
@@ -88,6 +96,8 @@ int main(int argc, char** argv) {
       {"flat sum (terms)", sumProgram, {1250, 2500, 5000, 10000, 20000}, 20000, 0.1, "20000 terms <= 0.1 s"},
       {"facts (qN.)", factsProgram, {7716, 15432, 30864, 61728, 123457}, 123457, 1.0, "1 MB (123457 facts) <= 1 s"},
       {"rule chain (rules)", chainProgram, {6250, 12500, 25000, 50000, 100000}, 100000, 2.0, "100000 rules <= 2 s"},
+      {"one atom of n x n (n)", relationProgram, {625, 1250, 2500, 5000, 10000}, 10000, 0.1,
+       "10000 x 10000, one atom <= 0.1 s"},
   };
   bool all_ok = true;
   std::printf("| class | size | bytes | seconds (CPU, median of %d) |\n| --- | ---: | ---: | ---: |\n", repeat);

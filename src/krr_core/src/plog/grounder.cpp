@@ -210,6 +210,8 @@ class Grounder {
         gr->changed_ = nullptr;
       }
     } reset{this};
+    for (const auto& ap : d.added_prs)
+      if (demandsInstances(*ap.first)) return false;
     try {
       for (std::uint64_t id : d.removed_prs) {
         auto it = src_refs_.find(id);
@@ -237,7 +239,9 @@ class Grounder {
     return true;
   }
 
-  void run(const std::set<std::string>& cone_names) {
+  /// @brief Ground the attributes `cone_names` (closed); with `atoms`, only the instances
+  /// they reach (groundProgram's cone_atoms).
+  void run(const std::set<std::string>& cone_names, const std::vector<AttributeTerm>* atoms) {
     start_ = std::chrono::steady_clock::now();
     // Consistency-restoring rules make the possible worlds depend on a global minimisation
     // over all answer sets, which the native engine does not do.
@@ -310,6 +314,8 @@ class Grounder {
     computeGuardAttributes();
     evaluateStatic();
     countGuardFacts();
+    if (atoms) computeInstancePatterns(*atoms);
+    g_.instance_restricted = restricted_;
     groundDynamic();
     g_.static_atoms.assign(na, {});
     for (size_t a = 0; a < na; ++a) {
@@ -937,8 +943,12 @@ class Grounder {
   }
 
   void runJoin(Stmt& s, const std::vector<int>& required, const Emit& emit) {
-    std::vector<char> done(s.lits.size(), 0);
     std::vector<int> b(s.slot_names.size(), -1);
+    runJoinFrom(s, b, required, emit);
+  }
+  /// runJoin from a partial binding b (slots >= 0 are bound).
+  void runJoinFrom(Stmt& s, std::vector<int>& b, const std::vector<int>& required, const Emit& emit) {
+    std::vector<char> done(s.lits.size(), 0);
     std::vector<GLit> acc;
     std::vector<int> origin;
     join(s, done, b, acc, origin, required, emit);
@@ -1080,87 +1090,22 @@ class Grounder {
 
   // ---- dynamic grounding ----
   void groundDynamic() {
-    // random selection rules
     for (const auto& r : prog_.random_rules) {
-      int a = attrId(r.attr, r.loc);
-      if (!g_.attr_in_cone[a]) continue;
-      cur_loc_ = r.loc;
-      Stmt s;
-      s.loc = r.loc;
-      for (const auto& l : r.body) s.lits.push_back(compileLit(s, l, 0));
-      int range_slot = -1;
-      if (r.has_range) {
-        range_slot = slotOf(s, r.range_var);
-        for (const auto& l : r.range_body) s.lits.push_back(compileLit(s, l, 1));
-      }
-      std::vector<CTerm> hargs;
-      for (const auto& t : r.attr.args) hargs.push_back(compile(s, t));
-      typeSlots(s, r.variable_sorts);
-      std::vector<int> required;
-      for (const auto& t : hargs) termVars(t, required);
-      const size_t nbody = r.body.size();
-      std::unordered_map<std::string, std::pair<int, int>> groups;  // key -> (inst, sel idx)
-      std::vector<char> done(s.lits.size(), 0);
-      for (size_t i = nbody; i < s.lits.size(); ++i) done[i] = 1;  // range literals later
-      std::vector<int> b(s.slot_names.size(), -1);
-      std::vector<GLit> acc;
-      std::vector<int> origin;
-      join(s, done, b, acc, origin, required, [&](const std::vector<int>& bb,
-                                                  const std::vector<GLit>& body,
-                                                  const std::vector<int>&) {
-        std::vector<int> args;
-        for (const auto& t : hargs) {
-          int v = evalTerm(t, bb);
-          if (v < 0) return;
-          args.push_back(v);
-        }
-        if (!argsInSorts(a, args)) return;
-        int inst = instanceFor(a, args);
-        std::string key = std::to_string(inst) + ":" + litKey(body);
-        auto it = groups.find(key);
-        if (it == groups.end()) {
-          GSelection sel;
-          sel.label = r.label;
-          sel.body = body;
-          sel.dynamic_range = r.has_range;
-          sel.loc = r.loc;
-          GInstance& gi = g_.instances[static_cast<size_t>(inst)];
-          gi.selections.push_back(sel);
-          it = groups.emplace(key, std::make_pair(inst, int(gi.selections.size()) - 1)).first;
-          ++g_.ground_statements;
-          spend(0, 1);
-        }
-        if (range_slot < 0) return;
-        // ground the dynamic range for this body binding
-        std::vector<char> done2(s.lits.size(), 1);
-        for (size_t i = nbody; i < s.lits.size(); ++i) done2[i] = 0;
-        std::vector<int> b2 = bb;
-        std::vector<GLit> acc2;
-        std::vector<int> origin2;
-        const int sel_index = it->second.second;
-        join(s, done2, b2, acc2, origin2, {range_slot}, [&](const std::vector<int>& b3,
-                                                            const std::vector<GLit>& cond,
-                                                            const std::vector<int>&) {
-          GInstance& gi = g_.instances[static_cast<size_t>(inst)];
-          int vi = valueIdx(inst, b3[static_cast<size_t>(range_slot)]);
-          if (vi >= 0) gi.selections[static_cast<size_t>(sel_index)].range.push_back({vi, cond});
-        });
-      });
+      const int a = attrId(r.attr, r.loc);
+      if (g_.attr_in_cone[static_cast<size_t>(a)] && headDemanded(a)) groundSelectionRule(r, a);
     }
-    // pr-atoms
     for (size_t i = 0; i < prog_.pr_atoms.size(); ++i) {
       const PrAtom& p = prog_.pr_atoms[i];
-      int a = attrId(p.atom.attr, p.loc);
-      if (!g_.attr_in_cone[a]) continue;
+      const int a = attrId(p.atom.attr, p.loc);
+      // (a pr-atom of an attribute that is not random is refused by groundPrAtom)
+      if (!g_.attr_in_cone[static_cast<size_t>(a)] || (g_.attr_random[a] && !headDemanded(a))) continue;
       groundPrAtom(p, pr_ids_ ? (*pr_ids_)[i] : static_cast<std::uint64_t>(i + 1));
     }
-    // dynamic derived rules and constraints
     for (size_t ri = 0; ri < prog_.rules.size(); ++ri) {
       const Rule& r = prog_.rules[ri];
-      int h = -1;
       if (r.head) {
-        h = rule_head_attr_[ri];
-        if (!g_.attr_dynamic[h] || !g_.attr_in_cone[h]) continue;
+        const int h = rule_head_attr_[ri];
+        if (!g_.attr_dynamic[h] || !g_.attr_in_cone[h] || !headDemanded(h)) continue;
       } else {
         bool touches = false;
         for (const auto& l : r.body)
@@ -1168,51 +1113,367 @@ class Grounder {
             touches = true;
         if (!touches && !r.body.empty()) continue;
       }
-      cur_loc_ = r.loc;
-      Stmt s;
-      s.loc = r.loc;
-      for (const auto& l : r.body) s.lits.push_back(compileLit(s, l, 0));
-      std::vector<CTerm> hargs;
-      CTerm hval;
-      if (r.head) {
-        for (const auto& t : r.head->attr.args) hargs.push_back(compile(s, t));
-        hval = compile(s, r.head->value);
-      }
-      typeSlots(s, r.variable_sorts);
-      std::vector<int> required;
-      for (const auto& t : hargs) termVars(t, required);
-      if (r.head) termVars(hval, required);
-      runJoin(s, required, [&](const std::vector<int>& b, const std::vector<GLit>& acc,
-                               const std::vector<int>&) {
-        if (!r.head) {
-          if (acc.empty())
-            throw IncoherentError(r.loc.str() + ": constraint is violated by the facts of the "
-                                  "program (no possible world)");
-          g_.constraints.push_back({acc, r.loc});
-          ++g_.ground_statements;
-          spend(0, 1);
-          return;
-        }
-        std::vector<int> args;
-        for (const auto& t : hargs) {
-          int v = evalTerm(t, b);
-          if (v < 0) return;
-          args.push_back(v);
-        }
-        if (!argsInSorts(h, args)) return;
-        int inst = instanceFor(h, args);
-        GInstance& gi = g_.instances[static_cast<size_t>(inst)];
-        int v = evalTerm(hval, b);
-        int vi = v < 0 ? -1 : valueIdx(inst, v);
-        if (vi < 0)
-          throw UnknownSymbolError(r.loc.str() + ": value '" + (v < 0 ? "?" : syms_->text(v)) +
-                                   "' is not in the range of " + gi.name);
-        gi.rules.push_back({vi, acc});
-        ++g_.ground_statements;
-        if (!gi.random) ++g_.derived_rules;
-        spend(0, 1);
-      });
+      groundDynamicRule(r, r.head ? rule_head_attr_[ri] : -1);
     }
+  }
+
+  /// @brief One random selection rule of attribute a (in the cone): its ground selections, one
+  /// per instance and dynamic body, with their dynamic ranges.
+  void groundSelectionRule(const RandomRule& r, int a) {
+    cur_loc_ = r.loc;
+    Stmt s;
+    s.loc = r.loc;
+    for (const auto& l : r.body) s.lits.push_back(compileLit(s, l, 0));
+    int range_slot = -1;
+    if (r.has_range) {
+      range_slot = slotOf(s, r.range_var);
+      for (const auto& l : r.range_body) s.lits.push_back(compileLit(s, l, 1));
+    }
+    std::vector<CTerm> hargs;
+    for (const auto& t : r.attr.args) hargs.push_back(compile(s, t));
+    typeSlots(s, r.variable_sorts);
+    std::vector<int> required;
+    for (const auto& t : hargs) termVars(t, required);
+    const size_t nbody = r.body.size();
+    std::unordered_map<std::string, std::pair<int, int>> groups;  // key -> (inst, sel idx)
+    std::vector<char> done(s.lits.size(), 0);
+    for (size_t i = nbody; i < s.lits.size(); ++i) done[i] = 1;  // range literals later
+    std::vector<GLit> acc;
+    std::vector<int> origin;
+    const Emit emit = [&](const std::vector<int>& bb, const std::vector<GLit>& body,
+                          const std::vector<int>&) {
+      std::vector<int> args;
+      for (const auto& t : hargs) {
+        int v = evalTerm(t, bb);
+        if (v < 0) return;
+        args.push_back(v);
+      }
+      if (!argsInSorts(a, args) || !headAdmitted(a, args)) return;
+      int inst = instanceFor(a, args);
+      std::string key = std::to_string(inst) + ":" + litKey(body);
+      auto it = groups.find(key);
+      if (it == groups.end()) {
+        GSelection sel;
+        sel.label = r.label;
+        sel.body = body;
+        sel.dynamic_range = r.has_range;
+        sel.loc = r.loc;
+        GInstance& gi = g_.instances[static_cast<size_t>(inst)];
+        gi.selections.push_back(sel);
+        it = groups.emplace(key, std::make_pair(inst, int(gi.selections.size()) - 1)).first;
+        ++g_.ground_statements;
+        spend(0, 1);
+      }
+      if (range_slot >= 0) groundRange(s, nbody, bb, range_slot, inst, it->second.second);
+    };
+    forEachHeadPattern(s, a, hargs, [&](std::vector<int>& b) {
+      join(s, done, b, acc, origin, required, emit);
+    });
+  }
+
+  /// @brief The dynamic range of selection sel_index of instance inst, for the body binding bb
+  /// (the range literals are s.lits from nbody on).
+  void groundRange(Stmt& s, size_t nbody, const std::vector<int>& bb, int range_slot, int inst,
+                   int sel_index) {
+    std::vector<char> done2(s.lits.size(), 1);
+    for (size_t i = nbody; i < s.lits.size(); ++i) done2[i] = 0;
+    std::vector<int> b2 = bb;
+    std::vector<GLit> acc2;
+    std::vector<int> origin2;
+    join(s, done2, b2, acc2, origin2, {range_slot}, [&](const std::vector<int>& b3,
+                                                        const std::vector<GLit>& cond,
+                                                        const std::vector<int>&) {
+      GInstance& gi = g_.instances[static_cast<size_t>(inst)];
+      int vi = valueIdx(inst, b3[static_cast<size_t>(range_slot)]);
+      if (vi >= 0) gi.selections[static_cast<size_t>(sel_index)].range.push_back({vi, cond});
+    });
+  }
+
+  /// @brief A rule with a dynamic head (attribute h) or a constraint (h < 0) touching the cone.
+  void groundDynamicRule(const Rule& r, int h) {
+    cur_loc_ = r.loc;
+    Stmt s;
+    s.loc = r.loc;
+    for (const auto& l : r.body) s.lits.push_back(compileLit(s, l, 0));
+    std::vector<CTerm> hargs;
+    CTerm hval;
+    if (r.head) {
+      for (const auto& t : r.head->attr.args) hargs.push_back(compile(s, t));
+      hval = compile(s, r.head->value);
+    }
+    typeSlots(s, r.variable_sorts);
+    std::vector<int> required;
+    for (const auto& t : hargs) termVars(t, required);
+    if (r.head) termVars(hval, required);
+    const Emit emit = [&](const std::vector<int>& b, const std::vector<GLit>& acc,
+                          const std::vector<int>&) {
+      if (!r.head) {
+        if (acc.empty())
+          throw IncoherentError(r.loc.str() + ": constraint is violated by the facts of the "
+                                "program (no possible world)");
+        g_.constraints.push_back({acc, r.loc});
+        ++g_.ground_statements;
+        spend(0, 1);
+        return;
+      }
+      std::vector<int> args;
+      for (const auto& t : hargs) {
+        int v = evalTerm(t, b);
+        if (v < 0) return;
+        args.push_back(v);
+      }
+      if (!argsInSorts(h, args) || !headAdmitted(h, args)) return;
+      addDerivedRule(r, instanceFor(h, args), evalTerm(hval, b), acc);
+    };
+    if (!r.head) {
+      runJoin(s, required, emit);
+      return;
+    }
+    forEachHeadPattern(s, h, hargs, [&](std::vector<int>& b) { runJoinFrom(s, b, required, emit); });
+  }
+
+  /// @brief The ground rule `inst = v :- body` of a derived instance.
+  void addDerivedRule(const Rule& r, int inst, int v, const std::vector<GLit>& body) {
+    GInstance& gi = g_.instances[static_cast<size_t>(inst)];
+    int vi = v < 0 ? -1 : valueIdx(inst, v);
+    if (vi < 0)
+      throw UnknownSymbolError(r.loc.str() + ": value '" + (v < 0 ? "?" : syms_->text(v)) +
+                               "' is not in the range of " + gi.name);
+    gi.rules.push_back({vi, body});
+    ++g_.ground_statements;
+    if (!gi.random) ++g_.derived_rules;
+    spend(0, 1);
+  }
+
+  // ---- instance-level relevance cone (groundProgram's cone_atoms) ----
+  /// Instances of one attribute that the query's atoms reach: every one (`all`), or those
+  /// matching one of `pats` (a symbol per argument, -1: any).
+  struct Demand {
+    bool all = false;
+    std::vector<std::vector<int>> pats;
+  };
+  /// An attribute demanded at more patterns than this is ground entirely.
+  static constexpr size_t kMaxDemandPatterns = 256;
+
+  /// @brief The statements defining each attribute (heads and bodies), for the demand closure.
+  struct Definition {
+    const std::vector<Term>* head_args;
+    std::vector<const std::vector<Literal>*> bodies;
+  };
+
+  std::vector<std::vector<Definition>> definitionsByHead() const {
+    std::vector<std::vector<Definition>> defs(prog_.attributes.size());
+    for (const auto& r : prog_.random_rules) {
+      const int a = attrLookupTerm(r.attr);
+      if (a >= 0) defs[static_cast<size_t>(a)].push_back({&r.attr.args, {&r.body, &r.range_body}});
+    }
+    for (const auto& p : prog_.pr_atoms) {
+      const int a = attrLookupTerm(p.atom.attr);
+      if (a >= 0) defs[static_cast<size_t>(a)].push_back({&p.atom.attr.args, {&p.body}});
+    }
+    for (size_t i = 0; i < prog_.rules.size(); ++i)
+      if (rule_head_attr_[i] >= 0)
+        defs[static_cast<size_t>(rule_head_attr_[i])].push_back(
+            {&prog_.rules[i].head->attr.args, {&prog_.rules[i].body}});
+    return defs;
+  }
+
+  /// @brief head_demand_ from the query's atoms: attributes in every cone entirely, the rest
+  /// closed over the statements whose heads unify with a demanded pattern.
+  void computeInstancePatterns(const std::vector<AttributeTerm>& atoms) {
+    restricted_ = true;
+    head_demand_.assign(prog_.attributes.size(), Demand());
+    demand_work_.clear();
+    for (const auto& n : relevanceCone(prog_, {})) {
+      const int a = attrLookup(n);
+      if (a >= 0) demand(a, std::vector<int>(prog_.attributes[static_cast<size_t>(a)].arg_sorts.size(), -1));
+    }
+    const std::unordered_map<std::string, int> none;
+    for (const auto& t : atoms) {
+      const int a = attrLookupTerm(t);
+      if (a >= 0) demand(a, patternOf(t.args, none));
+    }
+    const std::vector<std::vector<Definition>> defs = definitionsByHead();
+    std::unordered_map<std::string, int> bind;
+    while (!demand_work_.empty()) {
+      const std::pair<int, std::vector<int>> item = std::move(demand_work_.back());
+      demand_work_.pop_back();
+      for (const Definition& d : defs[static_cast<size_t>(item.first)]) {
+        bind.clear();
+        if (!unifyHead(*d.head_args, item.second, bind)) continue;
+        for (const std::vector<Literal>* body : d.bodies)
+          for (const auto& l : *body) {
+            if (l.kind != Literal::Kind::Atom) continue;
+            const int b = attrLookupTerm(l.atom.attr);
+            if (b >= 0 && g_.attr_dynamic[static_cast<size_t>(b)]) demand(b, patternOf(l.atom.attr.args, bind));
+          }
+      }
+    }
+  }
+
+  int attrLookupTerm(const AttributeTerm& t) const { return attr_index_.of(t); }
+
+  /// @brief The pattern of atom arguments under `bind`: constants and bound variables give
+  /// their symbol, anything else (free variables, arithmetic) -1.
+  std::vector<int> patternOf(const std::vector<Term>& args,
+                             const std::unordered_map<std::string, int>& bind) {
+    std::vector<int> pat;
+    pat.reserve(args.size());
+    for (const auto& t : args) {
+      int v = -1;
+      if (t.kind == Term::Kind::Symbol || t.kind == Term::Kind::Integer ||
+          (t.kind == Term::Kind::Compound && t.isGround())) {
+        v = syms_->intern(toString(t));
+      } else if (t.kind == Term::Kind::Variable) {
+        auto it = bind.find(t.name);
+        if (it != bind.end()) v = it->second;
+      }
+      pat.push_back(v);
+    }
+    return pat;
+  }
+
+  /// @brief Unifies head arguments with a demanded pattern (variables bound in `bind`); false
+  /// when a constant or a repeated variable cannot match. Arithmetic matches anything.
+  bool unifyHead(const std::vector<Term>& args, const std::vector<int>& pat,
+                 std::unordered_map<std::string, int>& bind) {
+    for (size_t i = 0; i < args.size() && i < pat.size(); ++i) {
+      if (pat[i] < 0) continue;
+      const Term& t = args[i];
+      if (t.kind == Term::Kind::Symbol || t.kind == Term::Kind::Integer ||
+          (t.kind == Term::Kind::Compound && t.isGround())) {
+        if (syms_->intern(toString(t)) != pat[i]) return false;
+      } else if (t.kind == Term::Kind::Variable && t.name != "_") {
+        auto ins = bind.emplace(t.name, pat[i]);
+        if (!ins.second && ins.first->second != pat[i]) return false;
+      }
+    }
+    return true;
+  }
+
+  static bool subsumes(const std::vector<int>& general, const std::vector<int>& p) {
+    for (size_t i = 0; i < general.size() && i < p.size(); ++i)
+      if (general[i] >= 0 && general[i] != p[i]) return false;
+    return true;
+  }
+
+  /// @brief Demands the instances of attribute a matching pat (queued for the closure).
+  void demand(int a, std::vector<int> pat) {
+    Demand& d = head_demand_[static_cast<size_t>(a)];
+    if (d.all) return;
+    bool any = std::all_of(pat.begin(), pat.end(), [](int v) { return v < 0; });
+    if (!any) {
+      for (const auto& p : d.pats)
+        if (subsumes(p, pat)) return;
+      if (d.pats.size() >= kMaxDemandPatterns) any = true, pat.assign(pat.size(), -1);
+    }
+    if (any) {
+      d.all = true;
+      d.pats.clear();
+    } else {
+      d.pats.erase(std::remove_if(d.pats.begin(), d.pats.end(),
+                                  [&](const std::vector<int>& p) { return subsumes(pat, p); }),
+                   d.pats.end());
+      d.pats.push_back(pat);
+    }
+    demand_work_.push_back({a, std::move(pat)});
+  }
+
+  /// @brief The attribute's instances are restricted to patterns (not every instance).
+  bool restrictedHead(int a) const {
+    return restricted_ && !head_demand_[static_cast<size_t>(a)].all;
+  }
+  /// @brief Some instance of the attribute is to be ground.
+  bool headDemanded(int a) const {
+    return !restrictedHead(a) || !head_demand_[static_cast<size_t>(a)].pats.empty();
+  }
+
+  /// @brief Runs `join(b)` once per demanded pattern of attribute a, b being the statement's
+  /// binding with the head variables bound to the pattern's values (patterns whose constants
+  /// or sorts cannot match are skipped); once with nothing bound when a is not restricted, or
+  /// when a head argument is arithmetic (headAdmitted then filters the emitted heads).
+  template <class F>
+  void forEachHeadPattern(const Stmt& s, int a, const std::vector<CTerm>& hargs, F join) {
+    std::vector<int> b(s.slot_names.size(), -1);
+    const bool simple = std::all_of(hargs.begin(), hargs.end(), [](const CTerm& t) {
+      return t.k == CTerm::Const || t.k == CTerm::Var;
+    });
+    if (!restrictedHead(a) || !simple) {
+      cur_pattern_ = restrictedHead(a) ? -2 : -1;
+      join(b);
+      cur_pattern_ = -1;
+      return;
+    }
+    const auto& pats = head_demand_[static_cast<size_t>(a)].pats;
+    for (size_t k = 0; k < pats.size(); ++k) {
+      std::fill(b.begin(), b.end(), -1);
+      if (!preBind(s, hargs, pats[k], b)) continue;
+      cur_pattern_ = static_cast<int>(k);
+      join(b);
+    }
+    cur_pattern_ = -1;
+  }
+
+  bool preBind(const Stmt& s, const std::vector<CTerm>& hargs, const std::vector<int>& pat,
+               std::vector<int>& b) const {
+    for (size_t i = 0; i < hargs.size() && i < pat.size(); ++i) {
+      if (pat[i] < 0) continue;
+      const CTerm& t = hargs[i];
+      if (t.k == CTerm::Const) {
+        if (t.sym != pat[i]) return false;
+        continue;
+      }
+      int& slot = b[static_cast<size_t>(t.slot)];
+      if (slot >= 0 && slot != pat[i]) return false;
+      const int sort = s.slot_sort[static_cast<size_t>(t.slot)];
+      if (sort >= 0 && posInSort(sort, pat[i]) < 0) return false;  // never a binding
+      slot = pat[i];
+    }
+    return true;
+  }
+
+  /// @brief Whether a ground head a(args) is emitted in the current forEachHeadPattern run:
+  /// every head when a is not restricted; else a demanded one, once (by the first pattern
+  /// that matches it).
+  bool headAdmitted(int a, const std::vector<int>& args) const {
+    if (cur_pattern_ == -1 || !restrictedHead(a)) return true;
+    const auto& pats = head_demand_[static_cast<size_t>(a)].pats;
+    for (size_t k = 0; k < pats.size(); ++k)
+      if (subsumes(pats[k], args)) return cur_pattern_ == -2 || static_cast<int>(k) == cur_pattern_;
+    return false;
+  }
+
+  /// @brief A pr-atom added to a restricted grounding demands instances that were not ground:
+  /// a dynamic atom of its body, under a demanded head pattern, outside every demanded one.
+  bool demandsInstances(const PrAtom& p) {
+    if (!restricted_) return false;
+    const int a = attrLookupTerm(p.atom.attr);
+    if (a < 0) return true;
+    const Demand& d = head_demand_[static_cast<size_t>(a)];
+    const std::vector<std::vector<int>> heads =
+        d.all ? std::vector<std::vector<int>>{std::vector<int>(p.atom.attr.args.size(), -1)} : d.pats;
+    std::unordered_map<std::string, int> bind;
+    for (const auto& pat : heads) {
+      bind.clear();
+      if (!unifyHead(p.atom.attr.args, pat, bind)) continue;
+      for (const auto& l : p.body) {
+        if (l.kind != Literal::Kind::Atom) continue;
+        const int b = attrLookupTerm(l.atom.attr);
+        if (b < 0) return true;
+        if (g_.attr_dynamic[static_cast<size_t>(b)] && !demanded(b, patternOf(l.atom.attr.args, bind)))
+          return true;
+      }
+    }
+    return false;
+  }
+
+  /// @brief Every instance matching pat is demanded.
+  bool demanded(int a, const std::vector<int>& pat) const {
+    const Demand& d = head_demand_[static_cast<size_t>(a)];
+    if (d.all) return true;
+    for (const auto& p : d.pats)
+      if (subsumes(p, pat)) return true;
+    return false;
   }
 
   bool argsInSorts(int attr, const std::vector<int>& args) const {
@@ -1247,15 +1508,15 @@ class Grounder {
     for (const auto& t : hargs) termVars(t, required);
     termVars(hval, required);
     guard_acc_.clear();
-    runJoin(s, required, [&](const std::vector<int>& b, const std::vector<GLit>& acc,
-                             const std::vector<int>&) {
+    const Emit emit = [&](const std::vector<int>& b, const std::vector<GLit>& acc,
+                          const std::vector<int>&) {
       std::vector<int> args;
       for (const auto& t : hargs) {
         int v = evalTerm(t, b);
         if (v < 0) return;
         args.push_back(v);
       }
-      if (!argsInSorts(a, args)) return;
+      if (!argsInSorts(a, args) || !headAdmitted(a, args)) return;
       int inst = instanceFor(a, args);
       GInstance& gi = g_.instances[static_cast<size_t>(inst)];
       int v = evalTerm(hval, b);
@@ -1280,7 +1541,8 @@ class Grounder {
       if (changed_) changed_->push_back(ref);
       ++g_.ground_statements;
       spend(0, 1);
-    });
+    };
+    forEachHeadPattern(s, a, hargs, [&](std::vector<int>& b) { runJoinFrom(s, b, required, emit); });
   }
 
   bool guardHolds(const std::vector<int>& key) const {
@@ -1428,6 +1690,11 @@ class Grounder {
   std::unordered_map<std::vector<int>, std::vector<std::pair<int, int>>, VecHash> guard_refs_;
   std::unordered_map<std::uint64_t, std::vector<std::pair<int, int>>> src_refs_;
   std::unordered_map<std::vector<int>, int, VecHash> fact_count_;
+  // instance-level cone (computeInstancePatterns)
+  bool restricted_ = false;
+  std::vector<Demand> head_demand_;  // per attribute
+  std::vector<std::pair<int, std::vector<int>>> demand_work_;
+  int cur_pattern_ = -1;  // forEachHeadPattern: pattern index; -1 none; -2 any demanded head
   // budgets
   GroundingLimits limits_;
   std::unique_ptr<MemoryGuard> guard_;  // the grounding's memory budget (setLimits)
@@ -1590,12 +1857,35 @@ std::set<std::string> relevanceCone(const Program& program, const std::set<std::
 }
 
 GroundProgram groundProgram(const Program& program, const std::set<std::string>& cone_attributes,
-                            const GroundingLimits& limits) {
+                            const GroundingLimits& limits,
+                            const std::vector<AttributeTerm>* cone_atoms) {
   GroundProgram g;
   Grounder gr(program, g);
   gr.setLimits(limits);
-  gr.run(relevanceCone(program, cone_attributes));
+  gr.run(relevanceCone(program, cone_attributes), cone_atoms);
   return g;
+}
+
+bool instanceConePays(const Program& program, const std::set<std::string>& cone,
+                      std::size_t min_instances) {
+  if (min_instances == 0) return true;
+  if (min_instances == std::numeric_limits<std::size_t>::max()) return false;
+  std::unordered_map<std::string, std::size_t> sort_size;
+  for (const auto& so : program.sorts) sort_size[so.name] = so.values.size();
+  std::size_t total = 0;
+  for (const auto& d : program.attributes) {
+    if (!cone.count(d.name)) continue;
+    std::size_t n = 1;
+    for (const auto& so : d.arg_sorts) {
+      auto it = sort_size.find(so);
+      const std::size_t k = it == sort_size.end() ? min_instances : it->second;  // untyped: many
+      if (k != 0 && n > min_instances / k) return true;  // the product alone reaches the bound
+      n *= k;
+    }
+    total += n;
+    if (total >= min_instances) return true;
+  }
+  return false;
 }
 
 class IncrementalGrounder::Impl {
@@ -1618,7 +1908,7 @@ IncrementalGrounder::IncrementalGrounder(const Program& program, ClosedCone cone
   impl_ = std::make_unique<Impl>(program, *ground_);
   impl_->grounder.setLimits(limits);
   impl_->grounder.setPrIds(pr_ids);
-  impl_->grounder.run(cone.attributes);
+  impl_->grounder.run(cone.attributes, cone.atoms);
   impl_->grounder.setPrIds(nullptr);
 }
 

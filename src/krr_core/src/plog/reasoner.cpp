@@ -88,6 +88,14 @@ void applyDo(const GroundProgram& g, const Program& p, const Intervention& d, Ex
   e.setFixed(inst, vi);
 }
 
+/// The attribute terms of a query (formula, observations, do-statements).
+void collectAtoms(const Query& q, std::vector<AttributeTerm>& out) {
+  for (const auto& l : q.formula)
+    if (l.kind == Literal::Kind::Atom) out.push_back(l.atom.attr);
+  for (const auto& o : q.observations) out.push_back(o.literal.atom.attr);
+  for (const auto& d : q.interventions) out.push_back(d.atom.attr);
+}
+
 void collectAttrs(const Query& q, std::set<std::string>& out) {
   for (const auto& l : q.formula) out.insert(l.atom.attr.name);
   for (const auto& o : q.observations) out.insert(o.literal.atom.attr.name);
@@ -98,6 +106,24 @@ std::string setKey(const std::set<std::string>& s) {
   std::string k;
   for (const auto& x : s) k += x + ",";
   return k;
+}
+
+/// Groundings restricted to a query's instances are one per distinct query (each small): past
+/// this many in a cache, the oldest goes, so that a long-running reasoner keeps a bounded set.
+constexpr size_t kMaxRestrictedGroundings = 64;
+
+/// Drops the oldest (smallest serial) restricted grounding of `cache` when it holds more than
+/// kMaxRestrictedGroundings of them.
+template <class Cache>
+void evictOldestRestricted(Cache& cache) {
+  size_t n = 0;
+  auto oldest = cache.end();
+  for (auto it = cache.begin(); it != cache.end(); ++it) {
+    if (!it->second->g->instance_restricted) continue;
+    ++n;
+    if (oldest == cache.end() || it->second->serial < oldest->second->serial) oldest = it;
+  }
+  if (n > kMaxRestrictedGroundings) cache.erase(oldest);
 }
 
 std::string prKey(const PrAtom& p) {
@@ -227,6 +253,7 @@ void Reasoner::structuralChange() {
   ++structure_version_;
   log_.clear();
   cone_cache_.clear();
+  cone_pays_.clear();
   ground_cache_.clear();
   table_cache_.clear();
 }
@@ -524,7 +551,8 @@ void Reasoner::trimLog() {
   if (k) log_.erase(log_.begin(), log_.begin() + static_cast<long>(k));
 }
 
-std::shared_ptr<Reasoner::GroundEntry> Reasoner::groundEntryFor(const std::set<std::string>& attrs) {
+std::shared_ptr<Reasoner::GroundEntry> Reasoner::groundEntryFor(
+    const std::set<std::string>& attrs, const std::vector<AttributeTerm>* atoms) {
   std::set<std::string> all = attrs;
   for (const auto& o : program_.observations) all.insert(o.literal.atom.attr.name);
   for (const auto& d : program_.interventions) all.insert(d.atom.attr.name);
@@ -535,7 +563,10 @@ std::shared_ptr<Reasoner::GroundEntry> Reasoner::groundEntryFor(const std::set<s
   if (ct == cone_cache_.end() || ct->second.first != structure_version_)
     ct = cone_cache_.insert_or_assign(all_key, std::make_pair(structure_version_,
                                                                relevanceCone(program_, all))).first;
-  const std::string key = setKey(ct->second.second);
+  std::vector<AttributeTerm> all_atoms;
+  const std::string atoms_key = coneAtomsKey(all_key, ct->second.second, atoms, all_atoms);
+  const std::string key = setKey(ct->second.second) + atoms_key;
+  const std::vector<AttributeTerm>* restrict_to = atoms_key.empty() ? nullptr : &all_atoms;
   // The cache holds finished groundings only: an entry is stored when its grounding (or patch)
   // has succeeded. A grounding that stops (budget, memory, cancellation, an error in the
   // program) leaves no entry behind; an empty one made room for it was the crash of issue 24
@@ -597,6 +628,7 @@ std::shared_ptr<Reasoner::GroundEntry> Reasoner::groundEntryFor(const std::set<s
       stats_.ground_instances = e->g->instances.size();
       stats_.ground_statements = e->g->ground_statements;
       stats_.ground_incremental = true;
+      stats_.ground_restricted = e->g->instance_restricted;
       ++stats_.incremental_groundings;
       // Too many removed statements kept as tombstones: ground afresh (compaction; the
       // patched grounding is freed first, so that both are never in memory at once).
@@ -615,7 +647,7 @@ std::shared_ptr<Reasoner::GroundEntry> Reasoner::groundEntryFor(const std::set<s
   Stopwatch sw;
   auto fresh = std::make_shared<GroundEntry>();
   fresh->grounder =
-      std::make_unique<IncrementalGrounder>(program_, IncrementalGrounder::ClosedCone{ct->second.second},
+      std::make_unique<IncrementalGrounder>(program_, IncrementalGrounder::ClosedCone{ct->second.second, restrict_to},
                                             &pr_ids_, limits_);
   fresh->g = fresh->grounder->ground();  // may throw: nothing is stored then
   fresh->structure = structure_version_;
@@ -626,14 +658,40 @@ std::shared_ptr<Reasoner::GroundEntry> Reasoner::groundEntryFor(const std::set<s
   stats_.ground_instances = fresh->g->instances.size();
   stats_.ground_statements = fresh->g->ground_statements;
   stats_.ground_incremental = false;
+  stats_.ground_restricted = fresh->g->instance_restricted;
   ++stats_.full_groundings;
   ground_cache_[key] = fresh;
+  if (fresh->g->instance_restricted) evictOldestRestricted(ground_cache_);
   trimLog();
   return fresh;
 }
 
-std::shared_ptr<const GroundProgram> Reasoner::groundFor(const std::set<std::string>& attrs) {
-  return groundEntryFor(attrs)->g;
+std::shared_ptr<const GroundProgram> Reasoner::groundFor(const std::set<std::string>& attrs,
+                                                         const std::vector<AttributeTerm>* atoms) {
+  return groundEntryFor(attrs, atoms)->g;
+}
+
+std::string Reasoner::coneAtomsKey(const std::string& all_key, const std::set<std::string>& cone,
+                                   const std::vector<AttributeTerm>* atoms,
+                                   std::vector<AttributeTerm>& all_atoms) {
+  if (!atoms) return "";
+  // (the threshold is part of the key: setLimits may change it)
+  const std::string pays_key = all_key + "#" + std::to_string(limits_.cone_restrict_min_instances);
+  auto pt = cone_pays_.find(pays_key);
+  if (pt == cone_pays_.end() || pt->second.first != structure_version_)
+    pt = cone_pays_.insert_or_assign(pays_key, std::make_pair(structure_version_,
+             instanceConePays(program_, cone, limits_.cone_restrict_min_instances))).first;
+  if (!pt->second.second) return "";
+  all_atoms = *atoms;
+  for (const auto& o : program_.observations) all_atoms.push_back(o.literal.atom.attr);
+  for (const auto& d : program_.interventions) all_atoms.push_back(d.atom.attr);
+  std::vector<std::string> names;
+  for (const auto& t : all_atoms) names.push_back(toString(t));
+  std::sort(names.begin(), names.end());
+  names.erase(std::unique(names.begin(), names.end()), names.end());
+  std::string k = "|instances:";
+  for (const auto& n : names) k += n + ";";
+  return k;
 }
 
 const Program& Reasoner::declarations() {
@@ -1227,7 +1285,9 @@ std::vector<GCondition> Reasoner::prepareEngine(const GroundProgram& g, const Qu
 double Reasoner::nativeProbability(const Query& q) {
   std::set<std::string> attrs;
   collectAttrs(q, attrs);
-  auto g = groundFor(attrs);
+  std::vector<AttributeTerm> atoms;
+  collectAtoms(q, atoms);
+  auto g = groundFor(attrs, &atoms);
   ExactEngine e(*g);
   std::vector<GCondition> evidence = prepareEngine(*g, q, e), formula(1);
   for (const auto& l : q.formula) addLiteral(*g, program_, l, formula[0]);
@@ -1263,7 +1323,9 @@ std::vector<ValueProb> Reasoner::nativeDistribution(const AttributeTerm& at, con
   const std::string attribute_term = toString(at);
   std::set<std::string> attrs{at.name};
   collectAttrs(ev, attrs);
-  auto g = groundFor(attrs);
+  std::vector<AttributeTerm> atoms{at};
+  collectAtoms(ev, atoms);
+  auto g = groundFor(attrs, &atoms);
   int a = attrIndex(program_, at.name);
   std::vector<ValueProb> out;
   if (!g->attr_dynamic[static_cast<size_t>(a)]) {

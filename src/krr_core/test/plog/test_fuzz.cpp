@@ -402,6 +402,9 @@ TEST(PlogFuzz, RegressionInputs) {
 TEST(PlogFuzz, SizeHostileInputsUnderAddressSpaceLimit) {
   std::vector<std::string> inputs;
   inputs.push_back("n = {1..2300}.\np : n, n -> boolean.\n[r] random(p(X,Y)).\n?{p(1,1)=true}.\n");
+  // the same relation with a query whose relevance cone is all of it
+  inputs.push_back("n = {1..2300}.\np : n, n -> boolean.\n[r] random(p(X,Y)).\nany : boolean.\n"
+                   "any :- p(X, Y) = true.\n?{any}.\n");
   std::string f;
   for (int i = 0; i < 400000; ++i) f += "q" + std::to_string(i) + ".\n";
   inputs.push_back(f + "?{q1}.\n");

@@ -17,8 +17,9 @@ using namespace krr::plog;
 namespace {
 
 // `trip` grounds 1501^3 combinations (none satisfies the rule): stopped by any small budget.
-// `big` has 2300^2 random instances: over a 32 MiB memory budget. The coins are quick; their
-// relevance cones are disjoint from trip's and big's.
+// `big` has 2300^2 random instances, all of them in the relevance cone of `any_big`: over a
+// 32 MiB memory budget. The coins are quick; their relevance cones are disjoint from trip's and
+// big's.
 const std::string kProgram = R"(
 num = {0..1500}.
 #domain num(X), num(Y), num(Z).
@@ -27,6 +28,8 @@ trip :- X + Y + Z = 9000.
 n = {1..2300}.
 big : n, n -> boolean.
 [b] random(big(A, B)).
+any_big : boolean.
+any_big :- big(A, B) = true.
 coin = {1..3}.
 side = {h, t}.
 #domain coin(C).
@@ -100,12 +103,14 @@ TEST(PlogRefused, QueryAfterAGroundingStoppedOnItsMemoryBudget) {
   lim.memory_budget = 32u << 20;
   r.setLimits(lim);
   try {
-    r.probability("?{big(1, 1) = true}");
+    r.probability("?{any_big}");
     FAIL() << "no budget error";
   } catch (const BudgetExceededError& e) {
     EXPECT_NE(std::string(e.what()).find("memory budget"), std::string::npos) << e.what();
   }
   expectCoinsAnswered(r);
+  // one instance of big: its cone is that instance (GroundingLimits::cone_restrict_min_instances)
+  EXPECT_NEAR(r.probability("?{big(1, 1) = true}"), 0.5, 1e-12);
 }
 
 TEST(PlogRefused, QueryAfterAParseErrorInAQuery) {

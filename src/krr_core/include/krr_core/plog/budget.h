@@ -31,6 +31,11 @@ struct GroundingLimits {
   /// @brief When set and true, grounding and inference stop with CancelledError (another
   /// back end answered first, see Reasoner's Backend::Auto).
   const std::atomic<bool>* cancel = nullptr;
+  /// @brief A query's grounding is restricted to the attribute instances its atoms reach
+  /// (instance-level relevance cone, see groundProgram) when the attributes of its cone have
+  /// at least this many instances by their declared sorts (instanceConePays). 0: always;
+  /// SIZE_MAX: never (every instance of the cone's attributes is ground).
+  std::size_t cone_restrict_min_instances = 10000;
 };
 
 /// @brief The computation was abandoned because another back end answered first.

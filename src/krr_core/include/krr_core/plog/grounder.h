@@ -107,6 +107,9 @@ struct GroundProgram {
   size_t ground_statements = 0;     ///< number of ground dynamic statements produced
   size_t derived_rules = 0;         ///< of which rules of instances that are not random
                                     ///< (the auto back end's cost estimate, EnginePlan)
+  /// @brief The grounding is restricted to the instances the query's atoms reach (groundProgram
+  /// with cone_atoms), not every instance of the cone's attributes.
+  bool instance_restricted = false;
 
   /// @brief Index of the instance a(t) or -1 (not dynamic / not in the cone).
   int findInstance(const std::string& printable) const;
@@ -122,8 +125,29 @@ struct GroundProgram {
 /// whose sort cannot be determined, IncoherentError for static attributes with two values,
 /// ParseError for integer overflow in a term, BudgetExceededError when `limits` are exhausted.
 /// Atoms are ground only within the declared sorts of their attributes.
+///
+/// With `cone_atoms` (the attribute terms of a query's formula, observations and do-statements,
+/// program-level ones included; their attributes must be among `cone_attributes`), only the
+/// instances these atoms reach are ground: a demanded instance a(t) demands, for every random
+/// selection rule, pr-atom and rule whose head a(u) unifies with a(t), the instances of its
+/// body (and dynamic range) atoms under that unifier, transitively (a variable left unbound
+/// demands every instance at its position; an attribute demanded at more than a few hundred
+/// patterns is ground entirely). Attributes in every cone (constraints, derived attributes that
+/// may get two values, loops through `not`, dynamic ranges, and their ancestors: the cone of
+/// no name) are ground entirely. Sound because P-log's measure factorises along the cone: no
+/// statement defining a demanded instance reads an instance outside (demand is closed over
+/// bodies), and outside nothing removes or splits worlds (what could is ground entirely), so
+/// the worlds extending an assignment of the cone have measures summing to its marginal: the
+/// query's probability, a ratio of such marginals, is unchanged.
 GroundProgram groundProgram(const Program& program, const std::set<std::string>& cone_attributes,
-                            const GroundingLimits& limits = GroundingLimits());
+                            const GroundingLimits& limits = GroundingLimits(),
+                            const std::vector<AttributeTerm>* cone_atoms = nullptr);
+
+/// @brief Whether the attributes of `cone` have at least `min_instances` instances in all by
+/// their declared argument sorts (an untyped argument counts as many): grounding only the
+/// instances a query reaches then pays for a grounding per distinct query.
+bool instanceConePays(const Program& program, const std::set<std::string>& cone,
+                      std::size_t min_instances);
 
 /// @brief All attributes the named ones depend on (the relevance cone), names included.
 std::set<std::string> relevanceCone(const Program& program, const std::set<std::string>& names);
@@ -143,7 +167,9 @@ std::set<std::string> relevanceCone(const Program& program, const std::set<std::
  * Supported changes: ground facts of guard attributes added or removed; pr-atoms added
  * (ground against the existing fact store; they may not create new attribute instances) or
  * removed. Anything else (rules with bodies, selection rules, declarations, facts of other
- * attributes, ...) needs a full grounding: apply() then returns false.
+ * attributes, ...) needs a full grounding: apply() then returns false. So does an added
+ * pr-atom whose body reads instances that a grounding restricted to a query's instances
+ * (ClosedCone::atoms) did not ground.
  */
 class IncrementalGrounder {
  public:
@@ -165,8 +191,10 @@ class IncrementalGrounder {
                       const GroundingLimits& limits = GroundingLimits());
   /// @brief A cone that relevanceCone(program, ...) has already computed (it is closed: its
   /// own cone), passed as ClosedCone{cone} so that it is not computed twice.
+  /// `atoms`: as groundProgram's cone_atoms (nullptr: every instance of the attributes).
   struct ClosedCone {
     const std::set<std::string>& attributes;
+    const std::vector<AttributeTerm>* atoms = nullptr;
   };
   IncrementalGrounder(const Program& program, ClosedCone cone,
                       const std::vector<std::uint64_t>* pr_ids = nullptr,

@@ -172,6 +172,9 @@ struct ReasonerStats {
   size_t ground_statements = 0;
   double ground_seconds = 0;
   bool ground_incremental = false;  ///< the last grounding was a patch of a cached one
+  /// @brief The last grounding holds only the instances its query reaches (GroundProgram::
+  /// instance_restricted; see GroundingLimits::cone_restrict_min_instances).
+  bool ground_restricted = false;
   size_t full_groundings = 0;       ///< groundings from scratch so far
   size_t incremental_groundings = 0;  ///< patches so far
   size_t table_rows_computed = 0;   ///< rows the last table query computed (others reused)
@@ -316,8 +319,19 @@ class Reasoner {
     std::shared_ptr<const Rule> rule;  ///< removed rule (its content is gone from the program)
   };
 
-  std::shared_ptr<GroundEntry> groundEntryFor(const std::set<std::string>& attrs);
-  std::shared_ptr<const GroundProgram> groundFor(const std::set<std::string>& attrs);
+  /// `atoms`: the query's attribute terms (formula, observations, do), for a grounding
+  /// restricted to the instances they reach (the program's evidence is added); nullptr: every
+  /// instance of the cone's attributes.
+  std::shared_ptr<GroundEntry> groundEntryFor(const std::set<std::string>& attrs,
+                                              const std::vector<AttributeTerm>* atoms = nullptr);
+  std::shared_ptr<const GroundProgram> groundFor(const std::set<std::string>& attrs,
+                                                 const std::vector<AttributeTerm>* atoms = nullptr);
+  /// @brief The part of a grounding's cache key for `atoms` ("" when the grounding is not
+  /// restricted to them: no atoms, or instanceConePays is false); all_atoms receives them with
+  /// the program's evidence.
+  std::string coneAtomsKey(const std::string& all_key, const std::set<std::string>& cone,
+                           const std::vector<AttributeTerm>* atoms,
+                           std::vector<AttributeTerm>& all_atoms);
   /// @brief Something other than facts and pr-atoms changed: rebuild the bookkeeping and drop
   /// every grounding.
   void structuralChange();
@@ -373,6 +387,8 @@ class Reasoner {
   std::vector<Change> log_;
   std::uint64_t entry_serial_ = 0;
   std::map<std::string, std::pair<std::uint64_t, std::set<std::string>>> cone_cache_;
+  /// cone key -> (structure version, instanceConePays for it)
+  std::map<std::string, std::pair<std::uint64_t, bool>> cone_pays_;
   std::map<std::string, std::shared_ptr<GroundEntry>> ground_cache_;
   std::map<std::string, std::shared_ptr<TableCache>> table_cache_;
   Program decls_;
