@@ -6,12 +6,10 @@
 // DIR/<name>.pomdp; generate them with tools/pomdp_bench/gen_pomdp.py, see --help), dialog (a
 // 30-request dialog POMDP with the turn counter in the state, pomdp::withTurnCounter; not the
 // knowledge-base models of bench_dialog_pomdp, which need the experiment data).
-// Each run is a child process (fork), so that its peak memory is its own; the budget covers
+// Each run is a child process (this program with --in-process), so that its peak memory is
+// its own; the budget covers
 // reading, set-up and search, as pomdp_solve's --timeout does. Per problem and budget it prints
 // lower and upper bound at b0, gap, wall time, peak RSS and how the run ended.
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <cstdio>
 #include <cstdlib>
 #include <sstream>
@@ -22,6 +20,8 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/common/main_guard.h"
 #include "krr_core/common/files.h"
+#include "krr_core/common/format.h"
+#include "krr_core/common/subprocess.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/pomdp/cassandra_io.h"
 #include "krr_core/dialog/dialog_pomdp.h"
@@ -37,14 +37,14 @@ using krr::examples::makeTiger;
 
 namespace {
 
-/// @brief What a child reports back through its pipe.
+/// @brief One run's figures (runOne), printed as a row (printRow).
 struct RunResult {
   int ok = 0;  ///< 1: solved; 0: error (message in `error`)
   std::size_t states = 0, actions = 0, observations = 0, alphas = 0;
   double lower = 0.0, upper = 0.0, seconds = 0.0, readSeconds = 0.0, setupSeconds = 0.0;
   double peakMiB = 0.0;
   int converged = 0, setupCut = 0;
-  char error[200] = {0};
+  std::string error;
 };
 
 std::vector<std::string> split(const std::string& s) {
@@ -98,37 +98,52 @@ RunResult runOne(const std::string& name, const std::string& dir, double budget,
     r.converged = solver.converged() ? 1 : 0;
     r.setupCut = solver.setupReport().timedOut ? 1 : 0;
   } catch (const std::exception& e) {
-    std::snprintf(r.error, sizeof(r.error), "%s", e.what());
+    r.error = e.what();
   }
   r.seconds = wall.seconds();
   r.peakMiB = peakRssMiB();
   return r;
 }
 
-/// @brief runOne in a child process; the parent's memory stays out of the child's peak.
-RunResult runIsolated(const std::string& name, const std::string& dir, double budget, int turns) {
-  int fd[2];
-  RunResult r;
-  if (pipe(fd) != 0) throw IoError("bench_pomdp_suite: pipe failed");
+void printHeader() {
+  std::printf("%-15s %6s %4s %4s %7s %11s %11s %9s %8s %8s %8s %7s  %s\n", "problem", "S", "A",
+              "O", "budget", "lower", "upper", "gap", "time_s", "setup_s", "peak_MiB", "alphas",
+              "end");
+}
+
+void printRow(const std::string& p, double budget, const RunResult& r) {
+  if (!r.ok) {
+    std::printf("%-15s %6s %4s %4s %7.1f  error: %s\n", p.c_str(), "-", "-", "-", budget,
+                r.error.c_str());
+  } else {
+    std::printf("%-15s %6zu %4zu %4zu %7.1f %11.4f %11.4f %9.4f %8.3f %8.3f %8.1f %7zu  %s%s%s\n",
+                p.c_str(), r.states, r.actions, r.observations, budget, r.lower, r.upper,
+                r.upper - r.lower, r.seconds, r.setupSeconds, r.peakMiB, r.alphas,
+                r.converged ? "converged" : "timeout", r.setupCut ? ", set-up cut" : "",
+                r.seconds > 1.1 * budget ? ", OVER BUDGET" : "");
+  }
   std::fflush(stdout);
-  const pid_t pid = fork();
-  if (pid < 0) throw IoError("bench_pomdp_suite: fork failed");
-  if (pid == 0) {
-    close(fd[0]);
-    const RunResult c = runOne(name, dir, budget, turns);
-    const ssize_t w = write(fd[1], &c, sizeof(c));
-    _exit(w == static_cast<ssize_t>(sizeof(c)) ? 0 : 1);
-  }
-  close(fd[1]);
-  const ssize_t n = read(fd[0], &r, sizeof(r));
-  close(fd[0]);
-  int status = 0;
-  waitpid(pid, &status, 0);
-  if (n != static_cast<ssize_t>(sizeof(r))) {
-    r = RunResult();
-    std::snprintf(r.error, sizeof(r.error), "child died (status %d)", status);
-  }
-  return r;
+}
+
+/// @brief One problem at one budget in a child process (this program with --in-process), so
+/// that its peak RSS is its own; it prints its own row. A child that dies or outlives its
+/// budget by a minute gets an error row.
+void runChild(const std::string& name, const std::string& dir, double budget, int turns) {
+  std::fflush(stdout);
+  Subprocess child({"/proc/self/exe", "--in-process", "--no-header", "--dir", dir, "--budgets",
+                    formatNumber(budget, 17), "--problems", name, "--dialog-turns",
+                    std::to_string(turns)});
+  child.setStdout(Subprocess::Stream::inherit()).setStderr(Subprocess::Stream::inherit());
+  child.start();
+  const SubprocessResult r = child.wait(2.0 * budget + 60.0);
+  if (r.end == SubprocessResult::End::kExited && r.exit_code == 0) return;
+  RunResult failed;
+  failed.error = r.end == SubprocessResult::End::kTimedOut
+                     ? "the child outlived its budget by a minute: killed"
+                 : r.end == SubprocessResult::End::kSignalled
+                     ? "the child died of signal " + std::to_string(r.signal)
+                     : "the child exited with " + std::to_string(r.exit_code);
+  printRow(name, budget, failed);
 }
 
 /// @brief The benchmark; main() runs it under guardedMain so that no exception aborts it.
@@ -149,30 +164,22 @@ int mainBody(int argc, char** argv) {
           [&](const std::string& v) { problems = split(v); },
           "tiger,rocksample_4_4,rocksample_5_5,rocksample_5_7,tag,rocksample_7_8,dialog");
   cli.add("--dialog-turns", "N", "turn limit of the dialog problem", &turns);
+  bool inProcess = false, noHeader = false;
+  cli.flag("--in-process", "run in this process (what each child does; the peak RSS is then "
+           "the largest run's so far)", &inProcess);
+  cli.flag("--no-header", "print no header line", &noHeader);
   cli.epilog(
       "Generate DIR's files first, e.g. for DIR=/tmp/pomdp_bench:\n"
       "  tools/pomdp_bench/gen_pomdp.py rocksample 4 4 -o /tmp/pomdp_bench/rocksample_4_4.pomdp\n"
       "  (likewise 5 5, 5 7, 7 8) and tools/pomdp_bench/gen_pomdp.py tag -o "
       "/tmp/pomdp_bench/tag.pomdp\n");
   if (const auto status = cli.parse(argc, argv)) return *status;
-  std::printf("%-15s %6s %4s %4s %7s %11s %11s %9s %8s %8s %8s %7s  %s\n", "problem", "S", "A",
-              "O", "budget", "lower", "upper", "gap", "time_s", "setup_s", "peak_MiB", "alphas",
-              "end");
-  for (const double budget : budgets) {
+  if (!noHeader) printHeader();
+  for (const double budget : budgets)
     for (const std::string& p : problems) {
-      const RunResult r = runIsolated(p, dir, budget, turns);
-      if (!r.ok) {
-        std::printf("%-15s %6s %4s %4s %7.1f  error: %s\n", p.c_str(), "-", "-", "-", budget,
-                    r.error);
-        continue;
-      }
-      std::printf("%-15s %6zu %4zu %4zu %7.1f %11.4f %11.4f %9.4f %8.3f %8.3f %8.1f %7zu  %s%s%s\n",
-                  p.c_str(), r.states, r.actions, r.observations, budget, r.lower, r.upper,
-                  r.upper - r.lower, r.seconds, r.setupSeconds, r.peakMiB, r.alphas,
-                  r.converged ? "converged" : "timeout", r.setupCut ? ", set-up cut" : "",
-                  r.seconds > 1.1 * budget ? ", OVER BUDGET" : "");
+      if (inProcess) printRow(p, budget, runOne(p, dir, budget, turns));
+      else runChild(p, dir, budget, turns);
     }
-  }
   return 0;
 }
 

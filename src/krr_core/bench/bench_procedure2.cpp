@@ -4,7 +4,8 @@
  * (maps/<domain>_geometry.plog) plus config/navigation.plog, built into the navigation
  * MDP by NavigationKnowledge::buildModel, before and after knowledge extraction.
  *
- * For each domain (in a child process, so the peak memory is the domain's own):
+ * For each domain (in a child process, this program with --in-process, so the peak memory
+ * is the domain's own):
  *  - construct: load and parse the knowledge files;
  *  - first build: buildModel({time}) on the human knowledge (grounding + table query);
  *  - rebuild after extraction: R-Max learns the navigation experiment's source task (start ->
@@ -18,11 +19,8 @@
  * Usage: bench_procedure2 [--root DIR] [--time morning] [--repeat 3] [DOMAIN...]
  *        (default: every domain of ROOT/config/navigation.yaml)
  */
-#include <sys/resource.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <algorithm>
+#include <limits>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -34,6 +32,7 @@
 #include "krr_core/common/random.h"
 #include "krr_core/common/resource_locator.h"
 #include "krr_core/common/resources.h"
+#include "krr_core/common/subprocess.h"
 #include "krr_core/dialog/dialog_config.h"
 #include "krr_core/experiments/nav_transfer.h"
 #include "krr_core/kb/nav_domain.h"
@@ -158,11 +157,38 @@ int runDomain(const std::string& repo, const std::string& name, const std::strin
   return 0;
 }
 
+/// @brief Each domain in a child process (this program with --in-process): its peak RSS is
+/// the domain's own. @return 0 if every child exited with 0.
+int runChildren(const std::string& repo, const std::string& time, int repeat,
+                const std::vector<std::string>& domains) {
+  int status_all = 0;
+  for (const std::string& d : domains) {
+    std::fflush(stdout);
+    std::vector<std::string> argv = {"/proc/self/exe", "--in-process", "--time", time,
+                                     "--repeat", std::to_string(repeat), d};
+    if (!repo.empty()) argv.insert(argv.begin() + 2, {"--root", repo});
+    krr::Subprocess child(argv);
+    child.setStdout(krr::Subprocess::Stream::inherit())
+        .setStderr(krr::Subprocess::Stream::inherit());
+    child.start();
+    const krr::SubprocessResult r = child.wait(std::numeric_limits<double>::infinity());
+    if (r.end != krr::SubprocessResult::End::kExited || r.exit_code != 0) {
+      std::fprintf(stderr, "bench_procedure2: %s: the child %s\n", d.c_str(),
+                   r.end == krr::SubprocessResult::End::kSignalled
+                       ? ("died of signal " + std::to_string(r.signal)).c_str()
+                       : ("exited with " + std::to_string(r.exit_code)).c_str());
+      status_all = 1;
+    }
+  }
+  return status_all;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   std::string repo, time = "morning";
   int repeat = 3;
+  bool inProcess = false;
   std::vector<std::string> domains;
   krr::OptionParser cli("bench_procedure2",
                         "Procedure 2 on the real knowledge base (the site's geometry +\n"
@@ -171,41 +197,25 @@ int main(int argc, char** argv) {
   cli.add("--root", "DIR", krr::kRepositoryRootHelp, &repo).deprecatedAlias("--repo");
   cli.add("--time", "TIME", "time of day of the builds", &time);
   cli.add("--repeat", "N", "runs per figure (the best is printed)", &repeat);
+  cli.flag("--in-process", "run the domains in this process (what each child does; the peak "
+           "RSS is then the largest domain's so far)", &inProcess);
   cli.positional("DOMAIN", "domains (default: every domain of ROOT/config/navigation.yaml)",
                  [&](const std::string& v) { domains.push_back(v); }, true);
   if (const auto status = cli.parse(argc, argv)) return *status;
   repeat = std::max(1, repeat);
-  if (domains.empty()) {
-    try {
+  try {
+    if (domains.empty()) {
       const auto cfg =
           krr::nav::loadNavigationConfig(krr::findRepositoryRoot(repo) + "/config/navigation.yaml");
       for (const auto& d : cfg.domains) domains.push_back(d.name);
-    } catch (const krr::Error& e) {
-      std::fprintf(stderr, "bench_procedure2: %s\n", e.what());
-      return 1;
     }
+    if (!inProcess) return runChildren(repo, time, repeat, domains);
+    int status_all = 0;
+    for (const std::string& d : domains)
+      if (runDomain(krr::findRepositoryRoot(repo), d, time, repeat) != 0) status_all = 1;
+    return status_all;
+  } catch (const krr::Error& e) {
+    std::fprintf(stderr, "bench_procedure2: %s\n", e.what());
+    return 1;
   }
-  int status_all = 0;
-  for (const std::string& d : domains) {
-    // One child per domain: its peak RSS is the domain's own.
-    std::fflush(stdout);
-    const pid_t pid = ::fork();
-    if (pid < 0) {
-      std::perror("bench_procedure2: fork");
-      return 1;
-    }
-    if (pid == 0) {
-      try {
-        std::_Exit(runDomain(krr::findRepositoryRoot(repo), d, time, repeat));
-      } catch (const krr::Error& e) {
-        std::fprintf(stderr, "bench_procedure2: %s: %s\n", d.c_str(), e.what());
-        std::fflush(stderr);
-        std::_Exit(1);
-      }
-    }
-    int status = 0;
-    ::waitpid(pid, &status, 0);
-    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) status_all = 1;
-  }
-  return status_all;
 }
