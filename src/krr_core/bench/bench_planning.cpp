@@ -116,8 +116,7 @@ static void benchDomain(const NavigationConfig& cfg, const OccupancyGrid& map,
       std::printf("  %.1f ", br);
       for (const std::string& room : rooms) {
         const int goal = grid.placeCell(room);
-        Context ctx;
-        ctx.blocking_rate = br;
+        const Context ctx(-1, br);
         Rng r2 = makeRng(seed, "bench_success", static_cast<std::uint64_t>(goal));
         EpisodeStats st = runPolicy(sim, astar.policyTo(goal), shop, goal, d.step_limit, ctx,
                                     static_cast<long>(episodes), r2);

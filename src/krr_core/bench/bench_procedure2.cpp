@@ -103,8 +103,7 @@ int runDomain(const std::string& repo, const std::string& name, const std::strin
     // Learn start -> source with R-Max (not timed), extract, rebuild.
     krr::mdp::RMaxParams p;
     p.step_limit = static_cast<std::uint32_t>(dom.domain.step_limit);
-    krr::nav::Context ctx;
-    ctx.time_of_day = dom.simulator->timeOfDayIndex(time);
+    const krr::nav::Context ctx(dom.simulator->timeOfDayIndex(time));
     krr::kb::SimulatedNavigation env(*dom.simulator, *dom.space, dom.grid->placeCell(tasks.start),
                                      {dom.grid->placeCell(tasks.source)}, ctx,
                                      p.navigationReward());

@@ -153,8 +153,8 @@ DeliveryExperiment::DeliveryExperiment(const kb::NavDomain& domain, const Dialog
   if (solve_policy)
     policy_ = dialog::solveDialogPolicy(*dialog_, config_, options_.cache_dir, &prep_.policy);
 
-  context_.time_of_day = domain.simulator->timeOfDayIndex(config_.time);
-  context_.blocking_rate = options_.blocking_rate;
+  context_ = nav::Context::withRate(domain.simulator->timeOfDayIndex(config_.time),
+                                    options_.blocking_rate);
   // What the robot's policies achieve in the true world, and the serve rewards there (the
   // same builder as the robot's model: one definition of the reward).
   true_trips_ = nav_->evaluate(kb::trueDynamics(*domain.simulator, *domain.space, context_));

@@ -75,9 +75,8 @@ NavTransferTrial runNavTransferTrial(const NavDomain& dom, NavigationKnowledge& 
                                      std::size_t index) {
   mdp::RMaxParams p = o.rmax;
   p.step_limit = static_cast<std::uint32_t>(dom.domain.step_limit);
-  nav::Context ctx;
-  ctx.time_of_day = dom.simulator->timeOfDayIndex(o.time);
-  ctx.blocking_rate = o.blocking_rate;
+  const nav::Context ctx = nav::Context::withRate(dom.simulator->timeOfDayIndex(o.time),
+                                                  o.blocking_rate);
   const NavStateSpace& sp = *dom.space;
   const int start = dom.grid->placeCell(o.start);
   NavTransferTrial t;

@@ -168,10 +168,7 @@ std::vector<mdp::ActionId> controllerOf(const NavModel& model, const NavStateSpa
 }
 
 nav::Context contextOf(const NavDomain& dom, const std::string& time, double br) {
-  nav::Context c;
-  c.time_of_day = dom.simulator->timeOfDayIndex(time);
-  c.blocking_rate = br;
-  return c;
+  return nav::Context::withRate(dom.simulator->timeOfDayIndex(time), br);
 }
 
 struct Endpoints {

@@ -68,9 +68,8 @@ FreeTimeLearner::FreeTimeLearner(const NavDomain& domain, NavigationKnowledge& k
 FreeTimeReport FreeTimeLearner::run(Rng& rng, const std::function<bool()>& interrupted,
                                     const std::function<void(const NavTask&)>& on_task) {
   FreeTimeReport report;
-  nav::Context ctx;
-  ctx.time_of_day = domain_.simulator->timeOfDayIndex(options_.time);
-  ctx.blocking_rate = options_.blocking_rate;
+  const nav::Context ctx = nav::Context::withRate(
+      domain_.simulator->timeOfDayIndex(options_.time), options_.blocking_rate);
   const mdp::RMaxParams& p = options_.rmax;
   while ((options_.max_tasks == 0 || report.tasks.size() < options_.max_tasks) &&
          !(interrupted && interrupted())) {

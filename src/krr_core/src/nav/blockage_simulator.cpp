@@ -68,18 +68,29 @@ int BlockageSimulator::timeOfDayIndex(const std::string& name) const {
   throw ConfigError("blockage simulator: unknown time of day '" + name + "'");
 }
 
+Context::Context(int time_of_day, std::optional<double> blocking_rate)
+    : time_of_day_(time_of_day), blocking_rate_(blocking_rate) {
+  if (time_of_day < -1)
+    throw ConfigError("blockage simulator: context time_of_day " + std::to_string(time_of_day) +
+                      " below -1 (unspecified)");
+  if (blocking_rate) checkBlockingRate(*blocking_rate, "blockage simulator", "context.blocking_rate");
+}
+
+Context Context::withRate(int time_of_day, double rate_or_unset) {
+  if (!isBlockingRate(rate_or_unset, RateUnset::kAllowed))
+    refuseBlockingRate(rate_or_unset, "blockage simulator", "context.blocking_rate",
+                       RateUnset::kAllowed);
+  return Context(time_of_day, rate_or_unset < 0.0 ? std::nullopt : std::optional<double>(rate_or_unset));
+}
+
 double BlockageSimulator::areaRate(int a, const Context& ctx) const {
-  if (ctx.time_of_day < -1 || ctx.time_of_day >= num_times_) {
+  if (ctx.timeOfDay() >= num_times_) {
     throw ConfigError("blockage simulator: context time_of_day " +
-                      std::to_string(ctx.time_of_day) + " out of range [-1, " +
+                      std::to_string(ctx.timeOfDay()) + " out of range [-1, " +
                       std::to_string(num_times_ - 1) + "]");
   }
-  if (!isBlockingRate(ctx.blocking_rate, RateUnset::kAllowed))
-    refuseBlockingRate(ctx.blocking_rate, "blockage simulator", "context.blocking_rate",
-                       RateUnset::kAllowed);
-  const double base = ctx.blocking_rate >= 0.0 ? ctx.blocking_rate
-                                               : base_rate_[static_cast<size_t>(a)];
-  const double f = factor_[static_cast<size_t>(a) * (num_times_ + 1) + ctx.time_of_day + 1];
+  const double base = ctx.blockingRate() ? *ctx.blockingRate() : base_rate_[static_cast<size_t>(a)];
+  const double f = factor_[static_cast<size_t>(a) * (num_times_ + 1) + ctx.timeOfDay() + 1];
   return std::min(1.0, base * f);
 }
 

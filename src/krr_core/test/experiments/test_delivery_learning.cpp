@@ -148,9 +148,7 @@ double worstReachError(double br, const std::string& mode) {
   kb::NavigationKnowledge k(*d.grid, d.knowledge_files);
   prepareLearnedKnowledge(d, k, c, rooms, br, 1, "", "office_30x30");
   const auto nav = deliveryNavigationFromKnowledge(d, k, c, rooms);
-  nav::Context ctx;
-  ctx.time_of_day = d.simulator->timeOfDayIndex(c.time);
-  ctx.blocking_rate = br;
+  const nav::Context ctx(d.simulator->timeOfDayIndex(c.time), br);
   const TripTable believed = nav->trips(), truth = nav->evaluate(kb::trueDynamics(*d.simulator, *d.space, ctx));
   double worst = 0.0;
   for (std::size_t r = 0; r < rooms.size(); ++r) {

@@ -61,8 +61,7 @@ TEST(AreaKnowledge, EstimatesAreTheSimulatorsParameters) {
   World w;
   const nav::BlockageSimulator sim(w.grid, w.sim);
   const NavStateSpace space(w.grid);
-  nav::Context ctx;
-  ctx.blocking_rate = 0.4;
+  const nav::Context ctx(-1, 0.4);
   const AreaKnowledge k = estimateAreaKnowledge(exactCounts(sim, space, ctx, 1e6), space, "morning");
   EXPECT_NEAR(k.noise.success, 0.9, 1e-5);
   EXPECT_NEAR(k.noise.lateral, 0.02, 1e-5);   // slip_lateral / 2 per existing side
@@ -79,8 +78,7 @@ TEST(AreaKnowledge, TheKnowledgeBaseModelFromTheEstimatesIsTheTrueModel) {
   World w;
   const nav::BlockageSimulator sim(w.grid, w.sim);
   NavigationKnowledge kb(w.grid, {w.geometry, kNavPlog});
-  nav::Context ctx;
-  ctx.blocking_rate = 0.4;
+  const nav::Context ctx(-1, 0.4);
   const AreaKnowledge k =
       estimateAreaKnowledge(exactCounts(sim, kb.space(), ctx, 1e6), kb.space(), "morning");
   kb.setLearnedAreas("morning", areaKnowledgeText(k));
@@ -108,8 +106,7 @@ TEST(AreaKnowledge, SavedAndReloadedKnowledgeGivesTheSameModel) {
   World w;
   const nav::BlockageSimulator sim(w.grid, w.sim);
   NavigationKnowledge kb(w.grid, {w.geometry, kNavPlog});
-  nav::Context ctx;
-  ctx.blocking_rate = 0.7;
+  const nav::Context ctx(-1, 0.7);
   kb.setLearnedAreas("morning", areaKnowledgeText(estimateAreaKnowledge(
                                     exactCounts(sim, kb.space(), ctx, 1e5), kb.space(), "morning")));
   const std::string file = w.geometry + ".learned";

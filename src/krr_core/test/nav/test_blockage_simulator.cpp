@@ -102,7 +102,7 @@ TEST(BlockageSimulator, DistributionsSumToOne) {
   BlockageSimulator sim(g, testConfig());
   for (int c = 0; c < g.numCells(); ++c) {
     for (int m = 0; m < kNumMoves; ++m) {
-      for (Context ctx : {Context{}, Context{1, -1.0}, Context{0, 0.7}, Context{1, 1.0}}) {
+      for (Context ctx : {Context{}, Context{1}, Context{0, 0.7}, Context{1, 1.0}}) {
         double sum = 0.0;
         int prev = -1;
         for (const auto& p : sim.trueDistribution(c, m, ctx)) {
@@ -129,7 +129,7 @@ TEST(BlockageSimulator, SamplesMatchTrueDistribution) {
     Context ctx;
   } qs[] = {{g.cellId(1, 1), kUp, Context{}},
             {g.cellId(3, 1), kUp, Context{}},
-            {g.cellId(3, 1), kRight, Context{1, -1.0}},   // noon: rate 0.6
+            {g.cellId(3, 1), kRight, Context{1}},   // noon: rate 0.6
             {g.cellId(1, 4), kRight, Context{-1, 0.7}}};  // into (2,4): not in the area
   for (const Q& q : qs) {
     std::map<int, long> count;
@@ -162,29 +162,43 @@ TEST(BlockageSimulator, ContextChangesRates) {
   const int in_area = g.cellId(3, 2), outside = g.cellId(1, 2);
   BlockageSimulator sim(g, testConfig());
   EXPECT_DOUBLE_EQ(sim.blockingRate(in_area, Context{}), 0.3);
-  EXPECT_DOUBLE_EQ(sim.blockingRate(in_area, Context{0, -1.0}), 0.3);
-  EXPECT_DOUBLE_EQ(sim.blockingRate(in_area, Context{1, -1.0}), 0.6);
+  EXPECT_DOUBLE_EQ(sim.blockingRate(in_area, Context{0}), 0.3);
+  EXPECT_DOUBLE_EQ(sim.blockingRate(in_area, Context{1}), 0.6);
   EXPECT_DOUBLE_EQ(sim.blockingRate(in_area, Context{-1, 0.1}), 0.1);
   EXPECT_DOUBLE_EQ(sim.blockingRate(in_area, Context{1, 0.7}), 1.0);
   EXPECT_DOUBLE_EQ(sim.blockingRate(outside, Context{1, 0.7}), 0.0);
   EXPECT_EQ(sim.timeOfDayIndex("noon"), 1);
   EXPECT_THROW(sim.timeOfDayIndex("night"), ConfigError);
-  EXPECT_THROW(sim.blockingRate(in_area, Context{2, -1.0}), ConfigError);
-  EXPECT_THROW(sim.blockingRate(in_area, Context{-1, 1.5}), ConfigError);
+  EXPECT_THROW(sim.blockingRate(in_area, Context{2}), ConfigError);  // the simulator's times
+  // Refused where the context is made (the one rule's message, nav/blocking_rate.h), not at
+  // every step: a rate outside [0, 1], NaN, a time below -1; a setting's negative rate
+  // (Context::withRate) means the configured rates.
+  EXPECT_THROW(Context(-1, 1.5), ConfigError);
+  EXPECT_THROW(Context(-2), ConfigError);
   try {
-    sim.blockingRate(in_area, Context{-1, std::nan("")});
+    Context(-1, std::nan(""));
     ADD_FAILURE() << "a NaN context rate was accepted";
-  } catch (const ConfigError& e) {  // the one rule's message (nav/blocking_rate.h)
+  } catch (const ConfigError& e) {
+    EXPECT_STREQ(e.what(), "blockage simulator: field 'context.blocking_rate': value nan must be "
+                           "in [0, 1]");
+  }
+  try {
+    Context::withRate(-1, std::nan(""));
+    ADD_FAILURE() << "a NaN setting rate was accepted";
+  } catch (const ConfigError& e) {
     EXPECT_STREQ(e.what(), "blockage simulator: field 'context.blocking_rate': value nan must be "
                            "in [0, 1] (negative: not set)");
   }
+  EXPECT_FALSE(Context::withRate(0, -1.0).blockingRate().has_value());
+  EXPECT_EQ(Context::withRate(1, 0.25).blockingRate().value(), 0.25);
+  EXPECT_EQ(Context::withRate(1, 0.25).timeOfDay(), 1);
   SimulatorConfig c = testConfig();
   c.areas["bz"].rate = 0.1;
   c.areas["bz"].time_factor["noon"] = 3.0;
   BlockageSimulator sim2(g, c);
   EXPECT_DOUBLE_EQ(sim2.blockingRate(in_area, Context{}), 0.1);
-  EXPECT_NEAR(sim2.blockingRate(in_area, Context{1, -1.0}), 0.3, 1e-15);
-  EXPECT_DOUBLE_EQ(sim2.blockingRate(in_area, Context{0, -1.0}), 0.1);
+  EXPECT_NEAR(sim2.blockingRate(in_area, Context{1}), 0.3, 1e-15);
+  EXPECT_DOUBLE_EQ(sim2.blockingRate(in_area, Context{0}), 0.1);
   // The true distribution follows the context: at br 0 nobody is ever blocked or trapped.
   std::map<int, double> d = dist(sim, g.cellId(3, 1), kUp, Context{-1, 0.0});
   EXPECT_EQ(d.count(sim.trappedState()), 0u);
@@ -246,7 +260,7 @@ TEST(BlockageSimulator, StepDoesNotAllocateAndIgnoresBadInput) {
   NavGrid g = testGrid();
   BlockageSimulator sim(g, testConfig());
   Rng rng = makeRng(1, "alloc");
-  const Context ctx{1, -1.0};
+  const Context ctx{1};
   const long before = g_allocations.load();
   int cell = 0;
   for (int k = 0; k < 100000; ++k) {

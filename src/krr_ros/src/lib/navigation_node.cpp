@@ -153,9 +153,9 @@ class NavigationNode::Impl {
     krr::nav::seedOmpl(p_.seed);
     if (p_.ompl_paths)
       planner_ = std::make_unique<krr::nav::OmplPlanner>(map_, dom_.config.planner, p_.seed);
-    context_.blocking_rate = p_.blocking_rate;
     const std::string param = "parameter " + ros::this_node::getName() + "/";
-    context_.time_of_day = timeIndex(p_.time, param + "time = '" + p_.time + "'");
+    context_ = krr::nav::Context::withRate(
+        timeIndex(p_.time, param + "time = '" + p_.time + "'"), p_.blocking_rate);
     try {
       cell_ = dom_.grid->placeCell(p_.start_place);
     } catch (const krr::Error& e) {
@@ -461,8 +461,7 @@ class NavigationNode::Impl {
                const std::function<void(const Step&)>& onStep,
                const std::function<bool()>& preempted) {
     const std::string t = time.empty() ? p_.time : time;
-    krr::nav::Context ctx = context_;
-    ctx.time_of_day = timeIndex(t, "goal time");
+    const krr::nav::Context ctx(timeIndex(t, "goal time"), context_.blockingRate());
     ROS_INFO_NAMED(kLog, "goal: %s (cell %d) from cell %d, time %s", what.c_str(), goal_cell,
                    currentCell(), t.c_str());
     return drive(goal_cell, model(t), ctx, t, onStep, preempted);

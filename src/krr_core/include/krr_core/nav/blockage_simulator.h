@@ -17,6 +17,7 @@
 
 #include <cstdint>
 #include <utility>
+#include <optional>
 #include <vector>
 
 #include "krr_core/common/random.h"
@@ -27,9 +28,25 @@ namespace krr {
 namespace nav {
 
 /// @brief Exogenous variables of one step: they change blocking rates but not the cell.
-struct Context {
-  int time_of_day = -1;        ///< index into SimulatorConfig::times_of_day; -1: unspecified
-  double blocking_rate = -1.0;  ///< if >= 0, replaces every area's base rate (experiments' br)
+/// Validated once, at construction (the simulator reads it on every step).
+class Context {
+ public:
+  /**
+   * @param time_of_day index into SimulatorConfig::times_of_day; -1: unspecified (the
+   *        simulator refuses an index beyond its times)
+   * @param blocking_rate replaces every area's base rate (the experiments' br); none: the
+   *        configured rates
+   * @throws ConfigError for a time below -1 or a rate outside [0, 1] (blocking_rate.h's rule).
+   */
+  explicit Context(int time_of_day = -1, std::optional<double> blocking_rate = std::nullopt);
+  /// @brief A context from a setting whose negative rate means "not set" (RateUnset::kAllowed).
+  static Context withRate(int time_of_day, double rate_or_unset);
+  int timeOfDay() const { return time_of_day_; }
+  const std::optional<double>& blockingRate() const { return blocking_rate_; }
+
+ private:
+  int time_of_day_;
+  std::optional<double> blocking_rate_;
 };
 
 /// @brief The result of one simulated move.
