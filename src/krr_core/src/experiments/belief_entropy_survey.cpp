@@ -1,5 +1,6 @@
 #include "krr_core/common/parallel.h"
 #include "krr_core/experiments/belief_entropy_survey.h"
+#include "krr_core/dialog/dialog_policy.h"
 #include "krr_core/dialog/dialog_session.h"
 
 #include <algorithm>
@@ -30,9 +31,8 @@ BeliefEntropySurvey::BeliefEntropySurvey(const DialogPomdp& dialog,
                                          const BeliefSamplerOptions& options, std::uint64_t seed)
     : dialog_(dialog), policy_(policy), options_(options), seed_(seed) {
   options_.validate();
-  if (policy.numStates() != dialog.model().getS())
-    throw ConfigError("belief entropy survey: policy has " + std::to_string(policy.numStates()) +
-                      " states, the dialog model " + std::to_string(dialog.model().getS()));
+  const std::string mismatch = dialog::policyMismatch(policy, dialog);
+  if (!mismatch.empty()) throw ConfigError("belief entropy survey: " + mismatch);
 }
 
 pomdp::Belief BeliefEntropySurvey::belief(std::size_t index) const {
