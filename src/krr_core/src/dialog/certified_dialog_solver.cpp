@@ -168,6 +168,19 @@ class CertifiedDialogSolver::Impl {
  public:
   Impl(const DialogPomdp& dialog, const Eigen::VectorXd& root, int turnsUsed,
        CertifiedSolverOptions options);
+  // --- set-up, in this order (the constructor) ---
+  /// Check the options and the root belief; the serve rewards and request parts.
+  void checkAndSetRoot(const Eigen::VectorXd& root);
+  /// Each slot's statistics: channels, steps, widths and offsets in a key.
+  void initSlots();
+  /// Values of a slot alike in the root belief and every serve reward (sorted in keys).
+  void initSymmetry();
+  /// The questions, without duplicate experiments; uninformative ones as one stall.
+  void initQuestions();
+  /// The slot revealed by the upper bound, its wrong-room serves, room lookaheads and levels.
+  void initRevealed();
+  /// The key tables and their memory budget.
+  void initTables();
 
   // --- the model, in the statistics' terms ---
   const DialogPomdp& d_;
@@ -509,15 +522,10 @@ bool closeTo(double a, double b) {
 
 }  // namespace
 
-CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::VectorXd& root,
-                                  int turnsUsed, CertifiedSolverOptions options)
-    : d_(dialog), o_(options), nReq_(dialog.numRequests()), turnsUsed_(turnsUsed),
-      horizon_(dialog.spec().turnLimit - turnsUsed), gamma_(dialog.spec().discount),
-      statsTable_(1), table_(1), groupTable_(1), subTable_(1), rng_(makeRng(options.seed, "certified-dialog-solver")) {
-  Stopwatch setup;
+void CertifiedDialogSolver::Impl::checkAndSetRoot(const Eigen::VectorXd& root) {
   const DialogSpec& sp = d_.spec();
-  if (turnsUsed < 0 || turnsUsed > sp.turnLimit)
-    throw ConfigError("certified dialog solver: " + std::to_string(turnsUsed) +
+  if (turnsUsed_ < 0 || turnsUsed_ > sp.turnLimit)
+    throw ConfigError("certified dialog solver: " + std::to_string(turnsUsed_) +
                       " questions asked, outside [0, turn limit " +
                       std::to_string(sp.turnLimit) + "]");
   if (!(o_.precision > 0.0) || !(o_.timeout >= 0.0))
@@ -542,6 +550,10 @@ CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::Vector
           r(static_cast<Eigen::Index>(s), static_cast<Eigen::Index>(d_.serveAction(a)));
   for (std::size_t s = 0; s < nReq_; ++s) parts_.push_back(d_.requestParts(s));
 
+}
+
+void CertifiedDialogSolver::Impl::initSlots() {
+  const DialogSpec& sp = d_.spec();
   // Statistics of each slot.
   const std::size_t sizes[kSlots] = {sp.items.size(), sp.rooms.size(), sp.persons.size()};
   std::size_t offset = 1;  // entry 0: depth
@@ -591,6 +603,9 @@ CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::Vector
     throw ConfigError("certified dialog solver: turn limit " + std::to_string(sp.turnLimit) +
                       " too long for the answer statistics");
 
+}
+
+void CertifiedDialogSolver::Impl::initSymmetry() {
   // Symmetry classes: values v, w of a slot are alike when swapping them changes neither the
   // root belief nor any serve reward (the answer model treats all values alike already).
   for (int k = 0; k < kSlots; ++k) {
@@ -631,6 +646,10 @@ CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::Vector
     c.sortable = !c.groups.empty();
   }
 
+}
+
+void CertifiedDialogSolver::Impl::initQuestions() {
+  const DialogSpec& sp = d_.spec();
   // Questions, without duplicates: equal experiments keep the cheapest (lowest index on ties),
   // uninformative questions are one "stall" action (the cheapest).
   std::vector<Question> all;
@@ -667,6 +686,9 @@ CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::Vector
     questions_.push_back(s);
   }
 
+}
+
+void CertifiedDialogSolver::Impl::initRevealed() {
   // The slot revealed by the upper bound: the one with most values.
   revealed_ = 0;
   for (int k = 1; k < kSlots; ++k)
@@ -701,6 +723,9 @@ CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::Vector
     initPaidLevels(m);
   }
 
+}
+
+void CertifiedDialogSolver::Impl::initTables() {
   posOf_.clear();
   for (const Question& q : questions_) {
     posOf_.push_back(numPos_);
@@ -738,6 +763,20 @@ CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::Vector
     }
   }
 
+}
+
+CertifiedDialogSolver::Impl::Impl(const DialogPomdp& dialog, const Eigen::VectorXd& root,
+                                  int turnsUsed, CertifiedSolverOptions options)
+    : d_(dialog), o_(options), nReq_(dialog.numRequests()), turnsUsed_(turnsUsed),
+      horizon_(dialog.spec().turnLimit - turnsUsed), gamma_(dialog.spec().discount),
+      statsTable_(1), table_(1), groupTable_(1), subTable_(1), rng_(makeRng(options.seed, "certified-dialog-solver")) {
+  Stopwatch setup;
+  checkAndSetRoot(root);
+  initSlots();
+  initSymmetry();
+  initQuestions();
+  initRevealed();
+  initTables();
   scratch_.assign(stride_, 0);
   std::vector<std::int16_t> k0(stride_, 0);
   k0[0] = 0;
