@@ -65,13 +65,33 @@ std::string fmt(double v) {
 }
 
 TokenReader::TokenReader(const std::string& text, const std::string& file)
-    : text_(text), file_(file), toks_(tokenize(text, 0, text.size())) {}
+    : text_(text), file_(file) {
+  bool inToken = false;
+  for (const char c : text) {
+    const bool space = std::isspace(static_cast<unsigned char>(c)) != 0;
+    if (!space && !inToken) ++total_;
+    inToken = !space;
+  }
+}
+
+bool TokenReader::scan() {
+  const std::size_t end = text_.size();
+  while (pos_ < end && std::isspace(static_cast<unsigned char>(text_[pos_]))) ++pos_;
+  if (pos_ >= end) return false;
+  std::size_t j = pos_;
+  while (j < end && !std::isspace(static_cast<unsigned char>(text_[j]))) ++j;
+  cur_.text.assign(text_, pos_, j - pos_);
+  cur_.offset = pos_;
+  pos_ = j;
+  return true;
+}
 
 const Tok& TokenReader::need(const char* what) {
-  if (i_ >= toks_.size())
+  if (!scan())
     throw ParseError(locationOf(text_, text_.size(), file_),
                      std::string("unexpected end of file, expected ") + what);
-  return toks_[i_++];
+  ++used_;
+  return cur_;
 }
 
 void TokenReader::keyword(const char* kw) {
@@ -86,14 +106,14 @@ ParseError TokenReader::errorAt(const Tok& t, const std::string& message) const 
 std::size_t TokenReader::count(const char* what) {
   const Tok& t = need(what);
   const auto n = static_cast<std::size_t>(parseInt(t, text_, file_));
-  if (n > toks_.size() - i_)
+  if (n > total_ - used_)
     throw errorAt(t, std::string(what) + " " + t.text + " exceeds the " +
-                         std::to_string(toks_.size() - i_) + " values left in the file");
+                         std::to_string(total_ - used_) + " values left in the file");
   return n;
 }
 
-void TokenReader::finish() const {
-  if (i_ < toks_.size()) throw errorAt(toks_[i_], "unexpected trailing token '" + toks_[i_].text + "'");
+void TokenReader::finish() {
+  if (scan()) throw errorAt(cur_, "unexpected trailing token '" + cur_.text + "'");
 }
 
 }  // namespace detail
