@@ -31,6 +31,8 @@ void ExperimentCli::declare(OptionParser& p) {
         "$KRR_CACHE_DIR or ~/.cache/krr_rl/delivery");
   p.add("--out", "FILE", "CSV output", &out);
   p.add("--root", "DIR", kRepositoryRootHelp, &root);
+  p.add("--site", "DIR", "site folder (site.yaml, map, places, knowledge, language)", &site)
+      .defaultText("the office of ROOT/config");
   p.add("--outdated-br", "B", "blocking rate the outdated knowledge was learned at",
         &experiment.outdated_rate);
   p.add("--serve-cost", "none|expected", "override of config/dialog.yaml serve_cost", &serve_cost);
@@ -54,7 +56,7 @@ void ExperimentCli::finish() {
 }
 
 DialogConfig loadDeliveryExperimentConfig(const ExperimentPaths& paths) {
-  DialogConfig c = dialog::loadDialogConfig(paths.dialog_yaml);
+  DialogConfig c = paths.dialogConfig();
   const std::string& file = paths.delivery_yaml;
   detail::ExperimentBase b = detail::experimentBaseOf(c.rmaxParams(), 0.0, 1.0);
   const YamlSection top(parseYaml(readFile(file), file), file, "",

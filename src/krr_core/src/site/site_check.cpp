@@ -166,8 +166,9 @@ SiteReport checkSite(const SiteFiles& files) {
   Checker check(report);
 
   // The files. Each unreadable one is a finding; the rules that need it are skipped.
-  const auto nav = check.load(files.navigation_config,
-                              [&] { return nav::loadNavigationConfig(files.navigation_config); });
+  const auto nav = files.navigation ? files.navigation : check.load(files.navigation_config, [&] {
+    return nav::loadNavigationConfig(files.navigation_config);
+  });
   if (nav) report.places_file = nav->places;
   std::optional<nav::PlacesFile> places = files.places;
   if (!places && nav)
@@ -176,8 +177,9 @@ SiteReport checkSite(const SiteFiles& files) {
     for (const nav::Place& p : places->places) report.places.push_back(p.name);
     for (const nav::BlockingArea& a : places->areas) report.areas.push_back(a.name);
   }
-  const auto dialog = check.load(files.dialog_config,
-                                 [&] { return dialog::loadDialogConfig(files.dialog_config); });
+  const auto dialog = files.dialog ? files.dialog : check.load(files.dialog_config, [&] {
+    return dialog::loadDialogConfig(files.dialog_config);
+  });
   std::optional<plog::Program> knowledge;
   if (dialog) {
     report.knowledge = dialog->office_plog;
@@ -230,7 +232,7 @@ SiteReport checkSite(const SiteFiles& files) {
   if (nav && places) {
     for (const auto& area : nav->simulator.areas) {
       if (contains(report.areas, area.first)) continue;
-      check.add(files.navigation_config, "simulator.areas." + area.first, area.first,
+      check.add(files.navigation_config, files.areas_field + "." + area.first, area.first,
                 "'" + area.first + "' is not a blocking area of " + report.places_file +
                     " (blocking areas: " + (report.areas.empty() ? "none" : join(report.areas)) +
                     ")");

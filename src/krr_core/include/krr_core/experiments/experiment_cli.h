@@ -30,6 +30,7 @@ dialog::DialogConfig loadDeliveryExperimentConfig(const ExperimentPaths& paths);
 struct ExperimentCli {
   DeliveryExperimentOptions experiment;  ///< --br --condition --seed --outdated-br --learned-cache
   std::string root;                      ///< --root
+  std::string site;                      ///< --site (a site folder; "" = the office of config/)
   std::size_t begin = 0;                 ///< --trial-begin
   std::size_t threads = 1;               ///< --threads
   std::string out;                       ///< --out
@@ -48,7 +49,7 @@ struct ExperimentCli {
   /// @brief The input files; an unnamed domain becomes the site's default (navigation.yaml's
   /// first), recorded in experiment.domain_name, which keys the caches.
   ExperimentPaths paths() {
-    ExperimentPaths p = ExperimentPaths::find(root, experiment.domain_name);
+    ExperimentPaths p = ExperimentPaths::find(root, experiment.domain_name, site);
     experiment.domain_name = p.domain;
     return p;
   }
