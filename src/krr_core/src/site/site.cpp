@@ -81,34 +81,32 @@ Site Site::read(const std::string& dir, const std::string& base_config_dir) {
                         {"shop", "map", "places", "knowledge", "language", "domains", "areas",
                          "experiments"});
   const std::string base_nav = base_config_dir + "/navigation.yaml";
-  s.navigation_ = nav::loadNavigationConfig(base_nav);
-  s.dialog_ = dialog::loadDialogConfig(base_config_dir + "/dialog.yaml");
+  const nav::NavigationConfig base = nav::loadNavigationConfig(base_nav);
   const std::string map = siteFile(top, s.manifest_, s.dir_, "map", "map.yaml");
-  const bool same_map = comparable(s.navigation_.map) == map;
-  s.navigation_.map = map;
-  s.navigation_.places = siteFile(top, s.manifest_, s.dir_, "places", "places.yaml");
-  s.dialog_.office_plog = siteFile(top, s.manifest_, s.dir_, "knowledge", "knowledge.plog");
+  s.same_map_ = comparable(base.map) == map;
+  s.places_ = siteFile(top, s.manifest_, s.dir_, "places", "places.yaml");
+  s.knowledge_ = siteFile(top, s.manifest_, s.dir_, "knowledge", "knowledge.plog");
   s.language_ = siteFile(top, s.manifest_, s.dir_, "language", "language.yaml");
+  s.map_ = map;
   if (top.has("shop")) {
-    s.dialog_.shop = top.requiredString("shop");
-  } else if (!same_map) {
+    s.shop_ = top.requiredString("shop");
+  } else if (!s.same_map_) {
     throw ConfigError(s.manifest_ + ": missing field 'shop': the place every delivery starts "
                       "from (only a site on " + base_nav + "'s own map inherits the base's)");
   }
   if (top.has("domains")) {
-    s.navigation_.domains = nav::readDomains(top.get("domains"), s.manifest_, "domains");
-  } else if (!same_map) {
-    throw ConfigError(s.manifest_ + ": missing field 'domains': the site's map " +
-                      s.navigation_.map + " is not " + base_nav +
-                      "'s, whose domains cut another map (list {name: {cols, rows, "
-                      "step_limit}})");
+    s.domains_ = nav::readDomains(top.get("domains"), s.manifest_, "domains");
+  } else if (!s.same_map_) {
+    throw ConfigError(s.manifest_ + ": missing field 'domains': the site's map " + map +
+                      " is not " + base_nav + "'s, whose domains cut another map (list {name: "
+                      "{cols, rows, step_limit}})");
   }
   if (top.has("areas")) {
-    s.navigation_.simulator.areas = nav::readAreas(top.get("areas"), s.manifest_, "areas",
-                                                   s.navigation_.simulator.times_of_day);
-  } else if (!same_map) {
-    s.navigation_.simulator.areas.clear();  // the base's overrides are another map's areas
+    s.areas_ = nav::readAreas(top.get("areas"), s.manifest_, "areas", base.simulator.times_of_day);
+    s.own_areas_ = true;
   }
+  s.navigation_ = s.navigationOver(base);
+  s.dialog_ = s.dialogOver(dialog::loadDialogConfig(base_config_dir + "/dialog.yaml"));
   if (top.has("experiments")) s.experiments_ = readExperiments(top.get("experiments"), s.manifest_);
   return s;
 }
@@ -129,6 +127,22 @@ Site Site::load(const std::string& dir, const std::string& base_config_dir) {
     }
   }
   return s;
+}
+
+nav::NavigationConfig Site::navigationOver(nav::NavigationConfig base) const {
+  base.map = map_;
+  base.places = places_;
+  if (!domains_.empty()) base.domains = domains_;
+  // Without its own, a site on another map has no per-area overrides: the base's name
+  // another map's areas.
+  if (own_areas_ || !same_map_) base.simulator.areas = areas_;
+  return base;
+}
+
+dialog::DialogConfig Site::dialogOver(dialog::DialogConfig base) const {
+  base.office_plog = knowledge_;
+  if (!shop_.empty()) base.shop = shop_;
+  return base;
 }
 
 std::string Site::domainFile(const std::string& domain) const {

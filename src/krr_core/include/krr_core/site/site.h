@@ -64,9 +64,9 @@ class Site {
   const std::string& dir() const { return dir_; }            ///< the folder (absolute)
   const std::string& name() const { return name_; }          ///< the folder's name
   const std::string& manifest() const { return manifest_; }  ///< DIR/site.yaml
-  const std::string& map() const { return navigation_.map; }         ///< map_server YAML
-  const std::string& places() const { return navigation_.places; }   ///< places file
-  const std::string& knowledge() const { return dialog_.office_plog; }  ///< the .plog
+  const std::string& map() const { return map_; }              ///< map_server YAML
+  const std::string& places() const { return places_; }        ///< places file
+  const std::string& knowledge() const { return knowledge_; }  ///< the .plog
   const std::string& language() const { return language_; }  ///< the language file
   const std::string& shop() const { return dialog_.shop; }    ///< where deliveries start
 
@@ -74,6 +74,10 @@ class Site {
   const nav::NavigationConfig& navigation() const { return navigation_; }
   /// @brief The base dialog config with the site's knowledge and shop.
   const dialog::DialogConfig& dialog() const { return dialog_; }
+  /// @brief `base` (a node's own navigation / dialog config, e.g. a test's) with the site's
+  /// names put over it, as navigation() and dialog() are made from the base directory's.
+  nav::NavigationConfig navigationOver(nav::NavigationConfig base) const;
+  dialog::DialogConfig dialogOver(dialog::DialogConfig base) const;
   /// @brief The generated files of domain `name` (next to the map): <name>_geometry.plog and
   /// <name>.yaml. @throws UnknownSymbolError for a domain the site does not have.
   std::string geometry(const std::string& domain) const;
@@ -86,7 +90,11 @@ class Site {
   SiteFiles files() const;
 
  private:
-  std::string dir_, name_, manifest_, language_;
+  std::string dir_, name_, manifest_, map_, places_, knowledge_, language_, shop_;
+  bool same_map_ = false;   ///< the site's map is the base config's (office site)
+  bool own_areas_ = false;  ///< site.yaml has `areas`
+  std::vector<nav::DomainConfig> domains_;       ///< site.yaml's (empty: the base's)
+  std::map<std::string, nav::AreaConfig> areas_;  ///< site.yaml's
   nav::NavigationConfig navigation_;
   dialog::DialogConfig dialog_;
   std::map<std::string, std::map<std::string, std::string>> experiments_;
