@@ -1,5 +1,7 @@
 #include "krr_core/experiments/experiment_cli.h"
 
+#include <utility>
+
 #include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
@@ -96,17 +98,38 @@ void NavExperimentFiles::declare(OptionParser& p, const std::string& options_fil
       .defaultText("ROOT/maps/<domain>_geometry.plog");
   p.add("--knowledge", "FILE", "human navigation knowledge", &knowledge)
       .defaultText("ROOT/config/navigation.plog");
+  p.add("--site", "DIR",
+        "site folder: its map, places, domains and shop, and its experiment places (site.yaml "
+        "experiments) instead of the options file's",
+        &site_dir)
+      .defaultText("the office of ROOT/config");
 }
 
 void NavExperimentFiles::resolveRoot() {
   root = findRepositoryRoot(root);
   if (options.empty()) options = root + "/" + options_file_;
+  if (!site_dir.empty())
+    site = std::make_shared<const site::Site>(site::Site::load(site_dir, root + "/config"));
+}
+
+nav::NavigationConfig NavExperimentFiles::navigationConfig() const {
+  nav::NavigationConfig c =
+      nav::loadNavigationConfig(config.empty() ? root + "/config/navigation.yaml" : config);
+  return site ? site->navigationOver(std::move(c)) : c;
+}
+
+std::string NavExperimentFiles::sitePlace(const std::string& experiment,
+                                          const std::string& field) const {
+  return site ? site->experimentPlace(experiment, field) : "";
+}
+
+std::string NavExperimentFiles::shopSource() const {
+  return site ? site->manifest() + ": field 'shop'"
+              : dialogConfig() + ": field 'navigation.shop'";
 }
 
 std::string NavExperimentFiles::defaultDomain() const {
-  return nav::loadNavigationConfig(config.empty() ? root + "/config/navigation.yaml" : config)
-      .defaultDomain()
-      .name;
+  return navigationConfig().defaultDomain().name;
 }
 
 std::string NavExperimentFiles::dialogConfig() const {
@@ -114,12 +137,13 @@ std::string NavExperimentFiles::dialogConfig() const {
 }
 
 std::string NavExperimentFiles::siteShop() const {
-  return dialog::loadDialogConfig(dialogConfig()).shop;
+  return site ? site->shop() : dialog::loadDialogConfig(dialogConfig()).shop;
 }
 
 void NavExperimentFiles::resolveInputs(const std::string& domain) {
   if (config.empty()) config = root + "/config/navigation.yaml";
-  if (geometry.empty()) geometry = root + "/maps/" + domain + "_geometry.plog";
+  if (geometry.empty())
+    geometry = site ? site->geometry(domain) : root + "/maps/" + domain + "_geometry.plog";
   if (knowledge.empty()) knowledge = root + "/config/navigation.plog";
 }
 
