@@ -57,8 +57,8 @@ static int mainBody(int argc, char** argv) {
   const std::string dir = krr::findRepositoryRoot(root);
   if (!site_dir.empty()) {
     const krr::site::Site site = krr::site::Site::read(site_dir, dir + "/config");
-    std::cout << site.name() << ": "
-              << krr::site::requireConsistentSite(site.files()).summary() << "\n";
+    const std::string summary = krr::site::requireConsistentSite(site.files()).summary();
+    std::cout << site.name() << ": " << summary << "\n";
     return 0;
   }
   krr::site::SiteFiles files = krr::site::SiteFiles::inConfigDir(dir + "/config");
