@@ -107,12 +107,9 @@ std::optional<std::vector<std::string>> reasonerDomainFiles(const SiteFiles& fil
     return std::nullopt;
   }
   const YAML::Node list = (*root)["domain_files"];
-  if (!list) {
-    check.add(files.reasoner_config, "domain_files", "",
-              "not set: the reasoner would load its built-in default, not necessarily the "
-              "dialog's knowledge");
-    return std::nullopt;
-  }
+  // Not set: the reasoner loads the dialog's knowledge.office (its default, krr_ros's
+  // reasoner_node), the one home of the knowledge file's name.
+  if (!list) return std::nullopt;
   std::vector<std::string> out;
   bool ok = list.IsSequence();
   if (ok) {

@@ -22,8 +22,9 @@
  *  4. synonyms: every synonym target of the language file is an item, room or person of the
  *     knowledge (case-insensitive, as the language front end reads them), all stale ones
  *     listed; and the front end builds from the file and the knowledge;
- *  5. knowledge: the reasoner's domain_files include the dialog's knowledge.office, compared
- *     as resolved paths, so the reasoner and the dialog reason about the same building.
+ *  5. knowledge: the reasoner's domain_files, when given, include the dialog's
+ *     knowledge.office, compared as resolved paths, so the reasoner and the dialog reason about
+ *     the same building (not given: the reasoner loads knowledge.office itself).
  *
  * A file that cannot be read is a finding too, and the rules that need it are skipped.
  * Every finding names the file, the field and the value.
