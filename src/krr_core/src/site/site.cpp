@@ -8,6 +8,7 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/yaml_section.h"
+#include "krr_core/nav/occupancy_grid.h"
 
 namespace krr {
 namespace site {
@@ -88,6 +89,7 @@ Site Site::read(const std::string& dir, const std::string& base_config_dir) {
   s.knowledge_ = siteFile(top, s.manifest_, s.dir_, "knowledge", "knowledge.plog");
   s.language_ = siteFile(top, s.manifest_, s.dir_, "language", "language.yaml");
   s.map_ = map;
+  nav::loadMap(map);  // the image it names exists and reads (MapError naming the file)
   if (top.has("shop")) {
     s.shop_ = top.requiredString("shop");
   } else if (!s.same_map_) {

@@ -104,6 +104,15 @@ TEST(Site, AMissingFileNamesTheFieldAndThePath) {
                              "no file"});
   write(dir + "/site.yaml", readText(dir + "/site.yaml") + "knowledge: people.plog\n");
   expectNames(refusal(dir), {"field 'knowledge'", "value 'people.plog'"});
+  // The map's image: the map loader's error names the map file and the image.
+  const std::string lab = labCopy("image");
+  fs::remove(lab + "/map.pgm");
+  try {
+    Site::load(lab, config());
+    ADD_FAILURE() << "loaded without its image";
+  } catch (const krr::MapError& e) {
+    expectNames(e.what(), {"map.pgm"});
+  }
 }
 
 TEST(Site, AnUnknownOrMalformedFieldIsRefused) {
