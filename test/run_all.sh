@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # Every test of the stack: installs dependencies, builds, then runs
 #   0. check_site on the bundled configuration (its files agree on the site's names: a
-#      disagreement would otherwise surface as a confusing failure of some later test),
+#      disagreement would otherwise surface as a confusing failure of some later test), and
+#      the second bundled site, config/sites/lab: its check, a dialog_script delivery and 300
+#      delivery_trials (nothing of the office is hard-wired); its sim.launch delivery is the
+#      rostest delivery_e2e_site.test,
 #   1. the core gtests (no roscore),
 #   2. every rostest .test (each starts its own master; run after sourcing devel/setup.bash,
 #      because `catkin_make run_tests` leaves PYTHONPATH empty for Python test nodes),
@@ -32,6 +35,34 @@ else
   echo "  FAIL check_site"; cat "$RESULTS/check_site.log"
   echo '<testsuites><testsuite name="check_site" tests="1" failures="1"><testcase name="bundled"><failure message="see check_site.log"/></testcase></testsuite></testsuites>' > "$RESULTS/check_site.xml"
 fi
+
+echo "== the second bundled site (config/sites/lab: other rooms, people, items, areas and shop)"
+# site_case NAME PATTERN CMD...: CMD must exit 0 and print PATTERN (grep -E) on stdout or stderr.
+site_case() {
+  local name="$1" pattern="$2"; shift 2
+  local log="$RESULTS/site-$name.log" t0=$SECONDS ok=1
+  "$@" > "$log" 2>&1 || ok=0
+  [ "$ok" = 1 ] && ! grep -qE "$pattern" "$log" && ok=0
+  if [ "$ok" = 1 ]; then
+    echo "  ok   site $name ($((SECONDS - t0)) s)"
+    echo "<testsuites><testsuite name=\"site\" tests=\"1\" failures=\"0\"><testcase name=\"$name\"/></testsuite></testsuites>" > "$RESULTS/site-$name.xml"
+  else
+    echo "  FAIL site $name"; tail -20 "$log"
+    echo "<testsuites><testsuite name=\"site\" tests=\"1\" failures=\"1\"><testcase name=\"$name\"><failure message=\"see site-$name.log\"/></testcase></testsuite></testsuites>" > "$RESULTS/site-$name.xml"
+  fi
+}
+B="$ROOT/catkin_ws/devel/lib/krr_core"
+LAB="$ROOT/config/sites/lab"
+SITE_TMP="$(mktemp -d)"
+site_case check_lab '^lab: site consistent: 4 rooms' "$B/check_site" --root "$ROOT" --site "$LAB"
+site_case check_office '^office: site consistent' "$B/check_site" --root "$ROOT" --site "$ROOT/config/sites/office"
+site_case dialog_script_lab '^fulfilled$' "$B/dialog_script" --root "$ROOT" --site "$LAB" \
+  --cache "$SITE_TMP/policies" --deliver --check yes --utterance "tea for Dave to the reading room" \
+  --utterance dave --utterance yes --utterance yes --utterance yes
+site_case delivery_trials_lab '300 trials \[0, 300\): reward' "$B/delivery_trials" --root "$ROOT" \
+  --site "$LAB" --br 0.3 --condition learned --seed 1 --trials 300 --solver-trials 300 \
+  --learned-cache "$SITE_TMP/learned"
+rm -rf "$SITE_TMP"
 
 echo "== core gtests"
 for t in $(find "$ROOT/catkin_ws/devel/lib" -maxdepth 2 -type f -perm -u+x -name '*_test_*' | sort); do

@@ -3,7 +3,10 @@
  * @brief Check that a site's configuration files agree on its names (site/site_check.h).
  *
  *   check_site [--root DIR] [--navigation-config FILE] [--dialog-config FILE]
- *              [--language FILE] [--reasoner-config FILE] [-h | --help]
+ *              [--language FILE] [--reasoner-config FILE] [--site DIR] [-h | --help]
+ *
+ * --site DIR checks a site folder (site/site.h) instead: its files, and ROOT/config's generic
+ * settings under them.
  *
  * The files are those under ROOT/config the stack reads, each replaceable by its option. A
  * consistent site: one summary line on stdout, exit 0. Otherwise every finding, one per line
@@ -16,11 +19,13 @@
 #include "krr_core/common/cli.h"
 #include "krr_core/common/main_guard.h"
 #include "krr_core/common/resource_locator.h"
+#include "krr_core/common/errors.h"
+#include "krr_core/site/site.h"
 #include "krr_core/site/site_check.h"
 
 /// @brief The program; main() runs it under guardedMain, which reports the findings' error.
 static int mainBody(int argc, char** argv) {
-  std::string root, navigation, dialog, language, reasoner;
+  std::string root, navigation, dialog, language, reasoner, site_dir;
   krr::OptionParser parser(
       "check_site",
       "Check that the site's files agree: every room of the knowledge has a place, the shop\n"
@@ -39,8 +44,23 @@ static int mainBody(int argc, char** argv) {
   parser.add("--reasoner-config", "FILE",
              "reasoner node config: domain_files, relative to ROOT", &reasoner)
       .defaultText("ROOT/config/reasoner_node.yaml");
-  if (const auto status = parser.parse(argc, argv)) return *status;
+  parser.add("--site", "DIR",
+             "a site folder (site.yaml, map, places, knowledge, language) over ROOT/config's "
+             "generic settings, instead of the files above", &site_dir);
+  if (const auto status = parser.parse(argc, argv, [&] {
+        if (!site_dir.empty() &&
+            !(navigation + dialog + language + reasoner).empty())
+          throw krr::ConfigError("--site names every file of the site: no --navigation-config, "
+                                 "--dialog-config, --language or --reasoner-config with it");
+      }))
+    return *status;
   const std::string dir = krr::findRepositoryRoot(root);
+  if (!site_dir.empty()) {
+    const krr::site::Site site = krr::site::Site::read(site_dir, dir + "/config");
+    const std::string summary = krr::site::requireConsistentSite(site.files()).summary();
+    std::cout << site.name() << ": " << summary << "\n";
+    return 0;
+  }
   krr::site::SiteFiles files = krr::site::SiteFiles::inConfigDir(dir + "/config");
   files.root = dir;
   if (!navigation.empty()) files.navigation_config = navigation;

@@ -62,7 +62,7 @@ static int mainBody(int argc, char** argv) {
   const DialogConfig config = cli.config(paths);
   krr::Stopwatch clock;
   const krr::kb::NavDomain domain = krr::kb::NavDomain::load(
-      paths.navigation_yaml, cli.experiment.domain_name, paths.geometry, paths.navigation_plog);
+      paths.navigationConfig(), cli.experiment.domain_name, paths.geometry, paths.navigation_plog);
   DeliveryExperiment ex(domain, config, cli.experiment);
   const PreparationReport& p = ex.preparation();
   const double prepSeconds = clock.seconds();

@@ -47,7 +47,7 @@ static int mainBody(int argc, char** argv) {
   const ExperimentPaths paths = cli.paths();
   const DialogConfig config = cli.config(paths);
   const krr::kb::NavDomain domain = krr::kb::NavDomain::load(
-      paths.navigation_yaml, cli.experiment.domain_name, paths.geometry, paths.navigation_plog);
+      paths.navigationConfig(), cli.experiment.domain_name, paths.geometry, paths.navigation_plog);
   DeliveryExperiment ex(domain, config, cli.experiment);
   BeliefEntropySurvey survey(ex.dialog(), ex.policy(), sampler, cli.experiment.seed);
   krr::Stopwatch clock;

@@ -4,7 +4,7 @@
 //                 [--question ask_item ...] [--no-policy] [--deliver [--check TEXT ...]
 //                 [--legs ok,ok,fail]] [--out turns.csv] [--json] [--reach P,...
 //                 [--reach-back P,...]] [--dialog-config F] [--language F]
-//                 [--domain NAME] [--root DIR] [--cache DIR|none]
+//                 [--domain NAME] [--root DIR] [--site DIR] [--cache DIR|none]
 //
 // --reach and --reach-back take one probability per room of the model, in the knowledge
 // base's room order; --domain defaults to the first domain of config/navigation.yaml.
@@ -38,6 +38,7 @@
 #include "krr_core/dialog/dialog_policy.h"
 #include "krr_core/dialog/dialog_script.h"
 #include "krr_core/experiments/experiment_paths.h"
+#include "krr_core/site/site.h"
 
 namespace {
 
@@ -49,7 +50,7 @@ const char* kSummary =
 struct Args {
   std::vector<std::string> utterances, questions, checks;
   std::vector<bool> legs;
-  std::string out, dialogConfig, language, domain, root, cache;
+  std::string out, dialogConfig, language, domain, root, cache, site;
   bool json = false, noPolicy = false, deliver = false, haveCache = false;
   std::vector<double> reach, reachBack;
 
@@ -85,6 +86,10 @@ struct Args {
     p.add("--domain", "NAME", "navigation domain", &domain)
         .defaultText("the first domain of ROOT/config/navigation.yaml");
     p.add("--root", "DIR", krr::kRepositoryRootHelp, &root);
+    p.add("--site", "DIR",
+          "site folder: its knowledge, shop, language and domains (config/sites/office, ...)",
+          &site)
+        .defaultText("the office of ROOT/config");
     p.add("--cache", "DIR|none", "solved policies; none: solve every run",
           [this](const std::string& v) { cache = v, haveCache = true; },
           "$KRR_CACHE_DIR or ~/.cache/krr_rl/delivery");
@@ -97,6 +102,9 @@ struct Args {
     if (!deliver && (!checks.empty() || !legs.empty()))
       throw krr::ConfigError("--check and --legs need --deliver");
     if (!reachBack.empty() && reach.empty()) throw krr::ConfigError("--reach-back needs --reach");
+    if (!site.empty() && (!dialogConfig.empty() || !language.empty()))
+      throw krr::ConfigError("--site names the knowledge and the language: no --dialog-config "
+                             "or --language with it");
   }
 };
 
@@ -122,9 +130,14 @@ static int mainBody(int argc, char** argv) {
   if (const auto status = parser.parse(argc, argv, [&] { a.check(); })) return *status;
   using namespace krr::dialog;
   const std::string root = krr::findRepositoryRoot(a.root, "config/dialog.yaml");
+  std::shared_ptr<const krr::site::Site> site;
+  if (!a.site.empty())
+    site = std::make_shared<krr::site::Site>(krr::site::Site::load(a.site, root + "/config"));
   const DialogConfig config =
-      loadDialogConfig(a.dialogConfig.empty() ? root + "/config/dialog.yaml" : a.dialogConfig);
-  const std::string languageFile = a.language.empty() ? root + "/config/language.yaml" : a.language;
+      site ? site->dialog()
+           : loadDialogConfig(a.dialogConfig.empty() ? root + "/config/dialog.yaml" : a.dialogConfig);
+  const std::string languageFile =
+      site ? site->language() : a.language.empty() ? root + "/config/language.yaml" : a.language;
   const DialogKnowledge knowledge(config.office_plog, config.speech_plog);
   TripTable trips;
   if (!a.reach.empty()) {
@@ -132,9 +145,9 @@ static int mainBody(int argc, char** argv) {
     if (!a.reachBack.empty()) checkReachCount("--reach-back", a.reachBack, knowledge.base().rooms);
     trips = TripTable::fromReach(knowledge.base().rooms, a.reach, a.reachBack, config.failure_penalty);
   } else {
-    const auto paths = krr::experiments::ExperimentPaths::find(root, a.domain);
+    const auto paths = krr::experiments::ExperimentPaths::find(root, a.domain, a.site);
     const krr::kb::NavDomain domain = krr::kb::NavDomain::load(
-        paths.navigation_yaml, paths.domain, paths.geometry, paths.navigation_plog);
+        paths.navigationConfig(), paths.domain, paths.geometry, paths.navigation_plog);
     krr::kb::NavigationKnowledge nav(*domain.grid, domain.knowledge_files);
     trips = deliveryNavigationFromKnowledge(domain, nav, config, knowledge.base().rooms)->trips();
   }

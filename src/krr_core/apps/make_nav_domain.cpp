@@ -34,6 +34,7 @@
 #include "krr_core/nav/navigation_config.h"
 #include "krr_core/nav/occupancy_grid.h"
 #include "krr_core/nav/office_map.h"
+#include "krr_core/site/site.h"
 #include "krr_core/site/site_check.h"
 
 using namespace krr;
@@ -56,7 +57,7 @@ std::string stem(const std::string& p) {
 
 /// @brief The program; main() runs it under guardedMain so that no exception aborts it.
 static int mainBody(int argc, char** argv) {
-  std::string config_path, dialog_config, shop_flag;
+  std::string config_path, dialog_config, shop_flag, site_dir, root;
   bool generate = false;
   OptionParser parser("make_nav_domain",
                       "Cut the map named by the config (map_server YAML + PGM or PNG) into the\n"
@@ -69,14 +70,34 @@ static int mainBody(int argc, char** argv) {
       .defaultText("dialog.yaml beside the navigation config");
   parser.add("--shop", "NAME", "the place routes start from (overrides the dialog config's)",
              &shop_flag);
+  parser.add("--site", "DIR",
+             "site folder: cut its map into its domains (written beside its map), with the "
+             "generic settings of ROOT/config",
+             &site_dir);
+  parser.add("--root", "DIR", kRepositoryRootHelp, &root);
   parser.flag("--generate-office", "first (re)write the office map and places from office_map.cpp",
               &generate);
-  if (const auto status = parser.parse(argc, argv)) return *status;
-  config_path = resourcePath(config_path, "config/navigation.yaml");
-  NavigationConfig cfg = loadNavigationConfig(config_path);
-  site::SiteFiles site = site::SiteFiles::inConfigDir(dirName(config_path));
-  site.navigation_config = config_path;
-  if (!dialog_config.empty()) site.dialog_config = dialog_config;
+  if (const auto status = parser.parse(argc, argv, [&] {
+        if (!site_dir.empty() && (!config_path.empty() || !dialog_config.empty() || generate))
+          throw ConfigError("--site names the map, the places and the shop: no --config, "
+                            "--dialog-config or --generate-office with it");
+      }))
+    return *status;
+  NavigationConfig cfg;
+  site::SiteFiles site;
+  if (!site_dir.empty()) {
+    // Site::read, not load: the check below runs once, with --shop if given.
+    const site::Site s = site::Site::read(site_dir, findRepositoryRoot(root) + "/config");
+    cfg = s.navigation();
+    config_path = s.manifest();
+    site = s.files();
+  } else {
+    config_path = resourcePath(config_path, "config/navigation.yaml");
+    cfg = loadNavigationConfig(config_path);
+    site = site::SiteFiles::inConfigDir(dirName(config_path));
+    site.navigation_config = config_path;
+    if (!dialog_config.empty()) site.dialog_config = dialog_config;
+  }
   if (!shop_flag.empty()) {
     site.shop = shop_flag;
     site.shop_source = "option --shop";

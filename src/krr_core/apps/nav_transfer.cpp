@@ -112,10 +112,12 @@ void checkPlaces(const krr::nav::NavGrid& grid, const krr::experiments::NavTrans
     bool fromFlag = false;
     for (const auto& ov : a.overrides) fromFlag = fromFlag || ov.first == flag;
     const bool start = field == std::string("start");
-    const std::string site =
-        "the site's shop, " + a.files.dialogConfig() + ": field 'navigation.shop'";
+    const std::string site = "the site's shop, " + a.files.shopSource();
     const std::string where =
         fromFlag ? "option " + flag
+        : a.files.site ? (start ? site
+                                : a.files.site->manifest() + ": field 'experiments.nav_transfer." +
+                                      field + "' (not set: " + optionsFile + "'s; or " + flag + ")")
         : optionsFile.empty()
             ? (start ? site : "no options file: option " + flag)
             : optionsFile + ": field 'nav_transfer." + field + "'" +
@@ -147,6 +149,14 @@ static int mainBody(int argc, char** argv) {
   o.start = a.files.siteShop();
   const bool loadedOptions = givenOptions || std::ifstream(a.files.options).good();
   if (loadedOptions) o = krr::experiments::loadNavTransferOptions(a.files.options, o);
+  if (a.files.site) {
+    // A site's places, not the options file's (the office's): its shop, site.yaml's
+    // experiments.nav_transfer (checkPlaces names it when the site has none).
+    o.start = a.files.siteShop();
+    for (auto [field, value] : {std::pair{"source", &o.source}, std::pair{"target", &o.target}})
+      if (!a.files.sitePlace("nav_transfer", field).empty())
+        *value = a.files.sitePlace("nav_transfer", field);
+  }
   for (const auto& [f, v] : a.overrides) applyOverride(o, f, v);
   o.validate();
   a.files.resolveInputs(a.domain);
@@ -157,7 +167,8 @@ static int mainBody(int argc, char** argv) {
             << o.rmax.step_cost << ", " << o.target_episodes << " target episodes\n";
   krr::Stopwatch clock;
   auto dom =
-      krr::kb::NavDomain::load(a.files.config, a.domain, a.files.geometry, a.files.knowledge);
+      krr::kb::NavDomain::load(a.files.navigationConfig(), a.domain, a.files.geometry,
+                               a.files.knowledge);
   checkPlaces(*dom.grid, o, a, loadedOptions ? a.files.options : std::string());
   const auto trials =
       krr::experiments::runNavTransferTrials(dom, o, a.seed, a.begin, a.trials, a.threads);

@@ -77,6 +77,14 @@ static int mainBody(int argc, char** argv) {
   defaults.start = files.siteShop();
   krr::experiments::NewCircumstancesOptions o =
       krr::experiments::loadNewCircumstancesOptions(files.options, defaults);
+  if (files.site) {
+    // A site's places, not the options file's (the office's): its shop, every place of its
+    // map for the least-known selector, site.yaml's experiments.new_circumstances.goal.
+    o.start = files.siteShop();
+    if (!files.sitePlace("new_circumstances", "goal").empty())
+      o.goal = files.sitePlace("new_circumstances", "goal");
+    o.places.clear();
+  }
   for (const auto& [f, v] : overrides) {
     if (f == "--goal") o.goal = v;
     else if (f == "--br") o.blocking_rate = krr::parseNumberOption(f, v);
@@ -95,7 +103,7 @@ static int mainBody(int argc, char** argv) {
             << o.start << " -> " << o.goal << "\n";
   krr::Stopwatch clock;
   const auto dom =
-      krr::kb::NavDomain::load(files.config, o.domain, files.geometry, files.knowledge);
+      krr::kb::NavDomain::load(files.navigationConfig(), o.domain, files.geometry, files.knowledge);
   const auto res = krr::experiments::runNewCircumstances(dom, o, seed, begin, trials, threads);
   std::ostringstream csv;
   if (!no_header) csv << krr::experiments::newCircumstancesCsvHeader(o) << "\n";

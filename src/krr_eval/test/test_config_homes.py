@@ -10,6 +10,9 @@
   (learner_node's ~seed is not dialog_node's ~seed);
 - node files carry ROS wiring only (topics, rates, file paths, seeds, budgets): no leaf named
   like a physical / task setting (reward, discount, R-Max, blocking rate, speech model);
+- a site folder's files (config/sites/NAME/, krr_core/site/site.h) are the building's own,
+  replacing the office's names, and define no physical / task setting (but the per-area
+  overrides of their own areas);
 - an experiment file (config/experiments/NAME.yaml) overrides keys of the base files only,
   each with a value different from the base (it names only what it changes), and keeps its own
   protocol (episodes, places...) in its section NAME, whose keys no base file has and which
@@ -61,6 +64,8 @@ def classify(rel):
     """'experiment', 'node' or 'base' for a path relative to config/."""
     if rel.split(os.sep)[0] == "experiments":
         return "experiment"
+    if rel.split(os.sep)[0] == "sites":
+        return "site"
     name = os.path.basename(rel)
     if name.endswith("_node.yaml") or name == "simulated_user.yaml":
         return "node"
@@ -76,6 +81,17 @@ def check(files):
     for rel in sorted(files):
         kind = classify(rel)
         if kind == "experiment":
+            continue
+        if kind == "site":
+            # A site folder (config/sites/NAME) is one building's own files, which replace the
+            # office's (its language file, places, map): not a second home of a base key, but
+            # it names no physical or task setting, except the per-area overrides of its own
+            # blocking areas (site.yaml's `areas`, navigation.yaml's simulator.areas format).
+            for path in sorted(leaves(files[rel])):
+                if (PHYSICAL | ONE_HOME) & set(path) and not (
+                        os.path.basename(rel) == "site.yaml" and path[0] == "areas"):
+                    problems.append("%s: site file defines the physical / task setting %s (its "
+                                    "home is a base file)" % (rel, ".".join(path)))
             continue
         for path, value in sorted(leaves(files[rel]).items()):
             if kind == "node":   # the node's private namespace

@@ -71,9 +71,13 @@ class TestNodeParams(unittest.TestCase):
         self.refused('navigation_node', {'model_source': 'magic'},
                      "model_source = 'magic': must be one of reasoner, local")
         self.refused('navigation_node', {'start_place': 'kitchen'}, "start_place = 'kitchen'")
-        # No place is assumed: the start is the site's configuration.
-        self.refused('navigation_node', {}, "start_place = '': must name a place of the map",
-                     remove=('start_place',))
+        # No place is written in code: the default start is the site's shop; an empty one is
+        # refused.
+        self.refused('navigation_node', {'start_place': ''},
+                     "start_place = '': must name a place of the map")
+        # A site folder that is none is refused naming it (krr_core/site/site.h).
+        self.refused('navigation_node', {'site': '/nonexistent_site'},
+                     "site = '/nonexistent_site': site folder /nonexistent_site: no such directory")
         self.refused('navigation_node', {'time': 'midnight'}, "'midnight'")
         self.refused('navigation_node', {'ompl_paths': 'yes'}, 'ompl_paths = ')
         self.refused('navigation_node', {'domain': 'office_99x99'}, 'office_99x99')
@@ -92,8 +96,8 @@ class TestNodeParams(unittest.TestCase):
         self.refused('learner_node', {'max_episodes_per_task': 0},
                      'max_episodes_per_task = 0: must be in [1, 1000000]')
         self.refused('learner_node', {'places': ['room1', 'kitchen']}, "places = 'kitchen'")
-        self.refused('learner_node', {}, "start_place = '': must name a place of the map",
-                     remove=('start_place',))
+        self.refused('learner_node', {'start_place': ''},
+                     "start_place = '': must name a place of the map")
         self.refused('learner_node', {'enabled': 'yes'}, "enabled = 'yes': must be true or false")
         self.refused('learner_node', {'step_cost': 50.0}, 'step_cost')
         self.refused('learner_node', {'blocking_rate': 1.5},

@@ -1,5 +1,7 @@
 #include "krr_core/experiments/experiment_cli.h"
 
+#include <utility>
+
 #include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
@@ -31,6 +33,8 @@ void ExperimentCli::declare(OptionParser& p) {
         "$KRR_CACHE_DIR or ~/.cache/krr_rl/delivery");
   p.add("--out", "FILE", "CSV output", &out);
   p.add("--root", "DIR", kRepositoryRootHelp, &root);
+  p.add("--site", "DIR", "site folder (site.yaml, map, places, knowledge, language)", &site)
+      .defaultText("the office of ROOT/config");
   p.add("--outdated-br", "B", "blocking rate the outdated knowledge was learned at",
         &experiment.outdated_rate);
   p.add("--serve-cost", "none|expected", "override of config/dialog.yaml serve_cost", &serve_cost);
@@ -54,7 +58,7 @@ void ExperimentCli::finish() {
 }
 
 DialogConfig loadDeliveryExperimentConfig(const ExperimentPaths& paths) {
-  DialogConfig c = dialog::loadDialogConfig(paths.dialog_yaml);
+  DialogConfig c = paths.dialogConfig();
   const std::string& file = paths.delivery_yaml;
   detail::ExperimentBase b = detail::experimentBaseOf(c.rmaxParams(), 0.0, 1.0);
   const YamlSection top(parseYaml(readFile(file), file), file, "",
@@ -94,17 +98,38 @@ void NavExperimentFiles::declare(OptionParser& p, const std::string& options_fil
       .defaultText("ROOT/maps/<domain>_geometry.plog");
   p.add("--knowledge", "FILE", "human navigation knowledge", &knowledge)
       .defaultText("ROOT/config/navigation.plog");
+  p.add("--site", "DIR",
+        "site folder: its map, places, domains and shop, and its experiment places (site.yaml "
+        "experiments) instead of the options file's",
+        &site_dir)
+      .defaultText("the office of ROOT/config");
 }
 
 void NavExperimentFiles::resolveRoot() {
   root = findRepositoryRoot(root);
   if (options.empty()) options = root + "/" + options_file_;
+  if (!site_dir.empty())
+    site = std::make_shared<const site::Site>(site::Site::load(site_dir, root + "/config"));
+}
+
+nav::NavigationConfig NavExperimentFiles::navigationConfig() const {
+  nav::NavigationConfig c =
+      nav::loadNavigationConfig(config.empty() ? root + "/config/navigation.yaml" : config);
+  return site ? site->navigationOver(std::move(c)) : c;
+}
+
+std::string NavExperimentFiles::sitePlace(const std::string& experiment,
+                                          const std::string& field) const {
+  return site ? site->experimentPlace(experiment, field) : "";
+}
+
+std::string NavExperimentFiles::shopSource() const {
+  return site ? site->manifest() + ": field 'shop'"
+              : dialogConfig() + ": field 'navigation.shop'";
 }
 
 std::string NavExperimentFiles::defaultDomain() const {
-  return nav::loadNavigationConfig(config.empty() ? root + "/config/navigation.yaml" : config)
-      .defaultDomain()
-      .name;
+  return navigationConfig().defaultDomain().name;
 }
 
 std::string NavExperimentFiles::dialogConfig() const {
@@ -112,12 +137,13 @@ std::string NavExperimentFiles::dialogConfig() const {
 }
 
 std::string NavExperimentFiles::siteShop() const {
-  return dialog::loadDialogConfig(dialogConfig()).shop;
+  return site ? site->shop() : dialog::loadDialogConfig(dialogConfig()).shop;
 }
 
 void NavExperimentFiles::resolveInputs(const std::string& domain) {
   if (config.empty()) config = root + "/config/navigation.yaml";
-  if (geometry.empty()) geometry = root + "/maps/" + domain + "_geometry.plog";
+  if (geometry.empty())
+    geometry = site ? site->geometry(domain) : root + "/maps/" + domain + "_geometry.plog";
   if (knowledge.empty()) knowledge = root + "/config/navigation.plog";
 }
 

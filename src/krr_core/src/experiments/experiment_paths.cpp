@@ -5,6 +5,7 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/resource_locator.h"
+#include "krr_core/dialog/dialog_config.h"
 #include "krr_core/nav/navigation_config.h"
 
 namespace krr {
@@ -19,7 +20,16 @@ bool isFile(const std::string& p) {
 
 }  // namespace
 
-ExperimentPaths ExperimentPaths::find(const std::string& root_hint, const std::string& domain) {
+nav::NavigationConfig ExperimentPaths::navigationConfig() const {
+  return site ? site->navigation() : nav::loadNavigationConfig(navigation_yaml);
+}
+
+dialog::DialogConfig ExperimentPaths::dialogConfig() const {
+  return site ? site->dialog() : dialog::loadDialogConfig(dialog_yaml);
+}
+
+ExperimentPaths ExperimentPaths::find(const std::string& root_hint, const std::string& domain,
+                                      const std::string& site_dir) {
   const std::string root = findRepositoryRoot(root_hint, "config/dialog.yaml");
   ExperimentPaths p;
   p.root = root;
@@ -29,14 +39,17 @@ ExperimentPaths ExperimentPaths::find(const std::string& root_hint, const std::s
   p.navigation_plog = root + "/config/navigation.plog";
   for (const std::string* f : {&p.dialog_yaml, &p.delivery_yaml, &p.navigation_yaml, &p.navigation_plog})
     if (!isFile(*f)) throw ConfigError("missing input file " + *f + " (repository root " + root + ")");
-  p.domain = domain.empty() ? nav::loadNavigationConfig(p.navigation_yaml).defaultDomain().name : domain;
-  p.geometry = root + "/maps/" + p.domain + "_geometry.plog";
+  if (!site_dir.empty()) p.site = std::make_shared<site::Site>(site::Site::load(site_dir, root + "/config"));
+  const std::string domains = p.site ? p.site->manifest() : p.navigation_yaml;
+  p.domain = domain.empty() ? p.navigationConfig().defaultDomain().name : domain;
+  p.geometry = p.site ? p.site->geometry(p.domain) : root + "/maps/" + p.domain + "_geometry.plog";
   if (!isFile(p.geometry)) {
     const std::string chosen = domain.empty()
-                                   ? "the first domain of " + p.navigation_yaml + "; --domain chooses another"
+                                   ? "the first domain of " + domains + "; --domain chooses another"
                                    : "--domain";
     throw ConfigError("no geometry file " + p.geometry + " for domain '" + p.domain + "' (" + chosen +
-                      "): generate it with make_nav_domain --config " + p.navigation_yaml);
+                      "): generate it with make_nav_domain " +
+                      (p.site ? "--site " + p.site->dir() : "--config " + p.navigation_yaml));
   }
   return p;
 }

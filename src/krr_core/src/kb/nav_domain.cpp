@@ -2,13 +2,21 @@
 
 #include "krr_core/nav/occupancy_grid.h"
 
+#include <utility>
+
 namespace krr {
 namespace kb {
 
 NavDomain NavDomain::load(const std::string& navigation_yaml, const std::string& domain_name,
                           const std::string& geometry_file, const std::string& navigation_plog) {
+  return load(nav::loadNavigationConfig(navigation_yaml), domain_name, geometry_file,
+              navigation_plog);
+}
+
+NavDomain NavDomain::load(nav::NavigationConfig config, const std::string& domain_name,
+                          const std::string& geometry_file, const std::string& navigation_plog) {
   NavDomain d;
-  d.config = nav::loadNavigationConfig(navigation_yaml);
+  d.config = std::move(config);
   d.domain = d.config.domain(domain_name);
   nav::NavGridOptions opt;
   opt.cols = d.domain.cols;

@@ -117,6 +117,73 @@ void storeRMaxParams(const mdp::RMaxParams& p, PlanningConfig& planning,
   learning.refine_known = p.refine_known;
 }
 
+std::vector<DomainConfig> readDomains(const YAML::Node& dn, const std::string& path,
+                                      const std::string& field) {
+  if (!dn.IsMap() || dn.size() == 0) {
+    throw ConfigError(path + ": field '" + field + "': value '" + yamlText(dn) +
+                      "' must be a non-empty mapping name -> {cols, rows, step_limit}");
+  }
+  std::vector<DomainConfig> out;
+  for (auto it = dn.begin(); it != dn.end(); ++it) {
+    DomainConfig d;
+    d.name = it->first.Scalar();
+    // The name becomes <map dir>/<name>.yaml: '../../x' or 'a/b' would write elsewhere.
+    if (!isPlainName(d.name)) {
+      throw ConfigError(path + ": field '" + field + "': name '" + d.name +
+                        "' must be a plain identifier [A-Za-z0-9_-]+ (it names files in the "
+                        "map directory)");
+    }
+    YamlSection s(it->second, path, field + "." + d.name, {"cols", "rows", "step_limit"});
+    d.cols = s.requiredInteger("cols", 1, 10000);
+    d.rows = s.requiredInteger("rows", 1, 10000);
+    d.step_limit = s.requiredInteger("step_limit", 1, 100000000);
+    out.push_back(d);
+  }
+  return out;
+}
+
+std::map<std::string, AreaConfig> readAreas(const YAML::Node& an, const std::string& path,
+                                            const std::string& field,
+                                            const std::vector<std::string>& times_of_day) {
+  std::map<std::string, AreaConfig> out;
+  if (!an.IsMap() && !(an.IsSequence() && an.size() == 0) && !an.IsNull()) {
+    throw ConfigError(path + ": field '" + field + "': value '" + yamlText(an) +
+                      "' must be a mapping area -> {rate, time_of_day}");
+  }
+  if (!an.IsMap()) return out;
+  for (auto it = an.begin(); it != an.end(); ++it) {
+    const std::string name = it->first.Scalar();
+    YamlSection a(it->second, path, field + "." + name, {"rate", "time_of_day"});
+    AreaConfig ac;
+    ac.rate = a.number("rate", -1.0, 0.0, 1.0);
+    if (a.has("time_of_day")) {
+      const YAML::Node t = a.get("time_of_day");
+      if (!t.IsMap()) {
+        throw ConfigError(path + ": field '" + field + "." + name + ".time_of_day': value '" +
+                          yamlText(t) + "' must be a mapping");
+      }
+      for (auto jt = t.begin(); jt != t.end(); ++jt) {
+        const std::string tn = jt->first.Scalar();
+        const std::string f = field + "." + name + ".time_of_day." + tn;
+        if (std::find(times_of_day.begin(), times_of_day.end(), tn) == times_of_day.end())
+          throw ConfigError(path + ": field '" + f + "': unknown time of day '" + tn + "'");
+        double v;
+        try {
+          v = jt->second.as<double>();
+        } catch (const YAML::Exception&) {
+          throw ConfigError(path + ": field '" + f + "': value '" + yamlText(jt->second) +
+                            "' is not a number");
+        }
+        if (!std::isfinite(v) || v < 0.0)
+          throw ConfigError(path + ": field '" + f + "': value " + num(v) + " must be >= 0");
+        ac.time_factor[tn] = v;
+      }
+    }
+    out[name] = ac;
+  }
+  return out;
+}
+
 NavigationConfig loadNavigationConfig(const std::string& path) {
   const YAML::Node root = loadYamlFile(path, "navigation config");
   NavigationConfig cfg;
@@ -131,26 +198,7 @@ NavigationConfig loadNavigationConfig(const std::string& path) {
         grid.number("max_blocked_fraction", cfg.max_blocked_fraction, 0.0, 1.0, YamlSection::kLowerOpen);
   }
   if (!top.has("domains")) throw ConfigError(path + ": missing field 'domains'");
-  const YAML::Node dn = top.get("domains");
-  if (!dn.IsMap() || dn.size() == 0) {
-    throw ConfigError(path + ": field 'domains': value '" + yamlText(dn) +
-                      "' must be a non-empty mapping name -> {cols, rows, step_limit}");
-  }
-  for (auto it = dn.begin(); it != dn.end(); ++it) {
-    DomainConfig d;
-    d.name = it->first.Scalar();
-    // The name becomes maps/<name>.yaml: '../../x' or 'a/b' would write outside maps/.
-    if (!isPlainName(d.name)) {
-      throw ConfigError(path + ": field 'domains': name '" + d.name +
-                        "' must be a plain identifier [A-Za-z0-9_-]+ (it names files in the "
-                        "map directory)");
-    }
-    YamlSection s(it->second, path, "domains." + d.name, {"cols", "rows", "step_limit"});
-    d.cols = s.requiredInteger("cols", 1, 10000);
-    d.rows = s.requiredInteger("rows", 1, 10000);
-    d.step_limit = s.requiredInteger("step_limit", 1, 100000000);
-    cfg.domains.push_back(d);
-  }
+  cfg.domains = readDomains(top.get("domains"), path, "domains");
   if (top.has("simulator")) {
     YamlSection s(top.get("simulator"), path, "simulator",
               {"move_success", "slip_stay", "slip_lateral", "blocking_rate", "blocking_mode",
@@ -204,48 +252,7 @@ NavigationConfig loadNavigationConfig(const std::string& path) {
         c.time_factors.push_back(v);
       }
     }
-    if (s.has("areas")) {
-      const YAML::Node an = s.get("areas");
-      if (!an.IsMap() && !(an.IsSequence() && an.size() == 0) && !an.IsNull()) {
-        throw ConfigError(path + ": field 'simulator.areas': value '" + yamlText(an) +
-                          "' must be a mapping area -> {rate, time_of_day}");
-      }
-      if (an.IsMap()) {
-        for (auto it = an.begin(); it != an.end(); ++it) {
-          const std::string name = it->first.Scalar();
-          YamlSection a(it->second, path, "simulator.areas." + name, {"rate", "time_of_day"});
-          AreaConfig ac;
-          ac.rate = a.number("rate", -1.0, 0.0, 1.0);
-          if (a.has("time_of_day")) {
-            const YAML::Node t = a.get("time_of_day");
-            if (!t.IsMap()) {
-              throw ConfigError(path + ": field 'simulator.areas." + name +
-                                ".time_of_day': value '" + yamlText(t) + "' must be a mapping");
-            }
-            for (auto jt = t.begin(); jt != t.end(); ++jt) {
-              const std::string tn = jt->first.Scalar();
-              const std::string f = "simulator.areas." + name + ".time_of_day." + tn;
-              if (std::find(c.times_of_day.begin(), c.times_of_day.end(), tn) ==
-                  c.times_of_day.end()) {
-                throw ConfigError(path + ": field '" + f + "': unknown time of day '" + tn + "'");
-              }
-              double v;
-              try {
-                v = jt->second.as<double>();
-              } catch (const YAML::Exception&) {
-                throw ConfigError(path + ": field '" + f + "': value '" + yamlText(jt->second) +
-                                  "' is not a number");
-              }
-              if (!std::isfinite(v) || v < 0.0) {
-                throw ConfigError(path + ": field '" + f + "': value " + num(v) + " must be >= 0");
-              }
-              ac.time_factor[tn] = v;
-            }
-          }
-          cfg.simulator.areas[name] = ac;
-        }
-      }
-    }
+    if (s.has("areas")) c.areas = readAreas(s.get("areas"), path, "simulator.areas", c.times_of_day);
     try {
       validate(c);
     } catch (const ConfigError& e) {

@@ -107,12 +107,9 @@ std::optional<std::vector<std::string>> reasonerDomainFiles(const SiteFiles& fil
     return std::nullopt;
   }
   const YAML::Node list = (*root)["domain_files"];
-  if (!list) {
-    check.add(files.reasoner_config, "domain_files", "",
-              "not set: the reasoner would load its built-in default, not necessarily the "
-              "dialog's knowledge");
-    return std::nullopt;
-  }
+  // Not set: the reasoner loads the dialog's knowledge.office (its default, krr_ros's
+  // reasoner_node), the one home of the knowledge file's name.
+  if (!list) return std::nullopt;
   std::vector<std::string> out;
   bool ok = list.IsSequence();
   if (ok) {
@@ -166,8 +163,9 @@ SiteReport checkSite(const SiteFiles& files) {
   Checker check(report);
 
   // The files. Each unreadable one is a finding; the rules that need it are skipped.
-  const auto nav = check.load(files.navigation_config,
-                              [&] { return nav::loadNavigationConfig(files.navigation_config); });
+  const auto nav = files.navigation ? files.navigation : check.load(files.navigation_config, [&] {
+    return nav::loadNavigationConfig(files.navigation_config);
+  });
   if (nav) report.places_file = nav->places;
   std::optional<nav::PlacesFile> places = files.places;
   if (!places && nav)
@@ -176,8 +174,9 @@ SiteReport checkSite(const SiteFiles& files) {
     for (const nav::Place& p : places->places) report.places.push_back(p.name);
     for (const nav::BlockingArea& a : places->areas) report.areas.push_back(a.name);
   }
-  const auto dialog = check.load(files.dialog_config,
-                                 [&] { return dialog::loadDialogConfig(files.dialog_config); });
+  const auto dialog = files.dialog ? files.dialog : check.load(files.dialog_config, [&] {
+    return dialog::loadDialogConfig(files.dialog_config);
+  });
   std::optional<plog::Program> knowledge;
   if (dialog) {
     report.knowledge = dialog->office_plog;
@@ -230,7 +229,7 @@ SiteReport checkSite(const SiteFiles& files) {
   if (nav && places) {
     for (const auto& area : nav->simulator.areas) {
       if (contains(report.areas, area.first)) continue;
-      check.add(files.navigation_config, "simulator.areas." + area.first, area.first,
+      check.add(files.navigation_config, files.areas_field + "." + area.first, area.first,
                 "'" + area.first + "' is not a blocking area of " + report.places_file +
                     " (blocking areas: " + (report.areas.empty() ? "none" : join(report.areas)) +
                     ")");

@@ -58,4 +58,33 @@ TEST(CheckSiteApp, ABrokenSiteGivesEveryFindingAndStatus1) {
       << r.err;
 }
 
+TEST(CheckSiteApp, ASiteFolderGivesItsNameAndSummaryOrEveryFinding) {
+  const std::string root = "--root '" + krr_test::repoPath("") + "' ";
+  const auto lab = checkSite(root + "--site '" + krr_test::repoPath("config/sites/lab") + "'", "lab");
+  EXPECT_EQ(lab.status, 0) << lab.err;
+  EXPECT_EQ(lab.out.rfind("lab: site consistent: 4 rooms with places (lab, kitchen, library, "
+                          "studio), shop 'mailroom', 3 blocking areas",
+                          0),
+            0u)
+      << lab.out;
+  // A copy of the lab whose places file renamed the library: refused, nothing on stdout.
+  const std::string dir = krr_test::tempDir("check_site_lab") + "/lab";
+  krr::makeDirectories(dir);
+  for (const char* f : {"site.yaml", "map.yaml", "map.pgm", "knowledge.plog", "language.yaml"})
+    krr::writeFileAtomic(dir + "/" + f, krr::readFile(krr_test::repoPath("config/sites/lab/") + f));
+  std::string places = krr::readFile(krr_test::repoPath("config/sites/lab/places.yaml"));
+  places.replace(places.find("  library:"), 10, "  reading:");
+  krr::writeFileAtomic(dir + "/places.yaml", places);
+  const auto r = checkSite(root + "--site '" + dir + "'", "lab_broken");
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_EQ(r.out, "");
+  EXPECT_NE(r.err.find(dir + "/places.yaml: field 'places': no place 'library' for the room of "
+                             "that name in " + dir + "/knowledge.plog (sort room); places that "
+                             "are no room: reading"),
+            std::string::npos)
+      << r.err;
+  // --site names every file: no file options with it (a usage error).
+  EXPECT_EQ(checkSite(root + "--site x --language y", "lab_usage").status, 2);
+}
+
 }  // namespace

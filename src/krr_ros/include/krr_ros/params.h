@@ -64,6 +64,9 @@ class ParamReader {
   [[noreturn]] void refuse(const std::string& name, const std::string& value,
                            const std::string& why) const;
 
+  /// @brief Whether the parameter is set (on the server), before reading it.
+  bool has(const std::string& name) const { return nh_.hasParam(name); }
+
   /// @brief Resolve a relative path against baseDir() (absolute paths are returned as is).
   std::string resolve(const std::string& path) const;
   /// @brief The directory relative paths are resolved against.

@@ -11,6 +11,8 @@
  * throws one krr::ConfigError listing every finding (file, field, value), which runNode logs as
  * one ROS_FATAL line before the node exits with status 1.
  *
+ * A node given a site folder (~site) checks the site's files instead (krr::site::Site::files()).
+ *
  * A node started on other knowledge on purpose (a test's extra P-log files) sets
  * check_site: false.
  */
@@ -20,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "krr_core/site/site.h"
 #include "krr_core/site/site_check.h"
 #include "krr_ros/params.h"
 
@@ -32,6 +35,9 @@ struct NodeSiteFiles {
   std::string language_config;    ///< ~language_config (dialog_node)
   /// ~domain_files as reasoner_node loads them (resolved); unset: config/reasoner_node.yaml's.
   std::optional<std::vector<std::string>> reasoner_domain_files;
+  /// The node's site folder (~site, nav_kb.h), or nullptr: its files and names are checked
+  /// instead of config/'s (the reasoner's domain_files still its own).
+  const krr::site::Site* site = nullptr;
 };
 
 /// @brief ~check_site: whether the node checks the site at start (default true).

@@ -49,6 +49,8 @@ DialogNode::Params DialogNode::Params::read(ParamReader& r) {
     throw krr::ConfigError("parameter reach_probabilities: required with model_source reach "
                            "(one P^N(shop, room) per room)");
   p.nav = NavKbParams::read(r);
+  // A site folder's language file is the site's (its synonyms name the site's values).
+  if (p.nav.site) p.language_config = p.nav.site->language();
   p.policy_cache = r.str("policy_cache", "");
   p.action = r.str("navigation_action", "navigate");
   p.server_wait = r.number("server_wait", 10, 0, 3600);
@@ -64,13 +66,15 @@ DialogNode::Params DialogNode::Params::read(ParamReader& r) {
   // The site's files agree before anything starts (site_check.h): this node's navigation,
   // dialog and language files, the rest of the site from the repository's config/.
   if (p.check_site)
-    requireConsistentSite(r, {p.nav.navigation_config, p.dialog_config, p.language_config, {}});
+    requireConsistentSite(r, {p.nav.navigation_config, p.dialog_config, p.language_config, {},
+                              p.nav.site.get()});
   return p;
 }
 
 DialogNode::DialogNode(ros::NodeHandle& nh, ros::NodeHandle& pnh, Params params)
     : p_(std::move(params)),
-      config_(krr::dialog::loadDialogConfig(p_.dialog_config)),
+      config_(p_.nav.site ? p_.nav.site->dialogOver(krr::dialog::loadDialogConfig(p_.dialog_config))
+                          : krr::dialog::loadDialogConfig(p_.dialog_config)),
       language_config_(krr::dialog::loadLanguageConfig(p_.language_config)),
       knowledge_(config_.office_plog, config_.speech_plog),
       nav_client_(nh, p_.action, false) {

@@ -69,8 +69,8 @@ LearnerParams LearnerParams::read(ParamReader& r) {
   p.task_hold = r.number("task_hold", 30, 0, 86400);
   p.idle_delay = r.number("idle_delay", 1, 0, 86400);
   p.places = r.strings("places", {});
-  // No default place: a place name is the site's (config/learner_node.yaml).
-  p.start_place = r.str("start_place", "");
+  // Default: the site's shop (nav_kb.h), never a name written here.
+  p.start_place = r.str("start_place", p.kb.shop);
   if (p.start_place.empty()) r.refuse("start_place", "''", "must name a place of the map");
   p.enabled = r.boolean("enabled", true);
   p.rest_threshold = r.integer("rest_threshold", 5, 0, 1000000);
@@ -109,7 +109,7 @@ LearnerParams LearnerParams::read(ParamReader& r) {
   p.check_site = readCheckSite(r);
   r.rejectUnknown();
   // The site's files agree before anything starts (site_check.h).
-  if (p.check_site) requireConsistentSite(r, {p.kb.navigation_config, "", "", {}});
+  if (p.check_site) requireConsistentSite(r, {p.kb.navigation_config, "", "", {}, p.kb.site.get()});
   return p;
 }
 

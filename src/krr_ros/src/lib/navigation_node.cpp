@@ -90,8 +90,8 @@ NavigationParams NavigationParams::read(ParamReader& r) {
   p.model_service = r.str("model_service", "/reasoner/build_task_model");
   p.model_timeout = r.number("model_timeout", 30, 0.1, 3600);
   p.learned_file = r.path("learned_file", "", false);
-  // No default place: a place name is the site's (config/navigation_node.yaml).
-  p.start_place = r.str("start_place", "");
+  // Default: the site's shop (nav_kb.h), never a name written here.
+  p.start_place = r.str("start_place", p.kb.shop);
   if (p.start_place.empty()) r.refuse("start_place", "''", "must name a place of the map");
   p.blocking_rate = r.blockingRate("blocking_rate");
   p.sim_rate = r.number("sim_rate", 0, 0, 1000);
@@ -136,7 +136,7 @@ NavigationParams NavigationParams::read(ParamReader& r) {
   p.check_site = readCheckSite(r);
   r.rejectUnknown();
   // The site's files agree before anything starts (site_check.h).
-  if (p.check_site) requireConsistentSite(r, {p.kb.navigation_config, "", "", {}});
+  if (p.check_site) requireConsistentSite(r, {p.kb.navigation_config, "", "", {}, p.kb.site.get()});
   return p;
 }
 

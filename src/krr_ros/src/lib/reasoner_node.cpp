@@ -17,6 +17,10 @@
 #include "krr_ros/conversions.h"
 #include "krr_ros/site_check.h"
 
+#include <filesystem>
+
+#include "krr_core/dialog/dialog_config.h"
+
 namespace krr_ros {
 
 namespace {
@@ -100,12 +104,40 @@ class ReasonerNode::Lease {
   ReasonerNode& node_;
 };
 
+namespace {
+
+/// @brief ~domain_files with a site folder: the base dialog config's knowledge (the office's,
+/// as config/reasoner_node.yaml names it) replaced by the site's; other files (a test's extra
+/// knowledge) kept. A list without the base knowledge is kept as given, and the site check
+/// tells whether it holds the site's.
+std::string dialogKnowledge(const ParamReader& r) {
+  return krr::dialog::loadDialogConfig(r.resolve("config/dialog.yaml")).office_plog;
+}
+
+std::vector<std::string> siteDomainFiles(const ParamReader& r, std::vector<std::string> files,
+                                         const krr::site::Site& site) {
+  namespace fs = std::filesystem;
+  const std::string base = dialogKnowledge(r);
+  std::error_code ec;
+  for (std::string& f : files)
+    if (fs::equivalent(f, base, ec)) f = site.knowledge();
+  return files;
+}
+
+}  // namespace
+
 ReasonerNode::Params ReasonerNode::Params::read(ParamReader& r) {
   Params p;
   p.seed = r.seed();
-  p.domain_files = r.paths("domain_files", {"config/office.plog"}, true);
+  // Default: the dialog's knowledge (config/dialog.yaml's knowledge.office, or the site
+  // folder's), its one home; a list replaces it (a test's extra knowledge).
+  const bool givenFiles = r.has("domain_files");
+  p.domain_files = r.paths("domain_files", {dialogKnowledge(r)}, true);
   if (p.domain_files.empty()) r.refuse("domain_files", "[]", "at least one P-log file is required");
   p.nav = NavKbParams::read(r);
+  if (p.nav.site)
+    p.domain_files = givenFiles ? siteDomainFiles(r, p.domain_files, *p.nav.site)
+                                : std::vector<std::string>{p.nav.site->knowledge()};
   const std::string data = defaultDataDirectory();
   p.learned_file = r.path("learned_file", data + "/learned_navigation.plog", false);
   p.domain_learned_file = r.path("domain_learned_file", data + "/learned_domain.plog", false);
@@ -122,7 +154,7 @@ ReasonerNode::Params ReasonerNode::Params::read(ParamReader& r) {
   r.rejectUnknown();
   // The site's files agree before anything is loaded (site_check.h): the knowledge this node
   // loads (~domain_files) is the dialog's, its navigation config names the places.
-  if (p.check_site) requireConsistentSite(r, {p.nav.navigation_config, "", "", p.domain_files});
+  if (p.check_site) requireConsistentSite(r, {p.nav.navigation_config, "", "", p.domain_files, p.nav.site.get()});
   return p;
 }
 

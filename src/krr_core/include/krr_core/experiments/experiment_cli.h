@@ -9,12 +9,14 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 
 #include "krr_core/common/cli.h"
 #include "krr_core/experiments/delivery_experiment.h"
 #include "krr_core/dialog/dialog_config.h"
 #include "krr_core/experiments/experiment_paths.h"
+#include "krr_core/site/site.h"
 
 namespace krr {
 namespace experiments {
@@ -30,6 +32,7 @@ dialog::DialogConfig loadDeliveryExperimentConfig(const ExperimentPaths& paths);
 struct ExperimentCli {
   DeliveryExperimentOptions experiment;  ///< --br --condition --seed --outdated-br --learned-cache
   std::string root;                      ///< --root
+  std::string site;                      ///< --site (a site folder; "" = the office of config/)
   std::size_t begin = 0;                 ///< --trial-begin
   std::size_t threads = 1;               ///< --threads
   std::string out;                       ///< --out
@@ -48,7 +51,7 @@ struct ExperimentCli {
   /// @brief The input files; an unnamed domain becomes the site's default (navigation.yaml's
   /// first), recorded in experiment.domain_name, which keys the caches.
   ExperimentPaths paths() {
-    ExperimentPaths p = ExperimentPaths::find(root, experiment.domain_name);
+    ExperimentPaths p = ExperimentPaths::find(root, experiment.domain_name, site);
     experiment.domain_name = p.domain;
     return p;
   }
@@ -66,13 +69,25 @@ struct ExperimentCli {
  */
 struct NavExperimentFiles {
   std::string root, options, config, geometry, knowledge;
+  std::string site_dir;  ///< --site: a site folder (site/site.h); "" = the office of config/
+  /// The site of --site after resolveRoot() (loaded and checked), or nullptr.
+  std::shared_ptr<const site::Site> site;
 
   /// @brief Declare the options; `options_file` is the default under the root (e.g.
   /// config/experiments/nav_transfer.yaml), `options_note` said after it in the help.
   void declare(OptionParser& parser, const std::string& options_file,
                const std::string& options_note = "");
-  /// @brief Find the repository root and default the options file. @throws ConfigError.
+  /// @brief Find the repository root, default the options file and load --site.
+  /// @throws ConfigError.
   void resolveRoot();
+  /// @brief The navigation config (after resolveInputs), with the site's names over it.
+  nav::NavigationConfig navigationConfig() const;
+  /// @brief A place of the site's experiments (site.yaml experiments.<experiment>.<field>);
+  /// "" without a site or when it names none.
+  std::string sitePlace(const std::string& experiment, const std::string& field) const;
+  /// @brief Where the site's shop is named (for messages): the dialog config's field, or
+  /// site.yaml's.
+  std::string shopSource() const;
   /// @brief Default the navigation config, `domain`'s geometry and the human knowledge.
   void resolveInputs(const std::string& domain);
   /// @brief The site's default domain (the first of the navigation config's, after

@@ -32,6 +32,9 @@ struct NavDomain {
    */
   static NavDomain load(const std::string& navigation_yaml, const std::string& domain_name,
                         const std::string& geometry_file, const std::string& navigation_plog);
+  /// @brief As above from a loaded navigation config (a site folder's, site/site.h).
+  static NavDomain load(nav::NavigationConfig config, const std::string& domain_name,
+                        const std::string& geometry_file, const std::string& navigation_plog);
 };
 
 }  // namespace kb

@@ -13,6 +13,8 @@
 #include <string>
 #include <vector>
 
+#include <yaml-cpp/yaml.h>
+
 #include "krr_core/mdp/rmax_agent.h"
 
 namespace krr {
@@ -119,6 +121,16 @@ mdp::RMaxParams rmaxParamsOf(const PlanningConfig& planning, const RMaxLearningC
 /// (planning.discount and model_discount, which R-Max does not have, are kept).
 void storeRMaxParams(const mdp::RMaxParams& p, PlanningConfig& planning,
                      RMaxLearningConfig& learning);
+
+/// @brief The `domains` mapping of a navigation config (or a site's site.yaml), validated;
+/// `field` names it in errors. @throws ConfigError naming file, field and value.
+std::vector<DomainConfig> readDomains(const YAML::Node& node, const std::string& path,
+                                      const std::string& field);
+/// @brief The per-area simulator overrides (`simulator.areas` of a navigation config, `areas`
+/// of a site.yaml), validated against the times of day. @throws ConfigError.
+std::map<std::string, AreaConfig> readAreas(const YAML::Node& node, const std::string& path,
+                                            const std::string& field,
+                                            const std::vector<std::string>& times_of_day);
 
 /// @brief Load and validate navigation.yaml. Paths in it are relative to the file's directory.
 /// @throws ConfigError naming file, field and value (unknown fields are errors too).

@@ -22,8 +22,9 @@
  *  4. synonyms: every synonym target of the language file is an item, room or person of the
  *     knowledge (case-insensitive, as the language front end reads them), all stale ones
  *     listed; and the front end builds from the file and the knowledge;
- *  5. knowledge: the reasoner's domain_files include the dialog's knowledge.office, compared
- *     as resolved paths, so the reasoner and the dialog reason about the same building.
+ *  5. knowledge: the reasoner's domain_files, when given, include the dialog's
+ *     knowledge.office, compared as resolved paths, so the reasoner and the dialog reason about
+ *     the same building (not given: the reasoner loads knowledge.office itself).
  *
  * A file that cannot be read is a finding too, and the rules that need it are skipped.
  * Every finding names the file, the field and the value.
@@ -46,7 +47,9 @@
 #include <vector>
 
 #include "krr_core/common/errors.h"
+#include "krr_core/dialog/dialog_config.h"
 #include "krr_core/nav/nav_grid.h"
+#include "krr_core/nav/navigation_config.h"
 
 namespace krr {
 namespace site {
@@ -75,6 +78,13 @@ struct SiteFiles {
   /// The places to check instead of the places file (make_nav_domain --generate-office checks
   /// the places it is about to write); the places file's path still names them in messages.
   std::optional<nav::PlacesFile> places;
+  /// The navigation and dialog configs already loaded (a site folder's, site.h: the base
+  /// configs with the site's names), instead of loading navigation_config / dialog_config;
+  /// those paths still name them in messages.
+  std::optional<nav::NavigationConfig> navigation;
+  std::optional<dialog::DialogConfig> dialog;
+  /// The field of navigation_config holding the per-area overrides (a site.yaml's: "areas").
+  std::string areas_field = "simulator.areas";
 
   /**
    * @brief The files of a configuration directory laid out as the repository's config/:
