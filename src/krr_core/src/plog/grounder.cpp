@@ -1142,14 +1142,8 @@ class Grounder {
     std::vector<int> origin;
     const Emit emit = [&](const std::vector<int>& bb, const std::vector<GLit>& body,
                           const std::vector<int>&) {
-      std::vector<int> args;
-      for (const auto& t : hargs) {
-        int v = evalTerm(t, bb);
-        if (v < 0) return;
-        args.push_back(v);
-      }
-      if (!argsInSorts(a, args) || !headAdmitted(a, args)) return;
-      int inst = instanceFor(a, args);
+      const int inst = admittedHead(a, hargs, bb);
+      if (inst < 0) return;
       std::string key = std::to_string(inst) + ":" + litKey(body);
       auto it = groups.find(key);
       if (it == groups.end()) {
@@ -1216,14 +1210,9 @@ class Grounder {
         spend(0, 1);
         return;
       }
-      std::vector<int> args;
-      for (const auto& t : hargs) {
-        int v = evalTerm(t, b);
-        if (v < 0) return;
-        args.push_back(v);
-      }
-      if (!argsInSorts(h, args) || !headAdmitted(h, args)) return;
-      addDerivedRule(r, instanceFor(h, args), evalTerm(hval, b), acc);
+      const int inst = admittedHead(h, hargs, b);
+      if (inst < 0) return;
+      addDerivedRule(r, inst, evalTerm(hval, b), acc);
     };
     if (!r.head) {
       runJoin(s, required, emit);
@@ -1432,6 +1421,21 @@ class Grounder {
     return true;
   }
 
+  /// @brief The instance of head a(hargs) under binding b, or -1 when an argument does not
+  /// evaluate, lies outside its declared sort, or is not demanded (headAdmitted): the one
+  /// admission rule of selection rules, derived rules and pr-atoms.
+  int admittedHead(int a, const std::vector<CTerm>& hargs, const std::vector<int>& b) {
+    std::vector<int> args;
+    args.reserve(hargs.size());
+    for (const auto& t : hargs) {
+      const int v = evalTerm(t, b);
+      if (v < 0) return -1;
+      args.push_back(v);
+    }
+    if (!argsInSorts(a, args) || !headAdmitted(a, args)) return -1;
+    return instanceFor(a, args);
+  }
+
   /// @brief Whether a ground head a(args) is emitted in the current forEachHeadPattern run:
   /// every head when a is not restricted; else a demanded one, once (by the first pattern
   /// that matches it).
@@ -1510,14 +1514,8 @@ class Grounder {
     guard_acc_.clear();
     const Emit emit = [&](const std::vector<int>& b, const std::vector<GLit>& acc,
                           const std::vector<int>&) {
-      std::vector<int> args;
-      for (const auto& t : hargs) {
-        int v = evalTerm(t, b);
-        if (v < 0) return;
-        args.push_back(v);
-      }
-      if (!argsInSorts(a, args) || !headAdmitted(a, args)) return;
-      int inst = instanceFor(a, args);
+      const int inst = admittedHead(a, hargs, b);
+      if (inst < 0) return;
       GInstance& gi = g_.instances[static_cast<size_t>(inst)];
       int v = evalTerm(hval, b);
       int vi = v < 0 ? -1 : valueIdx(inst, v);
