@@ -1918,18 +1918,17 @@ std::size_t CertifiedDialogSolver::Impl::planVector(
     for (std::size_t answer = 0; answer < numAnswers(q); ++answer) {
       childKey(key, q, answer, kid.data());
       canonicalize(kid.data(), nullptr, 0, false);
-      const bool stall = q.kind == QKind::kStall;
-      long scratch = -1;
-      long& cont = stall ? scratch : next[observationOf(q, answer)];
+      long cont;
       if (answerProb(m[q.slot], q, answer) > 1e-300) {
         const std::size_t ci = planVector(kid.data(), reach, floor, ex);
         cont = static_cast<long>(ci);
-        if (stall) continueOnAny(q, cont, next);
         addAnswer(alpha, q, answer, ex.vectors[ci]);
       } else {  // unreachable here: serve
         cont = kServeNext - static_cast<long>(serveA);
         addAnswer(alpha, q, answer, serveR_.col(static_cast<Eigen::Index>(serveA)));
       }
+      if (q.kind == QKind::kStall) continueOnAny(q, cont, next);  // its one answer: any
+      else next[observationOf(q, answer)] = cont;
     }
   }
   return addVector(alpha, action, depth, mk, next, ex);

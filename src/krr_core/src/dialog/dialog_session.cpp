@@ -122,7 +122,7 @@ DialogDecision DecisionMemo::decide(const DialogPomdp& d,
 std::size_t DialogSession::nextAction() const {
   if (finished_) throw ConfigError("dialog session: the dialog has ended");
   if (!policy_) {
-    if (atTurnLimit()) return dialog_.serveAction(summary().mostLikely);
+    if (atTurnLimit()) return mostLikelyServe(dialog_, belief_);
     throw ConfigError("dialog session: no policy to choose the next action");
   }
   if (plan_ >= 0 && !atTurnLimit()) {  // on a plan: its action, O(1)
