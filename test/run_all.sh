@@ -57,7 +57,7 @@ SITE_TMP="$(mktemp -d)"
 site_case check_lab '^lab: site consistent: 4 rooms' "$B/check_site" --root "$ROOT" --site "$LAB"
 site_case check_office '^office: site consistent' "$B/check_site" --root "$ROOT" --site "$ROOT/config/sites/office"
 site_case dialog_script_lab '^fulfilled$' "$B/dialog_script" --root "$ROOT" --site "$LAB" \
-  --cache "$SITE_TMP/policies" --deliver --check yes --utterance "tea for Dave to the reading room" \
+  --cache "$SITE_TMP/policies" --solver-trials 1500 --deliver --check yes --utterance "tea for Dave to the reading room" \
   --utterance dave --utterance yes --utterance yes --utterance yes
 site_case delivery_trials_lab '300 trials \[0, 300\): reward' "$B/delivery_trials" --root "$ROOT" \
   --site "$LAB" --br 0.3 --condition learned --seed 1 --trials 300 --solver-trials 300 \

@@ -52,6 +52,7 @@ struct Args {
   std::vector<bool> legs;
   std::string out, dialogConfig, language, domain, root, cache, site;
   bool json = false, noPolicy = false, deliver = false, haveCache = false;
+  long solverTrials = -1;
   std::vector<double> reach, reachBack;
 
   /// @brief Declare the options on `p`; this object receives their values.
@@ -93,6 +94,13 @@ struct Args {
     p.add("--cache", "DIR|none", "solved policies; none: solve every run",
           [this](const std::string& v) { cache = v, haveCache = true; },
           "$KRR_CACHE_DIR or ~/.cache/krr_rl/delivery");
+    p.add("--solver-trials", "N",
+          "the dialog solver's trial budget (0: solve to the certified precision), as "
+          "dialog_node's ~solver_max_trials",
+          [this](const std::string& v) {
+            solverTrials = static_cast<long>(krr::parseCountOption("--solver-trials", v));
+          },
+          "the dialog config's");
   }
 
   /// @brief The combinations the options allow. @throws ConfigError.
@@ -133,9 +141,10 @@ static int mainBody(int argc, char** argv) {
   std::shared_ptr<const krr::site::Site> site;
   if (!a.site.empty())
     site = std::make_shared<krr::site::Site>(krr::site::Site::load(a.site, root + "/config"));
-  const DialogConfig config =
+  DialogConfig config =
       site ? site->dialog()
            : loadDialogConfig(a.dialogConfig.empty() ? root + "/config/dialog.yaml" : a.dialogConfig);
+  if (a.solverTrials >= 0) config.solver_max_trials = static_cast<std::size_t>(a.solverTrials);
   const std::string languageFile =
       site ? site->language() : a.language.empty() ? root + "/config/language.yaml" : a.language;
   const DialogKnowledge knowledge(config.office_plog, config.speech_plog);
@@ -163,9 +172,13 @@ static int mainBody(int argc, char** argv) {
     const std::string cache = a.haveCache ? (a.cache == "none" ? "" : a.cache) : defaultCacheDir();
     policy = solveDialogPolicy(dialog, config, cache, &rep);
     std::fprintf(stderr, "# policy: %s in %.2f s, bounds at the prior [%.3f, %.3f] (gap %.3f), "
-                 "%zu trials, %zu vectors\n", rep.from_cache ? "loaded" : "solved", rep.seconds,
-                 rep.bounds.lower, rep.bounds.upper, rep.bounds.gap(), rep.bounds.trials,
-                 policy.size());
+                 "%zu trials, %zu vectors, %s\n", rep.from_cache ? "loaded" : "solved",
+                 rep.seconds, rep.bounds.lower, rep.bounds.upper, rep.bounds.gap(),
+                 rep.bounds.trials, policy.size(),
+                 rep.converged ? "certified"
+                 : rep.stop.empty() ? "NOT certified to the configured precision"
+                                    : ("NOT certified to the configured precision: stopped by the " +
+                                       rep.stop).c_str());
   }
   if (a.deliver) {
     const ScriptedDelivery d =

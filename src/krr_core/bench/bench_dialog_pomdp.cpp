@@ -7,9 +7,9 @@
 //                           [--export DIR] [--sarsop PATH]
 // Per model (and dialog_node's: the knowledge base's navigation model, no learned knowledge),
 // single-threaded and cold:
-//  - the configured policy (the experiments' solver budget, config/experiments/
-//    delivery_trials.yaml over config/dialog.yaml; dialog_node's: config/dialog.yaml's): its
-//    certified bounds at the prior, solve time and size;
+//  - the configured policy (config/dialog.yaml's solver budget, the robot's and the
+//    experiments': to the certified precision): its certified bounds at the prior, solve time
+//    and size;
 //  - a fresh solve up to --timeout: bounds at checkpoints of solver time, the first time the
 //    certified gap fell to <= 4, 2 and 1 reward, and the search's memory;
 //  - the configured policy in --trials delivery trials: reward, expected reward,
@@ -304,9 +304,9 @@ int main(int argc, char** argv) {
     const DialogConfig cfg = loadDeliveryExperimentConfig(paths);
     const kb::NavDomain dom = kb::NavDomain::load(paths.navigation_yaml, paths.domain,
                                                   paths.geometry, paths.navigation_plog);
-    std::printf("# turn limit %d, precision %g (config/dialog.yaml), the experiments' trial budget "
-                "%zu (config/dialog.yaml, or config/experiments/delivery_trials.yaml's solver "
-                "block); solver timeout %g s per model; %zu delivery trials per model\n",
+    std::printf("# turn limit %d, precision %g (config/dialog.yaml), the configured trial budget "
+                "%zu (0: none; config/dialog.yaml, or config/experiments/delivery_trials.yaml's "
+                "solver block); solver timeout %g s per model; %zu delivery trials per model\n",
                 cfg.turn_limit, cfg.solver_precision, cfg.solver_max_trials, timeout, trials);
     for (const auto& [br, condition] : models) {
       DeliveryExperimentOptions o;
@@ -331,7 +331,7 @@ int main(int argc, char** argv) {
     if (nodeModel) {
       // dialog_node's model (~model_source local or reasoner): the knowledge base's navigation
       // model (no learned knowledge) and config/dialog.yaml, whose solver budget is the
-      // robot's.
+      // robot's (its provisional start policy is not measured here).
       const DialogConfig nodeCfg = loadDialogConfig(paths.dialog_yaml);
       kb::NavDomain nd = kb::NavDomain::load(paths.navigation_yaml, paths.domain, paths.geometry,
                                              paths.navigation_plog);

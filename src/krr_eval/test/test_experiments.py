@@ -154,6 +154,9 @@ class ContextTest(unittest.TestCase):
         quick = experiments.Context("/tmp", None, quick=True)
         self.assertEqual(experiments.solver_args(quick, "exp4"), ["--solver-trials", "1500"])
         self.assertEqual(quick.params["exp4"]["solver_trials"], 1500)
+        # exp6's dialog_script runs the robot's policy: certified by default, 1500 when quick.
+        self.assertEqual(experiments.solver_args(experiments.Context("/tmp", None), "exp6"), [])
+        self.assertEqual(experiments.solver_args(quick, "exp6"), ["--solver-trials", "1500"])
         given = experiments.Context("/tmp", None, quick=True, solver_trials=200)
         self.assertEqual(experiments.solver_args(given, "exp2"), ["--solver-trials", "200"])
         self.assertEqual(given.params["exp2"]["solver_trials"], 200)

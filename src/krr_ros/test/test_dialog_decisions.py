@@ -134,7 +134,9 @@ class DialogDecisionsTest(unittest.TestCase):
 
     def core(self, ns, said, checks):
         """The same script through the core's DeliveryManager (dialog_script deliver)."""
-        cmd = [self.cli, "--deliver", "--json", "--reach", REACH[ns], "--root", self.root]
+        # The nodes' budget (dialog_decisions.test): the same policy.
+        cmd = [self.cli, "--deliver", "--json", "--reach", REACH[ns], "--root", self.root,
+               "--solver-trials", "1500"]
         for u in said:
             cmd += ["--utterance", u]
         for c in checks:

@@ -6,8 +6,8 @@ between dialogs; an update during a rebuild schedules one more rebuild; later di
 the new policy; the node shuts down promptly during a rebuild.
 
 The test starts dialog_node itself (model_source reach, policy_cache none: every rebuild
-solves) with a copy of config/dialog.yaml whose solver.max_trials is ~max_trials, so that one
-solve takes seconds. What the node logs (/rosout) tells when a rebuild starts, ends and is
+solves) with ~solver_max_trials set to this test's ~max_trials, so that one solve takes seconds,
+and no provisional start (~startup_max_trials 0: the first model is solved before serving). What the node logs (/rosout) tells when a rebuild starts, ends and is
 installed."""
 import os
 import signal
@@ -45,20 +45,6 @@ INSTALLED = "new dialog policy installed"
 FAILED = "background rebuild failed"
 
 
-def dialog_config(root, tmp, max_trials):
-    """config/dialog.yaml with solver.max_trials replaced (knowledge paths made absolute)."""
-    path = os.path.join(root, "config", "dialog.yaml")
-    with open(path) as f:
-        c = yaml.safe_load(f)
-    c["solver"]["max_trials"] = max_trials
-    for k, v in c["knowledge"].items():
-        c["knowledge"][k] = os.path.join(os.path.dirname(os.path.abspath(path)), v)
-    out = os.path.join(tmp, "dialog.yaml")
-    with open(out, "w") as f:
-        yaml.safe_dump(c, f)
-    return out
-
-
 class DialogResolveTest(unittest.TestCase):
     """Runs in name order against one dialog_node: the steps build on each other."""
 
@@ -75,7 +61,7 @@ class DialogResolveTest(unittest.TestCase):
         params.update({
             "base_dir": root, "model_source": "reach",
             "reach_probabilities": [0.95, 0.65, 0.75, 0.95, 0.5],
-            "dialog_config": dialog_config(root, tmp, int(rospy.get_param("~max_trials"))),
+            "solver_max_trials": int(rospy.get_param("~max_trials")), "startup_max_trials": 0,
             "policy_cache": "none", "knowledge_updates": UPDATES, "server_wait": 1.0,
             "check_timeout": 3.0})
         rospy.set_param("/" + NODE, params)

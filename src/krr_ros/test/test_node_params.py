@@ -105,6 +105,15 @@ class TestNodeParams(unittest.TestCase):
         self.refused('learner_node', {'sample_period': -1},
                      'sample_period = -1: must be in [0, 86400]')
 
+    def test_dialog_node(self):
+        # The solver budgets: -1 = the dialog config's, 0 = none (solve to the precision).
+        self.refused('dialog_node', {'solver_max_trials': -2},
+                     'solver_max_trials = -2: must be in [-1, 1000000000]', remove=('learned_file',))
+        self.refused('dialog_node', {'startup_max_trials': 'many'},
+                     "startup_max_trials = 'many': must be an integer", remove=('learned_file',))
+        self.refused('dialog_node', {'startup_max_trials': -1},
+                     'startup_max_trials = -1: must be in [0, 1000000000]', remove=('learned_file',))
+
     def test_dialog_node_refuses_an_inconsistent_site(self):
         """A language file with two stale synonyms: dialog_node does not start, and its one
         message names the file, the fields and the values of both (the site check)."""

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include "krr_core/common/errors.h"
@@ -104,6 +105,64 @@ CertifiedSolverOptions certifiedSolverOptions(const DialogConfig& config) {
   return o;
 }
 
+namespace {
+
+/// The cache file of `dialog`'s policy under `so` (".txt"; its bounds are beside it, ".bounds").
+std::string cacheFile(const DialogPomdp& dialog, const CertifiedSolverOptions& so,
+                      const std::string& cache_dir) {
+  std::ostringstream key;
+  key.precision(17);
+  // v3: the room-paid bound's chain of levels and trials aimed at trialTarget x precision;
+  // v4: policies carry their plans' continuations (executed in O(1) per turn); v5: rarely
+  // reached nodes export their commit plans.
+  key << "certified v5|" << solverFingerprint() << "|" << dialog.spec().turnLimit << "|"
+      << so.precision << "|" << so.maxTrials << "|" << so.seed << "|" << so.lowerGuidedEvery
+      << "|" << so.commitLower << "|" << so.shareUpperBounds << so.roomPaidBound
+      << so.roomLookahead << so.keepLeaves << "|" << so.trialTarget << "|"
+      << dialog.exportCassandra();
+  char name[64];
+  std::snprintf(name, sizeof(name), "policy_%016llx",
+                static_cast<unsigned long long>(stableHash(key.str())));
+  return cache_dir + "/" + name + ".txt";
+}
+
+std::string boundsFileOf(const std::string& policy_file) {
+  return policy_file.substr(0, policy_file.size() - 4) + ".bounds";
+}
+
+/// The cached entry `rep.file`, if complete (the policy file's presence marks it so).
+std::optional<pomdp::TurnLimitedPolicy> loadCached(const DialogPomdp& dialog, double precision,
+                                                   PolicyReport& rep) {
+  if (!fileExists(rep.file) || !fileExists(boundsFileOf(rep.file))) return std::nullopt;
+  pomdp::TurnLimitedPolicy p = pomdp::TurnLimitedPolicy::load(rep.file);
+  const std::string mismatch = policyMismatch(p, dialog);
+  if (!mismatch.empty())
+    throw IoError(rep.file + ": cached " + mismatch + " (delete it to solve again)");
+  readBounds(boundsFileOf(rep.file), rep);
+  rep.from_cache = true;
+  rep.reproducible = true;  // only reproducible policies are cached
+  rep.converged = rep.bounds.gap() <= precision;
+  return p;
+}
+
+}  // namespace
+
+std::optional<pomdp::TurnLimitedPolicy> cachedDialogPolicy(const DialogPomdp& dialog,
+                                                           const DialogConfig& config,
+                                                           const std::string& cache_dir,
+                                                           PolicyReport* report) {
+  config.validate();
+  if (cache_dir.empty()) return std::nullopt;
+  Stopwatch clock;
+  PolicyReport rep;
+  const CertifiedSolverOptions so = certifiedSolverOptions(config);
+  rep.file = cacheFile(dialog, so, cache_dir);
+  std::optional<pomdp::TurnLimitedPolicy> p = loadCached(dialog, so.precision, rep);
+  rep.seconds = clock.seconds();
+  if (p && report) *report = rep;
+  return p;
+}
+
 pomdp::TurnLimitedPolicy solveDialogPolicy(const DialogPomdp& dialog,
                                            const DialogConfig& config,
                                            const std::string& cache_dir, PolicyReport* report) {
@@ -111,41 +170,19 @@ pomdp::TurnLimitedPolicy solveDialogPolicy(const DialogPomdp& dialog,
   Stopwatch clock;
   PolicyReport rep;
   const CertifiedSolverOptions so = certifiedSolverOptions(config);
-  const int limit = dialog.spec().turnLimit;
   std::unique_ptr<FileLock> lock;  // parallel trial processes solve each model once
   if (!cache_dir.empty()) {
-    std::ostringstream key;
-    key.precision(17);
-    // v3: the room-paid bound's chain of levels and trials aimed at trialTarget x precision;
-    // v4: policies carry their plans' continuations (executed in O(1) per turn); v5: rarely
-    // reached nodes export their commit plans.
-    key << "certified v5|" << solverFingerprint() << "|" << limit << "|" << so.precision << "|"
-        << so.maxTrials << "|" << so.seed << "|" << so.lowerGuidedEvery << "|"
-        << so.commitLower << "|" << so.shareUpperBounds << so.roomPaidBound << so.roomLookahead
-        << so.keepLeaves << "|" << so.trialTarget << "|" << dialog.exportCassandra();
-    char name[64];
-    std::snprintf(name, sizeof(name), "policy_%016llx",
-                  static_cast<unsigned long long>(stableHash(key.str())));
-    rep.file = cache_dir + "/" + name + ".txt";
-    const std::string boundsFile = cache_dir + "/" + name + ".bounds";
+    rep.file = cacheFile(dialog, so, cache_dir);
     makeDirectories(cache_dir);
     try {
-      lock = std::make_unique<FileLock>(cache_dir + "/" + name + ".lock");
+      lock = std::make_unique<FileLock>(rep.file.substr(0, rep.file.size() - 4) + ".lock");
     } catch (const IoError&) {
       // a read-only cache: load what is there, or work without caching below
     }
-    if (fileExists(rep.file) && fileExists(boundsFile)) {
-      pomdp::TurnLimitedPolicy p = pomdp::TurnLimitedPolicy::load(rep.file);
-      const std::string mismatch = policyMismatch(p, dialog);
-      if (!mismatch.empty())
-        throw IoError(rep.file + ": cached " + mismatch + " (delete it to solve again)");
-      readBounds(boundsFile, rep);
-      rep.from_cache = true;
-      rep.reproducible = true;  // only reproducible policies are cached
-      rep.converged = rep.bounds.gap() <= so.precision;
+    if (std::optional<pomdp::TurnLimitedPolicy> p = loadCached(dialog, so.precision, rep)) {
       rep.seconds = clock.seconds();
       if (report) *report = rep;
-      return p;
+      return std::move(*p);
     }
   }
   CertifiedDialogSolver solver(dialog, Eigen::VectorXd(), 0, so);
@@ -166,9 +203,10 @@ pomdp::TurnLimitedPolicy solveDialogPolicy(const DialogPomdp& dialog,
                           std::to_string(rep.bounds.upper) + "] are not finite, ordered bounds");
   rep.converged = rep.bounds.gap() <= so.precision;
   rep.reproducible = cr.reproducible();
+  rep.stop = toString(cr.stop);
   if (!rep.file.empty() && rep.reproducible) {
     // Bounds first: the policy file's presence marks a complete entry.
-    writeFileAtomic(rep.file.substr(0, rep.file.size() - 4) + ".bounds", boundsText(rep));
+    writeFileAtomic(boundsFileOf(rep.file), boundsText(rep));
     policy.save(rep.file);
   }
   if (!rep.reproducible) rep.file.clear();

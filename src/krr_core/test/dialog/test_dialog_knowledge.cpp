@@ -143,10 +143,18 @@ TEST(DialogKnowledge, DeliveryEquationAndServeRewardMatchHandComputation) {
 
 // ---- Behaviour on the office knowledge base (config/*.plog, config/dialog.yaml) -------------
 
+/// config/dialog.yaml with the solver stopped at 1500 trials (dialog_node's provisional
+/// budget): these tests check behaviour, not certification, which takes 10-40 s per model.
+DialogConfig officeConfig() {
+  DialogConfig c = loadDialogConfig(repo("config/dialog.yaml"));
+  c.solver_max_trials = 1500;
+  return c;
+}
+
 /// The office dialog model with P^N given per room (P^N(room, shop) = P^N(shop, room)), and its
-/// policy solved with config/dialog.yaml's options.
+/// policy solved with config/dialog.yaml's options (officeConfig).
 struct Office {
-  DialogConfig cfg = loadDialogConfig(repo("config/dialog.yaml"));
+  DialogConfig cfg = officeConfig();
   DialogKnowledge knowledge{cfg.office_plog, cfg.speech_plog};
   DialogPomdp dialog;
   pomdp::TurnLimitedPolicy policy;

@@ -19,7 +19,7 @@ DEFAULTS = {
     # target_episodes None: the CLI's config/experiments/nav_transfer.yaml decides (100)
     "exp1": {"trials": 1000, "target_episodes": None, "window": 10, "early_episodes": 30,
              "domains": ["small", "large"]},
-    # solver_trials None: config/experiments/delivery_trials.yaml's solver budget (certified)
+    # solver_trials None: config/dialog.yaml's solver budget (certified: solved to its precision)
     "exp2": {"trials": 40000, "brs": [0.1, 0.5, 0.7], "paper_subsample": 100,
              "solver_trials": None,
              # the serve reward's wrong-delivery penalty set to 0 (learned knowledge)
@@ -35,7 +35,8 @@ DEFAULTS = {
     # The paper's script: the request, then the answers to the robot's questions, which are
     # scripted as in the paper's Figure 4 (a second run lets the policy choose them).
     "exp6": {"utterances": ["a coke for Bob to office2", "A coke.", "Yes.", "Yes."],
-             "questions": ["ask_item", "confirm_item_coke", "confirm_room_room2"], "args": []},
+             "questions": ["ask_item", "confirm_item_coke", "confirm_room_room2"], "args": [],
+             "solver_trials": None},
 }
 # --quick: a smoke run of every experiment (CI); effects are usually not significant.
 # Its dialog policies stop at 1500 solver trials (2-4 s per model instead of 12-35 s): they
@@ -43,7 +44,8 @@ DEFAULTS = {
 QUICK = {"exp1": {"trials": 4, "target_episodes": 20},
          "exp2": {"trials": 500, "ablation_trials": 300, "solver_trials": 1500},
          "exp4": {"trials": 2000, "solver_trials": 1500},
-         "exp5": {"trials": 60, "learning_runs": 3}}
+         "exp5": {"trials": 60, "learning_runs": 3},
+         "exp6": {"solver_trials": 1500}}
 TITLES = collections.OrderedDict([
     ("exp1", "1. Navigation transfer (learn shop-room1, apply to shop-room2)"),
     ("exp2", "2. Delivery: Table I (dialog + navigation, outdated vs learned model)"),
@@ -109,7 +111,7 @@ class Context(object):
 
 
 def solver_args(ctx, exp):
-    """delivery_trials / dialog_entropy options of `exp`'s dialog-solver budget: recorded
+    """delivery_trials / dialog_entropy / dialog_script options of `exp`'s dialog-solver budget: recorded
     (replay) > --solver-trials > --quick > the experiment file's (None: no option)."""
     n = ctx.setting(exp, "solver_trials")
     replayed = ctx.recorded is not None and "solver_trials" in ctx.recorded.get(exp, {})

@@ -3,7 +3,7 @@ import collections
 
 from . import plots
 from .paper import PAPER_GOAL, PAPER_QUESTIONS
-from .context import TITLES, norm_room
+from .context import TITLES, norm_room, solver_args
 from .report import Claim, Result, Table
 
 
@@ -89,7 +89,8 @@ def _script_args(utter, questions=(), extra=()):
 
 def exp6_dialog(ctx):
     res = Result("exp6", TITLES["exp6"])
-    utter, extra = ctx.setting("exp6", "utterances"), ctx.setting("exp6", "args")
+    utter = ctx.setting("exp6", "utterances")
+    extra = list(ctx.setting("exp6", "args")) + solver_args(ctx, "exp6")
     script_q = ctx.setting("exp6", "questions")
     t = ctx.runner.run_once("dialog_script", "dialog_script",
                             _script_args(utter, script_q, extra))

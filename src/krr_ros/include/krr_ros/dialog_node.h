@@ -15,8 +15,14 @@
  * the knowledge base, and the trips of the navigation model of Procedure 2 from reasoner_node's
  * build_task_model, or built locally, or given P^N); its turn-limited policy comes from
  * solveDialogPolicy with the config's solver options and the shared policy cache, so the robot
- * runs the policy the experiments measure for the same knowledge. The first model is built and
- * solved before the node serves. After a knowledge update the model is rebuilt and its policy
+ * runs the policy the experiments measure for the same knowledge. config/dialog.yaml solves to
+ * the certified precision (10-40 s cold on the office models); ~solver_max_trials overrides its
+ * trial budget. The first model is built before the node serves: if the cache holds its
+ * configured policy, that one; otherwise the node serves at once with a provisional policy
+ * solved in ~startup_max_trials trials (seconds) and solves the configured one in the
+ * background, like a rebuild (~startup_max_trials 0: wait for it instead). Every installed
+ * policy's bounds are published, latched, on ~policy. After a knowledge update the model is
+ * rebuilt and its policy
  * solved in a background thread (one run at a time; an update during a run schedules one more
  * run after it) while the node keeps serving with the current policy; the new model replaces
  * the current one only between dialogs (when the next dialog starts, or on an idle timer). A
@@ -86,6 +92,8 @@ class DialogNode {
     std::string speech_output;     ///< ~speech_output: std_msgs/String of what the robot says
     std::uint64_t seed = 1;        ///< ~seed (the manager is deterministic; logged)
     bool check_site = true;        ///< ~check_site: refuse to start on an inconsistent site
+    long solver_max_trials = -1;   ///< ~solver_max_trials: -1 = the dialog config's (0: none)
+    long startup_max_trials = 1500;  ///< ~startup_max_trials: provisional budget (0: none)
 
     /// @brief Reads and validates; with check_site, also the site (krr_ros/site_check.h).
     static Params read(ParamReader& r);
@@ -118,7 +126,10 @@ class DialogNode {
   // model
   krr::mdp::SparseModel navigationModel();
   krr::dialog::TripTable trips();
-  std::unique_ptr<Model> buildModel();
+  std::unique_ptr<Model> buildModel(bool provisional_allowed);
+  bool provisionalNeeded(const krr::dialog::DialogPomdp& d, Model& m);
+  void startWorker(const std::string& why);
+  void publishPolicy(const Model& m);
   void logModel(const Model& m, const std::string& what, double seconds) const;
   void onKnowledgeUpdate(const krr_msgs::KnowledgeUpdate::ConstPtr& u);
   void rebuildInBackground();
@@ -179,7 +190,8 @@ class DialogNode {
   ros::NodeHandle timer_nh_;
   ros::Timer wait_timer_, leg_timer_, check_timer_, restart_timer_;
   std::string restart_phase_;  ///< phase of the dialog a restart lost
-  ros::Publisher utterance_pub_, belief_pub_, status_pub_, decisions_pub_, speech_pub_;
+  ros::Publisher utterance_pub_, belief_pub_, status_pub_, decisions_pub_, speech_pub_,
+      policy_pub_;
   ros::Subscriber utterance_sub_, updates_sub_, speech_sub_;
 };
 

@@ -3,6 +3,7 @@
 #include <krr_msgs/BuildTaskModel.h>
 #include <krr_msgs/DeliveryStatus.h>
 #include <krr_msgs/DialogBelief.h>
+#include <krr_msgs/DialogPolicy.h>
 
 #include <cmath>
 #include <cstdio>
@@ -24,6 +25,19 @@ namespace krr_ros {
 using krr_msgs::DeliveryStatus;
 using krr_msgs::RobotUtterance;
 
+namespace {
+
+/// @brief The dialog config the node solves with: the file's (under the site's names), its
+/// trial budget replaced by ~solver_max_trials when given.
+krr::dialog::DialogConfig nodeDialogConfig(const DialogNode::Params& p) {
+  krr::dialog::DialogConfig c = krr::dialog::loadDialogConfig(p.dialog_config);
+  if (p.nav.site) c = p.nav.site->dialogOver(c);
+  if (p.solver_max_trials >= 0) c.solver_max_trials = static_cast<std::size_t>(p.solver_max_trials);
+  return c;
+}
+
+}  // namespace
+
 /// @brief The dialog model, its policy, the language front end and the delivery manager,
 /// built together (a rebuild replaces all of them between deliveries).
 struct DialogNode::Model {
@@ -33,6 +47,7 @@ struct DialogNode::Model {
   krr::dialog::PolicyReport report;
   Eigen::VectorXd reach;  ///< P^N(shop, room) the model was built with
   std::unique_ptr<krr::dialog::DeliveryManager> manager;
+  bool provisional = false;  ///< solved in ~startup_max_trials while the configured one solves
 };
 
 DialogNode::Params DialogNode::Params::read(ParamReader& r) {
@@ -61,6 +76,8 @@ DialogNode::Params DialogNode::Params::read(ParamReader& r) {
   p.speech_input = r.str("speech_input", "");
   p.speech_output = r.str("speech_output", "");
   p.check_site = readCheckSite(r);
+  p.solver_max_trials = r.integer("solver_max_trials", -1, -1, 1000000000);
+  p.startup_max_trials = r.integer("startup_max_trials", 1500, 0, 1000000000);
   if (p.action.empty()) throw krr::ConfigError("parameter navigation_action: empty name");
   r.rejectUnknown();
   // The site's files agree before anything starts (site_check.h): this node's navigation,
@@ -73,8 +90,7 @@ DialogNode::Params DialogNode::Params::read(ParamReader& r) {
 
 DialogNode::DialogNode(ros::NodeHandle& nh, ros::NodeHandle& pnh, Params params)
     : p_(std::move(params)),
-      config_(p_.nav.site ? p_.nav.site->dialogOver(krr::dialog::loadDialogConfig(p_.dialog_config))
-                          : krr::dialog::loadDialogConfig(p_.dialog_config)),
+      config_(nodeDialogConfig(p_)),
       language_config_(krr::dialog::loadLanguageConfig(p_.language_config)),
       knowledge_(config_.office_plog, config_.speech_plog),
       nav_client_(nh, p_.action, false) {
@@ -87,9 +103,11 @@ DialogNode::DialogNode(ros::NodeHandle& nh, ros::NodeHandle& pnh, Params params)
                : p_.policy_cache.empty() ? krr::dialog::defaultCacheDir() : p_.policy_cache;
   {
     krr::Stopwatch clock;
-    model_ = buildModel();  // before serving, in this thread (a failure stops the node)
+    model_ = buildModel(true);  // before serving, in this thread (a failure stops the node)
     logModel(*model_, "", clock.seconds());
   }
+  policy_pub_ = pnh.advertise<krr_msgs::DialogPolicy>("policy", 1, true);
+  publishPolicy(*model_);
   utterance_pub_ = nh.advertise<RobotUtterance>("robot_utterance", 20);
   belief_pub_ = nh.advertise<krr_msgs::DialogBelief>("dialog_belief", 10, true);
   status_pub_ = nh.advertise<DeliveryStatus>("delivery_status", 20, true);
@@ -106,6 +124,11 @@ DialogNode::DialogNode(ros::NodeHandle& nh, ros::NodeHandle& pnh, Params params)
   if (!p_.updates_topic.empty())
     updates_sub_ = nh.subscribe(p_.updates_topic, 10, &DialogNode::onKnowledgeUpdate, this);
   timer_nh_ = pnh;
+  if (model_->provisional) {
+    std::lock_guard<std::mutex> lock(rebuild_mutex_);
+    startWorker("solving the configured policy in the background (serving with the provisional "
+                "policy meanwhile)");
+  }
   announceRestart();
   install_timer_ = nh.createTimer(ros::Duration(kInstallPeriod), [this](const ros::TimerEvent&) {
     if (idle()) installPending();
@@ -164,20 +187,64 @@ krr::dialog::TripTable DialogNode::trips() {
 }
 
 /// @brief Build the dialog model from the knowledge base and get its policy (solved, or the
-/// experiments' cached one for the same model). Touches only state no callback uses
-/// (knowledge_, domain_, nav_kb_, model_client_, read-only config), so it runs in the
-/// background worker too (one build at a time: the constructor's, then the worker's).
-std::unique_ptr<DialogNode::Model> DialogNode::buildModel() {
+/// experiments' cached one for the same model). With provisional_allowed (the start), a
+/// configured policy that is not cached and costs more than ~startup_max_trials is replaced
+/// by a provisional one of that budget. Touches only state no callback uses (knowledge_,
+/// domain_, nav_kb_, model_client_, read-only config), so it runs in the background worker
+/// too (one build at a time: the constructor's, then the worker's).
+std::unique_ptr<DialogNode::Model> DialogNode::buildModel(bool provisional_allowed) {
   auto m = std::make_unique<Model>();
   const krr::dialog::TripTable t = trips();
   m->reach = t.reachFromShop();
   m->pomdp = std::make_unique<krr::dialog::DialogPomdp>(knowledge_.buildSpec(t, config_));
   m->language = std::make_unique<krr::dialog::LanguageFrontEnd>(*m->pomdp, language_config_,
                                                                 p_.language_config);
-  m->policy = krr::dialog::solveDialogPolicy(*m->pomdp, config_, cache_dir_, &m->report);
+  if (provisional_allowed && provisionalNeeded(*m->pomdp, *m)) {
+    krr::dialog::DialogConfig quick = config_;
+    quick.solver_max_trials = static_cast<std::size_t>(p_.startup_max_trials);
+    m->policy = krr::dialog::solveDialogPolicy(*m->pomdp, quick, cache_dir_, &m->report);
+    m->provisional = true;
+  } else if (m->report.from_cache) {
+    // provisionalNeeded loaded the configured policy from the cache
+  } else {
+    m->policy = krr::dialog::solveDialogPolicy(*m->pomdp, config_, cache_dir_, &m->report);
+  }
   m->manager = std::make_unique<krr::dialog::DeliveryManager>(*m->pomdp, m->policy,
                                                               m->language.get(), config_);
   return m;
+}
+
+/// @brief Whether the start needs a provisional policy: a provisional budget is set, the
+/// configured budget is larger (0: none), and the cache does not hold the configured policy
+/// (if it does, it is loaded into m).
+bool DialogNode::provisionalNeeded(const krr::dialog::DialogPomdp& d, Model& m) {
+  const auto startup = static_cast<std::size_t>(p_.startup_max_trials);
+  if (startup == 0 || (config_.solver_max_trials != 0 && config_.solver_max_trials <= startup))
+    return false;
+  if (auto cached = krr::dialog::cachedDialogPolicy(d, config_, cache_dir_, &m.report)) {
+    m.policy = std::move(*cached);
+    return false;
+  }
+  return true;
+}
+
+/// @brief The served policy's bounds, latched on ~policy.
+void DialogNode::publishPolicy(const Model& m) {
+  krr_msgs::DialogPolicy msg;
+  msg.header.stamp = ros::Time::now();
+  const krr::dialog::PolicyReport& rep = m.report;
+  msg.status = m.provisional    ? krr_msgs::DialogPolicy::PROVISIONAL
+               : rep.converged ? krr_msgs::DialogPolicy::CERTIFIED
+                               : krr_msgs::DialogPolicy::UNCERTIFIED;
+  msg.lower = rep.bounds.lower;
+  msg.upper = rep.bounds.upper;
+  msg.gap = rep.bounds.gap();
+  msg.precision = config_.solver_precision;
+  msg.trials = rep.bounds.trials;
+  msg.vectors = m.policy.size();
+  msg.from_cache = rep.from_cache;
+  msg.cache_file = rep.file;
+  policy_pub_.publish(msg);
 }
 
 /// @brief Log a model, its policy and its bounds at the prior; `what` prefixes the line.
@@ -188,13 +255,17 @@ void DialogNode::logModel(const Model& m, const std::string& what, double second
              std::to_string(m.reach(r)).substr(0, 5);
   const krr::dialog::PolicyReport& rep = m.report;
   ROS_INFO_NAMED(kLog, "%sdialog model (%s): %zu requests, p_general %.3f, p_yesno %.3f, "
-                 "P^N(shop, room): %s; policy %s: bounds [%.2f, %.2f] at the prior (gap %.2f, "
+                 "P^N(shop, room): %s; %spolicy %s: bounds [%.2f, %.2f] at the prior (gap %.2f, "
                  "%zu trials), %zu vectors; built in %.2f s", what.c_str(),
                  p_.model_source.c_str(), m.pomdp->numRequests(), m.pomdp->spec().pGeneral,
-                 m.pomdp->spec().pYesNo, reach.c_str(), rep.from_cache ? "cached" : "solved",
-                 rep.bounds.lower, rep.bounds.upper, rep.bounds.gap(), rep.bounds.trials,
-                 m.policy.size(), seconds);
-  if (!rep.converged)
+                 m.pomdp->spec().pYesNo, reach.c_str(), m.provisional ? "provisional " : "",
+                 rep.from_cache ? "cached" : "solved", rep.bounds.lower, rep.bounds.upper,
+                 rep.bounds.gap(), rep.bounds.trials, m.policy.size(), seconds);
+  if (m.provisional)
+    ROS_INFO_NAMED(kLog, "the configured policy is not in the cache: serving with a provisional "
+                   "policy (%ld trials) until it is solved to the precision %.2f",
+                   p_.startup_max_trials, config_.solver_precision);
+  else if (!rep.converged)
     ROS_WARN_NAMED(kLog, "the dialog policy is not certified to the configured precision %.2f "
                    "(gap %.2f at the prior)", config_.solver_precision, rep.bounds.gap());
 }
@@ -209,10 +280,15 @@ void DialogNode::onKnowledgeUpdate(const krr_msgs::KnowledgeUpdate::ConstPtr& u)
                    "one will follow it", u->source.c_str());
     return;
   }
+  startWorker("knowledge update from '" + u->source + "': background rebuild started (building "
+              "the dialog model and solving its policy; serving with the current policy "
+              "meanwhile)");
+}
+
+/// @brief Start the background rebuild (rebuild_mutex_ held, no run in progress).
+void DialogNode::startWorker(const std::string& why) {
   if (worker_.joinable()) worker_.join();  // its run has ended (worker_running_ is false)
-  ROS_INFO_NAMED(kLog, "knowledge update from '%s': background rebuild started (building the "
-                 "dialog model and solving its policy; serving with the current policy "
-                 "meanwhile)", u->source.c_str());
+  ROS_INFO_NAMED(kLog, "%s", why.c_str());
   try {
     worker_ = std::thread(&DialogNode::rebuildInBackground, this);
     worker_running_ = true;
@@ -229,7 +305,7 @@ void DialogNode::rebuildInBackground() {
   for (;;) {
     try {
       krr::Stopwatch clock;
-      std::unique_ptr<Model> m = buildModel();
+      std::unique_ptr<Model> m = buildModel(false);
       logModel(*m, "background rebuild done, installed when no dialog is in progress: ",
                clock.seconds());
       std::lock_guard<std::mutex> lock(rebuild_mutex_);
@@ -263,10 +339,11 @@ void DialogNode::installPending() {
     model_ = std::move(pending_);
   }
   const krr::dialog::PolicyReport& rep = model_->report;
-  ROS_INFO_NAMED(kLog, "new dialog policy installed (%s): bounds [%.2f, %.2f] at the prior "
+  ROS_INFO_NAMED(kLog, "new dialog policy installed (%s, %s): bounds [%.2f, %.2f] at the prior "
                  "(gap %.2f, %zu trials), %zu vectors", rep.from_cache ? "cached" : "solved",
-                 rep.bounds.lower, rep.bounds.upper, rep.bounds.gap(), rep.bounds.trials,
-                 model_->policy.size());
+                 rep.converged ? "certified" : "not certified", rep.bounds.lower,
+                 rep.bounds.upper, rep.bounds.gap(), rep.bounds.trials, model_->policy.size());
+  publishPolicy(*model_);
 }
 
 // --- restarts -----------------------------------------------------------------------------

@@ -15,6 +15,7 @@
  */
 #pragma once
 
+#include <optional>
 #include <string>
 
 #include "krr_core/dialog/dialog_config.h"
@@ -36,6 +37,7 @@ struct PolicyReport {
   bool from_cache = false;
   std::string file;             ///< cache file ("" without a cache directory)
   double seconds = 0.0;         ///< solving (or loading) time
+  std::string stop;             ///< why the solve stopped (toString(SolveStop)); "" if cached
 };
 
 /**
@@ -55,6 +57,17 @@ pomdp::TurnLimitedPolicy solveDialogPolicy(const DialogPomdp& dialog,
                                            const DialogConfig& config,
                                            const std::string& cache_dir,
                                            PolicyReport* report = nullptr);
+
+/**
+ * @brief The policy solveDialogPolicy would load from `cache_dir` for `dialog` and `config`,
+ * or none if the cache does not hold it: nothing is solved. Lets a robot that must serve at
+ * once start on a cheaper policy while the configured one is solved (dialog_node).
+ * @throws as solveDialogPolicy for a broken cache entry.
+ */
+std::optional<pomdp::TurnLimitedPolicy> cachedDialogPolicy(const DialogPomdp& dialog,
+                                                           const DialogConfig& config,
+                                                           const std::string& cache_dir,
+                                                           PolicyReport* report = nullptr);
 
 /// @brief The solver options solveDialogPolicy uses for `config`.
 CertifiedSolverOptions certifiedSolverOptions(const DialogConfig& config);
