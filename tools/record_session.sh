@@ -14,8 +14,11 @@ WORK=$(mktemp -d /tmp/krr_session_XXXXXX)
 export ROS_HOME="$WORK/ros_home"
 PORT=$(/usr/bin/python3 -c 'import socket; s=socket.socket(); s.bind(("127.0.0.1",0)); print(s.getsockname()[1])')
 export ROS_MASTER_URI="http://127.0.0.1:$PORT"
+# dialog_startup_trials:=0: the certified dialog policy from the first dialog (solved before
+# the node serves, or loaded from the cache), so the recorded dialogs do not depend on when a
+# background solve ends.
 roslaunch -p "$PORT" "$ROOT/launch/sim.launch" user:=false learner:=false seed:=1 sim_rate:=0 \
-  learned_dir:="$WORK/kb" > "$WORK/roslaunch.log" 2>&1 &
+  dialog_startup_trials:=0 learned_dir:="$WORK/kb" > "$WORK/roslaunch.log" 2>&1 &
 LAUNCH=$!
 cleanup() { kill -INT "$LAUNCH" 2>/dev/null || true; wait "$LAUNCH" 2>/dev/null || true; }
 trap cleanup EXIT
@@ -23,6 +26,9 @@ for s in /reasoner/query_probability /reasoner/add_knowledge /dialog/get_loggers
   timeout 120 bash -c "until rosservice list 2>/dev/null | grep -qx $s; do sleep 0.5; done" \
     || { echo "record_session: $s did not come up (see $WORK/roslaunch.log)" >&2; exit 1; }
 done
+# The node's services are up before its policy is: wait for the policy (latched on ~policy).
+timeout 300 rostopic echo -n 1 /dialog/policy > /dev/null 2>&1 \
+  || { echo "record_session: dialog_node published no policy (see $WORK/roslaunch.log)" >&2; exit 1; }
 OUT="$WORK/session.txt"
 run() {  # run "command" [filter]: print "$ command", then its output
   echo "\$ $1" >> "$OUT"
@@ -42,6 +48,7 @@ goal() {  # goal "{goal: ...}" filter: send a navigation goal, print its (unlatc
 run "rosservice call /reasoner/query_probability \"{query: '?{curr_room(bob)=room2} | do(curr_person=bob).'}\""
 run "rosservice call /reasoner/query_probability \"{query: '?{curr_room(carol)=room2}'}\""
 run "rosservice call /reasoner/query_probability \"{attribute: 'curr_room(bob)', evidence: 'do(curr_person=bob)'}\""
+run "rostopic echo -n 1 /dialog/policy" "^(status|lower|upper|gap|precision|trials):"
 # A dialog as a person types it; the robot's lines are what /robot_utterance/text carried
 # after each utterance.
 PYTHONUNBUFFERED=1 rostopic echo /robot_utterance/text > "$WORK/robot.txt" 2>&1 &

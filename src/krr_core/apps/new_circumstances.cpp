@@ -30,48 +30,11 @@ const char* kSummary =
 
 }  // namespace
 
-/// @brief The program; main() runs it under guardedMain so that no exception aborts it.
-static int mainBody(int argc, char** argv) {
-  krr::experiments::NavExperimentFiles files;
-  std::string domain, out;
-  std::size_t trials = 0, threads = std::max(1u, std::thread::hardware_concurrency()), begin = 0;
-  std::uint64_t seed = 1;
-  bool no_header = false;
-  std::vector<std::pair<std::string, std::string>> overrides;
-  krr::OptionParser parser("new_circumstances", kSummary);
-  parser.add("--trials", "N", "trials to run (at least 1)", &trials).required();
-  parser.add("--seed", "S", "root seed", &seed).required();
-  parser.add("--threads", "T", "worker threads", &threads).defaultText("the number of cores");
-  parser.add("--trial-begin", "K", "index of the first trial (trial i depends only on seed and i)",
-             &begin);
-  parser.add("--out", "FILE", "trials as CSV", &out);
-  parser.flag("--no-header", "write the CSV without its header line", &no_header);
-  files.declare(parser, "config/experiments/new_circumstances.yaml");
-  parser.add("--domain", "NAME", "navigation domain (default: the options file's, else the first of the navigation "
-                 "config's)", &domain);
-  // Overrides of the options file, applied after it is read.
-  const std::pair<const char*, const char*> experiment[] = {
-      {"--goal", "PLACE"}, {"--br", "B"}, {"--learn-episodes", "N"},
-      {"--selector", "fixed|least_known"}, {"--extraction", "pairs|areas"},
-      {"--learning-runs", "K"}};
-  for (const auto& [flag, value] : experiment) {
-    const std::string f = flag;
-    parser.add(f, value, "override of the options file",
-               [&overrides, f](const std::string& v) {
-                 if (f == "--br") krr::parseNumberOption(f, v);  // a bad number fails now
-                 if (f == "--learn-episodes" || f == "--learning-runs") krr::parseCountOption(f, v);
-                 overrides.emplace_back(f, v);
-               });
-  }
-  parser.epilog(
-      "--learning-runs K: trial i uses learning run i mod K (0: a fresh run per trial; the CSV\n"
-      "does not depend on it for i < K).");
-  const auto check = [&] {
-    if (trials == 0) throw krr::ConfigError("--trials N (N >= 1) is required");
-    threads = std::max<std::size_t>(1, threads);
-  };
-  if (const auto status = parser.parse(argc, argv, check)) return *status;
-  files.resolveRoot();
+/// @brief The options file's settings, laid under the site's places and then the command
+/// line's overrides (in order), validated; the input files resolved for the domain.
+static krr::experiments::NewCircumstancesOptions experimentOptions(
+    krr::experiments::NavExperimentFiles& files,
+    const std::vector<std::pair<std::string, std::string>>& overrides, const std::string& domain) {
   // The start is the site's shop unless the options file names another.
   krr::experiments::NewCircumstancesOptions defaults;
   defaults.start = files.siteShop();
@@ -97,19 +60,13 @@ static int mainBody(int argc, char** argv) {
   if (o.domain.empty()) o.domain = files.defaultDomain();
   o.validate();
   files.resolveInputs(o.domain);
+  return o;
+}
 
-  std::cerr << "new_circumstances: seed " << seed << ", trials [" << begin << ", "
-            << begin + trials << "), " << threads << " threads, domain " << o.domain << ", "
-            << o.start << " -> " << o.goal << "\n";
-  krr::Stopwatch clock;
-  const auto dom =
-      krr::kb::NavDomain::load(files.navigationConfig(), o.domain, files.geometry, files.knowledge);
-  const auto res = krr::experiments::runNewCircumstances(dom, o, seed, begin, trials, threads);
-  std::ostringstream csv;
-  if (!no_header) csv << krr::experiments::newCircumstancesCsvHeader(o) << "\n";
-  for (const auto& t : res) csv << krr::experiments::newCircumstancesCsvRow(t) << "\n";
-  if (!out.empty()) krr::writeFileAtomic(out, csv.str());
-
+/// @brief The summary on stdout: each strategy's success and exact P(success), mean +- 95 % CI.
+static void printSummary(const krr::experiments::NewCircumstancesOptions& o,
+                         const std::vector<krr::experiments::NewCircumstancesTrial>& res,
+                         double seconds) {
   const std::size_t T = o.learn_times.size();
   std::vector<double> sm, sb, so, pm, pb, po, pick_mean, diff;
   std::vector<std::vector<double>> sown(T), pown(T), self(T);
@@ -162,7 +119,66 @@ static int mainBody(int argc, char** argv) {
   line("exact merged - random pick (mean over pick)", diff);
   for (std::size_t k = 0; k < T; ++k)
     line("own controller in " + o.learn_times[k] + " (per learning run)", self[k]);
-  std::printf("  (%.1f s)\n", clock.seconds());
+  std::printf("  (%.1f s)\n", seconds);
+}
+
+/// @brief The program; main() runs it under guardedMain so that no exception aborts it.
+static int mainBody(int argc, char** argv) {
+  krr::experiments::NavExperimentFiles files;
+  std::string domain, out;
+  std::size_t trials = 0, threads = std::max(1u, std::thread::hardware_concurrency()), begin = 0;
+  std::uint64_t seed = 1;
+  bool no_header = false;
+  std::vector<std::pair<std::string, std::string>> overrides;
+  krr::OptionParser parser("new_circumstances", kSummary);
+  parser.add("--trials", "N", "trials to run (at least 1)", &trials).required();
+  parser.add("--seed", "S", "root seed", &seed).required();
+  parser.add("--threads", "T", "worker threads", &threads).defaultText("the number of cores");
+  parser.add("--trial-begin", "K", "index of the first trial (trial i depends only on seed and i)",
+             &begin);
+  parser.add("--out", "FILE", "trials as CSV", &out);
+  parser.flag("--no-header", "write the CSV without its header line", &no_header);
+  files.declare(parser, "config/experiments/new_circumstances.yaml");
+  parser.add("--domain", "NAME", "navigation domain (default: the options file's, else the first of the navigation "
+                 "config's)", &domain);
+  // Overrides of the options file, applied after it is read.
+  const std::pair<const char*, const char*> experiment[] = {
+      {"--goal", "PLACE"}, {"--br", "B"}, {"--learn-episodes", "N"},
+      {"--selector", "fixed|least_known"}, {"--extraction", "pairs|areas"},
+      {"--learning-runs", "K"}};
+  for (const auto& [flag, value] : experiment) {
+    const std::string f = flag;
+    parser.add(f, value, "override of the options file",
+               [&overrides, f](const std::string& v) {
+                 if (f == "--br") krr::parseNumberOption(f, v);  // a bad number fails now
+                 if (f == "--learn-episodes" || f == "--learning-runs") krr::parseCountOption(f, v);
+                 overrides.emplace_back(f, v);
+               });
+  }
+  parser.epilog(
+      "--learning-runs K: trial i uses learning run i mod K (0: a fresh run per trial; the CSV\n"
+      "does not depend on it for i < K).");
+  const auto check = [&] {
+    if (trials == 0) throw krr::ConfigError("--trials N (N >= 1) is required");
+    threads = std::max<std::size_t>(1, threads);
+  };
+  if (const auto status = parser.parse(argc, argv, check)) return *status;
+  files.resolveRoot();
+  const krr::experiments::NewCircumstancesOptions o = experimentOptions(files, overrides, domain);
+
+  std::cerr << "new_circumstances: seed " << seed << ", trials [" << begin << ", "
+            << begin + trials << "), " << threads << " threads, domain " << o.domain << ", "
+            << o.start << " -> " << o.goal << "\n";
+  krr::Stopwatch clock;
+  const auto dom =
+      krr::kb::NavDomain::load(files.navigationConfig(), o.domain, files.geometry, files.knowledge);
+  const auto res = krr::experiments::runNewCircumstances(dom, o, seed, begin, trials, threads);
+  std::ostringstream csv;
+  if (!no_header) csv << krr::experiments::newCircumstancesCsvHeader(o) << "\n";
+  for (const auto& t : res) csv << krr::experiments::newCircumstancesCsvRow(t) << "\n";
+  if (!out.empty()) krr::writeFileAtomic(out, csv.str());
+
+  printSummary(o, res, clock.seconds());
   return 0;
 }
 

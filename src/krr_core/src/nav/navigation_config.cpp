@@ -184,123 +184,135 @@ std::map<std::string, AreaConfig> readAreas(const YAML::Node& an, const std::str
   return out;
 }
 
+namespace {
+
+/// @brief simulator.time_of_day: the times of day in file order and their blocking factors.
+void readTimesOfDay(const YAML::Node& t, const std::string& path, SimulatorConfig& c) {
+  if (!t.IsMap() || t.size() == 0) {
+    throw ConfigError(path + ": field 'simulator.time_of_day': value '" + yamlText(t) +
+                      "' must be a non-empty mapping name -> factor");
+  }
+  c.times_of_day.clear();
+  c.time_factors.clear();
+  for (auto it = t.begin(); it != t.end(); ++it) {
+    const std::string name = it->first.Scalar();
+    c.times_of_day.push_back(name);
+    double v;
+    try {
+      v = it->second.as<double>();
+    } catch (const YAML::Exception&) {
+      throw ConfigError(path + ": field 'simulator.time_of_day." + name + "': value '" +
+                        yamlText(it->second) + "' is not a number");
+    }
+    if (!std::isfinite(v) || v < 0.0) {
+      throw ConfigError(path + ": field 'simulator.time_of_day." + name + "': value " +
+                        num(v) + " must be >= 0");
+    }
+    c.time_factors.push_back(v);
+  }
+}
+
+/// @brief The simulator section, validated as a whole (validate) once read.
+void readSimulator(const YAML::Node& node, const std::string& path, SimulatorConfig& c) {
+  YamlSection s(node, path, "simulator",
+                {"move_success", "slip_stay", "slip_lateral", "blocking_rate", "blocking_mode",
+                 "trap_probability", "trap_reference_cell_size", "time_of_day", "areas"});
+  c.source = path;
+  c.move_success = s.requiredNumber("move_success", 0.0, 1.0);
+  c.slip_stay = s.requiredNumber("slip_stay", 0.0, 1.0);
+  c.slip_lateral = s.requiredNumber("slip_lateral", 0.0, 1.0);
+  const double sum = c.move_success + c.slip_stay + c.slip_lateral;
+  if (std::fabs(sum - 1.0) > 1e-9) {
+    throw ConfigError(path + ": field 'simulator.move_success': move_success + slip_stay + "
+                      "slip_lateral = " + num(sum) + " must be 1");
+  }
+  c.blocking_rate = readBlockingRate(s, "blocking_rate", RateUnset::kRefused);
+  const std::string mode = s.string("blocking_mode", "per_cell");
+  if (mode == "per_cell") {
+    c.blocking_mode = BlockingMode::kPerCell;
+  } else if (mode == "on_entry") {
+    c.blocking_mode = BlockingMode::kOnEntry;
+  } else {
+    throw ConfigError(path + ": field 'simulator.blocking_mode': unknown value '" + mode +
+                      "' (expected per_cell or on_entry)");
+  }
+  c.trap_probability = s.requiredNumber("trap_probability", 0.0, 1.0);
+  c.trap_reference_cell_size =
+      s.number("trap_reference_cell_size", c.trap_reference_cell_size, 0.0, 1e6);
+  if (s.has("time_of_day")) readTimesOfDay(s.get("time_of_day"), path, c);
+  if (s.has("areas")) c.areas = readAreas(s.get("areas"), path, "simulator.areas", c.times_of_day);
+  try {
+    validate(c);
+  } catch (const ConfigError& e) {
+    throw ConfigError(path + ": " + e.what());
+  }
+}
+
+void readPlanner(const YAML::Node& node, const std::string& path, PlannerConfig& p) {
+  YamlSection s(node, path, "planner",
+                {"robot_radius", "algorithm", "timeout", "range", "interpolation_step", "simplify"});
+  p.robot_radius = s.number("robot_radius", p.robot_radius, 0.0, 100.0);
+  p.algorithm = s.string("algorithm", p.algorithm);
+  if (p.algorithm != "rrtconnect" && p.algorithm != "prm") {
+    throw ConfigError(path + ": field 'planner.algorithm': unknown value '" + p.algorithm +
+                      "' (expected rrtconnect or prm)");
+  }
+  p.timeout = s.number("timeout", p.timeout, 0.0, 3600.0, YamlSection::kLowerOpen);
+  p.range = s.number("range", p.range, 0.0, 1e6);
+  p.interpolation_step =
+      s.number("interpolation_step", p.interpolation_step, 0.0, 1e6, YamlSection::kLowerOpen);
+  p.simplify = s.boolean("simplify", p.simplify);
+}
+
+void readPlanning(const YAML::Node& node, const std::string& path, PlanningConfig& p) {
+  YamlSection s(node, path, "planning", {"step_cost", "rmax", "discount", "model_discount"});
+  p.step_cost = s.number("step_cost", p.step_cost, 0.0, 1e12);
+  p.rmax = s.number("rmax", p.rmax, 0.0, 1e12, YamlSection::kLowerOpen);
+  p.discount = s.number("discount", p.discount, 0.0, 1.0, YamlSection::kLowerOpen);
+  p.model_discount =
+      s.number("model_discount", p.model_discount, 0.0, 1.0, YamlSection::kLowerOpen);
+  if (!(p.step_cost < p.rmax)) {
+    throw ConfigError(path + ": field 'planning.step_cost': value " + num(p.step_cost) +
+                      " must be below planning.rmax (" + num(p.rmax) + ")");
+  }
+}
+
+void readRMaxLearning(const YAML::Node& node, const std::string& path, RMaxLearningConfig& r) {
+  YamlSection s(node, path, "rmax_learning",
+                {"known_threshold", "discount", "replan_every", "optimism", "refine_known"});
+  r.known_threshold = s.integer("known_threshold", r.known_threshold, 1, 1000000);
+  r.discount = s.number("discount", r.discount, 0.0, 1.0, YamlSection::kLowerOpen);
+  r.replan_every = s.integer("replan_every", r.replan_every, 0, 1000000);
+  r.optimism = s.string("optimism", r.optimism);
+  try {
+    mdp::optimismFromName(r.optimism);
+  } catch (const ConfigError& e) {
+    throw ConfigError(path + ": field 'rmax_learning.optimism': " + e.what());
+  }
+  r.refine_known = s.boolean("refine_known", r.refine_known);
+}
+
+}  // namespace
+
 NavigationConfig loadNavigationConfig(const std::string& path) {
   const YAML::Node root = loadYamlFile(path, "navigation config");
   NavigationConfig cfg;
   const std::string dir = dirName(path);
-  YamlSection top(root, path, "", {"map", "places", "grid", "domains", "simulator", "planner", "planning",
-                             "rmax_learning", "context"});
+  YamlSection top(root, path, "", {"map", "places", "grid", "domains", "simulator", "planner",
+                                   "planning", "rmax_learning", "context"});
   cfg.map = resolve(dir, top.requiredString("map"));
   cfg.places = resolve(dir, top.requiredString("places"));
   if (top.has("grid")) {
     YamlSection grid(top.get("grid"), path, "grid", {"max_blocked_fraction"});
-    cfg.max_blocked_fraction =
-        grid.number("max_blocked_fraction", cfg.max_blocked_fraction, 0.0, 1.0, YamlSection::kLowerOpen);
+    cfg.max_blocked_fraction = grid.number("max_blocked_fraction", cfg.max_blocked_fraction, 0.0,
+                                           1.0, YamlSection::kLowerOpen);
   }
   if (!top.has("domains")) throw ConfigError(path + ": missing field 'domains'");
   cfg.domains = readDomains(top.get("domains"), path, "domains");
-  if (top.has("simulator")) {
-    YamlSection s(top.get("simulator"), path, "simulator",
-              {"move_success", "slip_stay", "slip_lateral", "blocking_rate", "blocking_mode",
-               "trap_probability",
-               "trap_reference_cell_size", "time_of_day", "areas"});
-    SimulatorConfig& c = cfg.simulator;
-    c.source = path;
-    c.move_success = s.requiredNumber("move_success", 0.0, 1.0);
-    c.slip_stay = s.requiredNumber("slip_stay", 0.0, 1.0);
-    c.slip_lateral = s.requiredNumber("slip_lateral", 0.0, 1.0);
-    const double sum = c.move_success + c.slip_stay + c.slip_lateral;
-    if (std::fabs(sum - 1.0) > 1e-9) {
-      throw ConfigError(path + ": field 'simulator.move_success': move_success + slip_stay + "
-                        "slip_lateral = " + num(sum) + " must be 1");
-    }
-    c.blocking_rate = readBlockingRate(s, "blocking_rate", RateUnset::kRefused);
-    const std::string mode = s.string("blocking_mode", "per_cell");
-    if (mode == "per_cell") {
-      c.blocking_mode = BlockingMode::kPerCell;
-    } else if (mode == "on_entry") {
-      c.blocking_mode = BlockingMode::kOnEntry;
-    } else {
-      throw ConfigError(path + ": field 'simulator.blocking_mode': unknown value '" + mode +
-                        "' (expected per_cell or on_entry)");
-    }
-    c.trap_probability = s.requiredNumber("trap_probability", 0.0, 1.0);
-    c.trap_reference_cell_size =
-        s.number("trap_reference_cell_size", c.trap_reference_cell_size, 0.0, 1e6);
-    if (s.has("time_of_day")) {
-      const YAML::Node t = s.get("time_of_day");
-      if (!t.IsMap() || t.size() == 0) {
-        throw ConfigError(path + ": field 'simulator.time_of_day': value '" + yamlText(t) +
-                          "' must be a non-empty mapping name -> factor");
-      }
-      c.times_of_day.clear();
-      c.time_factors.clear();
-      for (auto it = t.begin(); it != t.end(); ++it) {
-        const std::string name = it->first.Scalar();
-        c.times_of_day.push_back(name);
-        double v;
-        try {
-          v = it->second.as<double>();
-        } catch (const YAML::Exception&) {
-          throw ConfigError(path + ": field 'simulator.time_of_day." + name + "': value '" +
-                            yamlText(it->second) + "' is not a number");
-        }
-        if (!std::isfinite(v) || v < 0.0) {
-          throw ConfigError(path + ": field 'simulator.time_of_day." + name + "': value " +
-                            num(v) + " must be >= 0");
-        }
-        c.time_factors.push_back(v);
-      }
-    }
-    if (s.has("areas")) c.areas = readAreas(s.get("areas"), path, "simulator.areas", c.times_of_day);
-    try {
-      validate(c);
-    } catch (const ConfigError& e) {
-      throw ConfigError(path + ": " + e.what());
-    }
-  }
-  if (top.has("planner")) {
-    YamlSection s(top.get("planner"), path, "planner",
-              {"robot_radius", "algorithm", "timeout", "range", "interpolation_step", "simplify"});
-    PlannerConfig& p = cfg.planner;
-    p.robot_radius = s.number("robot_radius", p.robot_radius, 0.0, 100.0);
-    p.algorithm = s.string("algorithm", p.algorithm);
-    if (p.algorithm != "rrtconnect" && p.algorithm != "prm") {
-      throw ConfigError(path + ": field 'planner.algorithm': unknown value '" + p.algorithm +
-                        "' (expected rrtconnect or prm)");
-    }
-    p.timeout = s.number("timeout", p.timeout, 0.0, 3600.0, YamlSection::kLowerOpen);
-    p.range = s.number("range", p.range, 0.0, 1e6);
-    p.interpolation_step = s.number("interpolation_step", p.interpolation_step, 0.0, 1e6, YamlSection::kLowerOpen);
-    p.simplify = s.boolean("simplify", p.simplify);
-  }
-  if (top.has("planning")) {
-    YamlSection s(top.get("planning"), path, "planning", {"step_cost", "rmax", "discount", "model_discount"});
-    PlanningConfig& p = cfg.planning;
-    p.step_cost = s.number("step_cost", p.step_cost, 0.0, 1e12);
-    p.rmax = s.number("rmax", p.rmax, 0.0, 1e12, YamlSection::kLowerOpen);
-    p.discount = s.number("discount", p.discount, 0.0, 1.0, YamlSection::kLowerOpen);
-    p.model_discount = s.number("model_discount", p.model_discount, 0.0, 1.0, YamlSection::kLowerOpen);
-    if (!(p.step_cost < p.rmax)) {
-      throw ConfigError(path + ": field 'planning.step_cost': value " + num(p.step_cost) +
-                        " must be below planning.rmax (" + num(p.rmax) + ")");
-    }
-  }
-  if (top.has("rmax_learning")) {
-    YamlSection s(top.get("rmax_learning"), path, "rmax_learning",
-              {"known_threshold", "discount", "replan_every", "optimism", "refine_known"});
-    RMaxLearningConfig& r = cfg.rmax_learning;
-    r.known_threshold = s.integer("known_threshold", r.known_threshold, 1, 1000000);
-    r.discount = s.number("discount", r.discount, 0.0, 1.0, YamlSection::kLowerOpen);
-    r.replan_every = s.integer("replan_every", r.replan_every, 0, 1000000);
-    r.optimism = s.string("optimism", r.optimism);
-    try {
-      mdp::optimismFromName(r.optimism);
-    } catch (const ConfigError& e) {
-      throw ConfigError(path + ": field 'rmax_learning.optimism': " + e.what());
-    }
-    r.refine_known = s.boolean("refine_known", r.refine_known);
-  }
+  if (top.has("simulator")) readSimulator(top.get("simulator"), path, cfg.simulator);
+  if (top.has("planner")) readPlanner(top.get("planner"), path, cfg.planner);
+  if (top.has("planning")) readPlanning(top.get("planning"), path, cfg.planning);
+  if (top.has("rmax_learning")) readRMaxLearning(top.get("rmax_learning"), path, cfg.rmax_learning);
   if (top.has("context")) {
     YamlSection s(top.get("context"), path, "context", {"time"});
     cfg.time = s.string("time", cfg.time);
