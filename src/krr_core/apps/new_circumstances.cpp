@@ -105,20 +105,22 @@ static void printSummary(const krr::experiments::NewCircumstancesOptions& o,
               runs.size(), o.unknown_count);
   for (std::size_t k = 0; k < T; ++k) std::printf("%s%s", k ? ", " : "", o.learn_times[k].c_str());
   std::printf("}\n");
+  // One line per statistic, then one per setting's own controller.
+  const auto perSetting = [&](const std::string& prefix, const std::string& suffix,
+                              const std::vector<std::vector<double>>& x) {
+    for (std::size_t k = 0; k < T; ++k) line(prefix + o.learn_times[k] + suffix, x[k]);
+  };
   line("success, merged (KRR-RL)", sm);
   line("success, random pick (baseline)", sb);
   line("success, oracle (knows the setting)", so);
-  for (std::size_t k = 0; k < T; ++k)
-    line("success, own controller of " + o.learn_times[k], sown[k]);
+  perSetting("success, own controller of ", "", sown);
   line("exact P(success), merged", pm);
   line("exact P(success), random pick", pb);
   line("exact P(success), random pick, mean over the pick", pick_mean);
   line("exact P(success), oracle", po);
-  for (std::size_t k = 0; k < T; ++k)
-    line("exact P(success), own controller of " + o.learn_times[k], pown[k]);
+  perSetting("exact P(success), own controller of ", "", pown);
   line("exact merged - random pick (mean over pick)", diff);
-  for (std::size_t k = 0; k < T; ++k)
-    line("own controller in " + o.learn_times[k] + " (per learning run)", self[k]);
+  perSetting("own controller in ", " (per learning run)", self);
   std::printf("  (%.1f s)\n", seconds);
 }
 

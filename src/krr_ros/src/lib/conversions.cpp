@@ -109,6 +109,17 @@ visualization_msgs::MarkerArray areaMarkers(const krr::nav::BlockageSimulator& s
     m.frame_locked = true;
     return m;
   };
+  // A white text 0.5 m above `at`, the same for areas and places.
+  auto label = [&](const std::string& ns, std::size_t id, const geometry_msgs::Point& at,
+                   const std::string& text) {
+    auto m = base(ns, static_cast<int>(id), visualization_msgs::Marker::TEXT_VIEW_FACING);
+    m.pose.position = at;
+    m.pose.position.z = 0.5;
+    m.scale.z = 0.4;
+    m.color.r = m.color.g = m.color.b = m.color.a = 1.0f;
+    m.text = text;
+    out.markers.push_back(m);
+  };
   for (std::size_t a = 0; a < grid.areas().size(); ++a) {
     const krr::nav::BlockingArea& ba = grid.areas()[a];
     const auto& cells = grid.areaCells(static_cast<int>(a));
@@ -124,16 +135,9 @@ visualization_msgs::MarkerArray areaMarkers(const krr::nav::BlockageSimulator& s
     box.color.g = static_cast<float>(1.0 - rate);
     box.color.a = static_cast<float>(0.3 + 0.5 * rate);
     out.markers.push_back(box);
-    auto label = base("blocking_area_labels", static_cast<int>(a),
-                      visualization_msgs::Marker::TEXT_VIEW_FACING);
-    label.pose.position = box.pose.position;
-    label.pose.position.z = 0.5;
-    label.scale.z = 0.4;
-    label.color.r = label.color.g = label.color.b = label.color.a = 1.0f;
     char text[64];
     std::snprintf(text, sizeof text, "%s (br %.2f)", ba.name.c_str(), rate);
-    label.text = text;
-    out.markers.push_back(label);
+    label("blocking_area_labels", a, box.pose.position, text);
   }
   for (std::size_t p = 0; p < grid.places().size(); ++p) {
     const krr::nav::Place& place = grid.places()[p];
@@ -147,14 +151,7 @@ visualization_msgs::MarkerArray areaMarkers(const krr::nav::BlockageSimulator& s
     disc.color.g = 0.6f;
     disc.color.a = 0.8f;
     out.markers.push_back(disc);
-    auto label = base("place_labels", static_cast<int>(p),
-                      visualization_msgs::Marker::TEXT_VIEW_FACING);
-    label.pose.position = disc.pose.position;
-    label.pose.position.z = 0.5;
-    label.scale.z = 0.4;
-    label.color.r = label.color.g = label.color.b = label.color.a = 1.0f;
-    label.text = place.name;
-    out.markers.push_back(label);
+    label("place_labels", p, disc.pose.position, place.name);
   }
   return out;
 }
