@@ -72,7 +72,8 @@ static int mainBody(int argc, char** argv) {
                o.domains.push_back(krr::site::parseScaffoldDomain("--domain", v));
              });
   parser.add("--cell", "METRES", "instead of --domain: one domain <DIR name>_<cols>x<rows> of "
-             "square cells of this size (it must divide the map)", &o.cell);
+             "square cells of this size (it must divide the map)", &o.cell)
+      .defaultText("");
   parser.add("--out", "DIR", "the site folder to write (refused if it exists and is not empty)",
              &o.out)
       .required();

@@ -154,6 +154,13 @@ std::pair<std::string, std::string> officeStyle(const std::string& room) {
   return {"", ""};
 }
 
+/// @brief "option: what" of a loader's error, naming the value when the loader did not.
+std::string optionError(const std::string& option, const std::string& value, const Error& e) {
+  const std::string what = e.what();
+  return option + ": " + (what.find(value) == std::string::npos ? "value '" + value + "': " : "") +
+         what;
+}
+
 }  // namespace
 
 bool isSiteConstant(const std::string& name) {
@@ -202,12 +209,12 @@ Scaffold::Scaffold(ScaffoldOptions options) : o_(std::move(options)) {
     const std::string image = nav::loadMapMetadata(o_.map).image;
     image_ = image[0] == '/' ? image : dirName(o_.map) + "/" + image;
   } catch (const Error& e) {
-    throw ConfigError("--map: value '" + o_.map + "': " + e.what());
+    throw ConfigError(optionError("--map", o_.map, e));
   }
   try {
     places_ = nav::loadPlaces(o_.places);
   } catch (const Error& e) {
-    throw ConfigError("--places: value '" + o_.places + "': " + e.what());
+    throw ConfigError(optionError("--places", o_.places, e));
   }
   validateNames();
   validateRoomsAndOffices();
