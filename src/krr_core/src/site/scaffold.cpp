@@ -15,7 +15,7 @@
 #include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
-#include "krr_core/common/limits.h"
+#include "krr_core/common/limits.h"  // isPlainName
 #include "krr_core/common/yaml_section.h"
 #include "krr_core/nav/grid_astar.h"
 #include "krr_core/site/site.h"
@@ -92,6 +92,7 @@ std::string spoken(std::string name) {
 }
 
 std::string plural(const std::string& word) {
+  if (std::isdigit(static_cast<unsigned char>(word.back()))) return "";  // "item2": none
   auto ends = [&](const std::string& s) {
     return word.size() > s.size() && word.compare(word.size() - s.size(), s.size(), s) == 0;
   };
@@ -459,7 +460,8 @@ std::vector<std::pair<std::string, std::string>> Scaffold::synonyms() const {
       if (n >= 0 && n < static_cast<int>(kNumbers.size())) add(p + " " + kNumbers[n], room);
     }
   }
-  for (const std::string& item : o_.items) add(plural(spoken(item)), item);
+  for (const std::string& item : o_.items)
+    if (!plural(spoken(item)).empty()) add(plural(spoken(item)), item);
   return out;
 }
 
@@ -504,6 +506,7 @@ SiteReport Scaffold::write(const std::string& base_config_dir) const {
   std::string pattern = (target.parent_path() / ("." + target.filename().string() + ".new-XXXXXX")).string();
   if (!::mkdtemp(&pattern[0])) throw IoError("--out: cannot create a directory beside " + o_.out);
   const fs::path tmp = pattern;
+  fs::path old;  // a replaced folder (--force), kept until the new one is in place
   std::error_code ec;
   try {
     const std::string ext = fs::path(image_).extension().string();
@@ -519,7 +522,6 @@ SiteReport Scaffold::write(const std::string& base_config_dir) const {
     writeFileAtomic((tmp / "knowledge.plog").string(), knowledgePlog());
     writeFileAtomic((tmp / "language.yaml").string(), languageYaml());
     requireConsistentSite(Site::read(tmp.string(), base_config_dir).files());
-    fs::path old;
     if (fs::exists(target)) {
       if (fs::is_empty(target)) {
         fs::remove(target);
@@ -533,6 +535,7 @@ SiteReport Scaffold::write(const std::string& base_config_dir) const {
     if (!old.empty()) fs::remove_all(old, ec);
   } catch (const fs::filesystem_error& e) {
     fs::remove_all(tmp, ec);
+    if (!old.empty() && !fs::exists(target, ec)) fs::rename(old, target, ec);  // put it back
     throw IoError("--out: value '" + o_.out + "': cannot write the site folder: " + e.what());
   } catch (...) {
     fs::remove_all(tmp, ec);

@@ -94,11 +94,11 @@ class Scaffold {
   std::string languageYaml() const;
   /**
    * @brief The synonyms of language.yaml, phrase -> name: "<person>'s office" and
-   * "<person>'s room" -> that person's room; for a room named office_a / room_a / room2 /
-   * office_3 the other of office / room ("room a", "office2") and numbers in words ("room
-   * two"); the plural of each item ("teas"). A phrase that would mean something else (a name,
-   * a word of the lists, an earlier synonym) is left out. Capitalised forms are not needed:
-   * the language front end lower-cases the text.
+   * "<person>'s room" -> that person's room; for a room named office_a / room_a / room12 /
+   * office_7 the other of office / room ("room a", "office12") and numbers up to twenty in
+   * words ("room twelve"); the plural of each item ("teas"). A phrase that would mean
+   * something else (a name, a word of the lists, an earlier synonym) is left out. Capitalised
+   * forms are not needed: the language front end lower-cases the text.
    */
   std::vector<std::pair<std::string, std::string>> synonyms() const;
 
