@@ -3,7 +3,8 @@
  * @brief Generate a starter site folder (site/scaffold.h) from a map, a places file and the
  * building's names, so that a new building starts from files that already agree.
  *
- *   make_site --map FILE --places FILE --people A,B --items X,Y --shop PLACE
+ *   make_site (--map FILE --places FILE | --rooms-from-text FILE) --people A,B --items X,Y
+ *             --shop PLACE
  *             [--offices PERSON:ROOM,...] [--rooms R,...]
  *             (--domain NAME:COLSxROWS[:STEP_LIMIT] ... | --cell METRES)
  *             --out DIR [--force] [--root DIR] [-h | --help]
@@ -47,11 +48,13 @@ static int mainBody(int argc, char** argv) {
       "Write a starter site folder: site.yaml, copies of the map and the places, knowledge.plog\n"
       "(people, items, rooms, offices, the request prior) and language.yaml (synonyms such as\n"
       "\"carol's office\"), then check it. Next: make_nav_domain --site DIR.");
-  parser.add("--map", "FILE", "map_server YAML (its PGM or PNG image is copied too)", &o.map)
-      .required();
+  parser.add("--map", "FILE", "map_server YAML (its PGM or PNG image is copied too)", &o.map);
   parser.add("--places", "FILE", "places and blocking areas (config/sites/lab/places.yaml format)",
-             &o.places)
-      .required();
+             &o.places);
+  parser.add("--rooms-from-text", "FILE",
+             "instead of --map and --places: draw them from a room / corridor description "
+             "(size W H; corridor X0 Y0 X1 Y1; room NAME X0 Y0 X1 Y1 [door A B] [at X Y]; "
+             "area NAME X0 Y0 X1 Y1)", &o.rooms_from_text);
   parser.add("--people", "NAME,...", "the people who order deliveries",
              listSetter("--people", &o.people))
       .required();

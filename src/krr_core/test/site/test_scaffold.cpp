@@ -211,6 +211,38 @@ TEST(Scaffold, AnExistingFolderIsKeptUnlessForced) {
                           fs::directory_iterator()), 1);
 }
 
+TEST(Scaffold, AMapDrawnFromTextMakesAConsistentSite) {
+  ScaffoldOptions o = labOptions("text");
+  o.map = o.places = "";
+  o.rooms_from_text = krr_test::tempDir("scaffold_text") + "/rooms.txt";
+  std::ofstream(o.rooms_from_text) << "size 12 8\ncorridor 0 3 12 5\n"
+                                      "room mailroom 0 0 4 3 door 1.1 2.4\n"
+                                      "room studio 4 0 8 3 door 5.1 6.4\n"
+                                      "room kitchen 4 5 8 8 door 5.1 6.4\n"
+                                      "area hall 3 3 4.5 5\n";
+  o.offices = {{"ann", "kitchen"}};
+  const Scaffold scaffold(o);
+  EXPECT_EQ(scaffold.rooms(), (std::vector<std::string>{"studio", "kitchen"}));
+  EXPECT_TRUE(scaffold.write(config()).consistent());
+  EXPECT_TRUE(fs::is_regular_file(o.out + "/map.pgm"));
+  const krr::site::Site site = krr::site::Site::load(o.out, config());
+  EXPECT_EQ(krr::nav::loadMap(site.map()).width, 240);
+  EXPECT_EQ(krr::nav::loadPlaces(site.places()).areas.size(), 1u);
+
+  // Either the text or a map and places; a door the corridor lacks names the text's line.
+  ScaffoldOptions both = labOptions("both");
+  both.rooms_from_text = o.rooms_from_text;
+  expectContains(refusal(both), "--rooms-from-text");
+  expectNothingWritten(both);
+  ScaffoldOptions bad = labOptions("bad_text");
+  bad.map = bad.places = "";
+  bad.rooms_from_text = o.rooms_from_text + ".bad";
+  std::ofstream(bad.rooms_from_text) << "size 12 8\nroom mailroom 0 0 4 3 door 1 2\n";
+  const std::string m = refusal(bad);
+  expectContains(m, "--rooms-from-text: " + bad.rooms_from_text + ":2:1: room mailroom: door");
+  expectNothingWritten(bad);
+}
+
 TEST(Scaffold, OptionValuesParse) {
   const krr::site::ScaffoldDomain d = krr::site::parseScaffoldDomain("--domain", "b_40x24:40x24:300");
   EXPECT_EQ(d.name, "b_40x24");

@@ -12,9 +12,11 @@
  *   --rooms           the rooms (default: every place but the shop)
  *   --domain NAME:COLSxROWS[:STEP_LIMIT]  a navigation domain (repeatable), or
  *   --cell METRES     one domain of square cells of that size (the map must divide evenly)
+ *   --rooms-from-text FILE  instead of --map and --places: a map drawn from a room / corridor
+ *                     description (floor_plan.h)
  *
  * Output, the files of a site folder: site.yaml (shop, domains, the navigation experiments'
- * places), map.yaml + map.<ext> and places.yaml (copies), knowledge.plog (the lab's structure:
+ * places), map.yaml + map.<ext> and places.yaml (copies, or the drawn map as map.pgm), knowledge.plog (the lab's structure:
  * sorts, offices as place(P, R), the request prior pr(curr_room(P)=R | place(P,R)=true) =
  * 8/10, the request and serve attributes) and language.yaml (the lab's word lists, minus any
  * word that is a name of the building, and synonyms built from the names, see
@@ -53,6 +55,7 @@ struct ScaffoldDomain {
 struct ScaffoldOptions {
   std::string map;
   std::string places;
+  std::string rooms_from_text;  ///< a floor_plan.h description instead of map and places
   std::vector<std::string> people;
   std::vector<std::string> items;
   std::vector<std::pair<std::string, std::string>> offices;  ///< person -> room, in order
@@ -111,6 +114,7 @@ class Scaffold {
   SiteReport write(const std::string& base_config_dir) const;
 
  private:
+  void validate();
   void validateNames();
   void validateRoomsAndOffices();
   void resolveDomains();
@@ -119,7 +123,8 @@ class Scaffold {
   ScaffoldOptions o_;
   nav::OccupancyGrid map_;
   nav::PlacesFile places_;
-  std::string image_;  ///< the map's image file (resolved)
+  std::string image_;  ///< the map's image file (resolved; "" for a drawn map)
+  std::string places_file_;  ///< where the places come from (--places or --rooms-from-text)
   std::vector<std::string> rooms_;
   std::vector<ScaffoldDomain> domains_;
   std::map<std::string, int> moves_;
