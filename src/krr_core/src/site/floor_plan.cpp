@@ -95,7 +95,8 @@ void Drawer::room(const Line& l) {
   r.place.name = l.words[1];
   r.place.has_room = true;
   r.place.room = rect(l, 2);
-  r.place.point = {(r.place.room.x0 + r.place.room.x1) / 2, (r.place.room.y0 + r.place.room.y1) / 2};
+  const nav::Rect& b = r.place.room;
+  r.place.point = {(b.x0 + b.x1) / 2, (b.y0 + b.y1) / 2};
   for (std::size_t i = 6; i < l.words.size(); i += 3) {
     if (l.words[i] == "door") {
       r.door0 = number(l, i + 1);

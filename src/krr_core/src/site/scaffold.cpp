@@ -122,7 +122,8 @@ void requireConstant(const std::string& what, const std::string& name) {
   if (isSiteConstant(name)) return;
   std::string why = "must be a P-log constant: a lower-case letter, then lower-case letters, "
                     "digits or '_'";
-  if (kReserved.count(name)) why = "is a symbol of the knowledge's own structure or a P-log keyword";
+  if (kReserved.count(name))
+    why = "is a symbol of the knowledge's own structure or a P-log keyword";
   throw ConfigError(what + ": value '" + name + "' " + why);
 }
 
@@ -226,7 +227,7 @@ Scaffold::Scaffold(ScaffoldOptions options) : o_(std::move(options)) {
   try {
     map_ = nav::loadMap(o_.map);
     const std::string image = nav::loadMapMetadata(o_.map).image;
-    image_ = image[0] == '/' ? image : dirName(o_.map) + "/" + image;
+    image_ = !image.empty() && image[0] == '/' ? image : dirName(o_.map) + "/" + image;
   } catch (const Error& e) {
     throw ConfigError(optionError("--map", o_.map, e));
   }
@@ -268,9 +269,10 @@ void Scaffold::validateNames() {
   };
   for (const std::string& p : o_.people) declare("--people", p);
   for (const std::string& i : o_.items) declare("--items", i);
-  for (const nav::Place& p : places_.places) declare("--places " + places_file_ + ": place", p.name);
-  for (const nav::BlockingArea& a : places_.areas)
-    declare("--places " + places_file_ + ": blocking area", a.name);
+  const std::string source =
+      (o_.rooms_from_text.empty() ? "--places " : "--rooms-from-text ") + places_file_;
+  for (const nav::Place& p : places_.places) declare(source + ": place", p.name);
+  for (const nav::BlockingArea& a : places_.areas) declare(source + ": blocking area", a.name);
 }
 
 void Scaffold::validateRoomsAndOffices() {
@@ -296,8 +298,10 @@ void Scaffold::validateRoomsAndOffices() {
     }
   }
   if (rooms_.empty())
-    throw ConfigError("--places: value '" + places_file_ + "' has no place besides the shop '" +
-                      o_.shop + "': a site needs at least one room");
+    throw ConfigError((o_.rooms_from_text.empty() ? "--places" : "--rooms-from-text") +
+                      std::string(": value '") + places_file_ +
+                      "' has no place besides the shop '" + o_.shop +
+                      "': a site needs at least one room");
   std::set<std::string> placed;
   for (const auto& [person, room] : o_.offices) {
     const std::string value = "'" + person + ":" + room + "'";
@@ -339,7 +343,8 @@ void Scaffold::resolveDomains() {
     d.rows = static_cast<int>(std::round(r));
     d.name = folderName(o_.out) + "_" +
              std::to_string(d.cols) + "x" + std::to_string(d.rows);
-    if (!isPlainName(d.name)) d.name = "site_" + std::to_string(d.cols) + "x" + std::to_string(d.rows);
+    if (!isPlainName(d.name))
+      d.name = "site_" + std::to_string(d.cols) + "x" + std::to_string(d.rows);
     domains_.push_back(d);
   }
   std::set<std::string> names;
@@ -527,7 +532,8 @@ std::string Scaffold::languageYaml() const {
 
 SiteReport Scaffold::write(const std::string& base_config_dir) const {
   const fs::path target = folderPath(o_.out);
-  std::string pattern = (target.parent_path() / ("." + target.filename().string() + ".new-XXXXXX")).string();
+  std::string pattern =
+      (target.parent_path() / ("." + target.filename().string() + ".new-XXXXXX")).string();
   if (!::mkdtemp(&pattern[0])) throw IoError("--out: cannot create a directory beside " + o_.out);
   const fs::path tmp = pattern;
   fs::path old;  // a replaced folder (--force), kept until the new one is in place

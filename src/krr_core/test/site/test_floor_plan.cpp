@@ -30,7 +30,8 @@ const char* kBuilding =
 
 /// @brief Occupancy at a point (metres).
 int at(const FloorPlan& p, double x, double y) {
-  return p.grid.at(static_cast<int>(x / p.grid.resolution), static_cast<int>(y / p.grid.resolution));
+  return p.grid.at(static_cast<int>(x / p.grid.resolution),
+                   static_cast<int>(y / p.grid.resolution));
 }
 
 TEST(FloorPlan, DrawsRoomsCorridorsWallsAndDoors) {

@@ -176,7 +176,8 @@ TEST(Scaffold, EveryBadOptionIsRefusedNamingTheOptionAndTheValue) {
           "--offices", "'mailroom' is the shop");
   refused("person", [](ScaffoldOptions& o) { o.offices = {{"zoe", "lab"}}; }, "--offices",
           "'zoe' is not a person");
-  refused("two_offices", [](ScaffoldOptions& o) { o.offices = {{"ann", "lab"}, {"ann", "studio"}}; },
+  refused("two_offices",
+          [](ScaffoldOptions& o) { o.offices = {{"ann", "lab"}, {"ann", "studio"}}; },
           "--offices", "already has an office");
   refused("dup", [](ScaffoldOptions& o) { o.items = {"juice", "ann"}; }, "--items",
           "'ann' is a duplicate name");
@@ -244,7 +245,8 @@ TEST(Scaffold, AMapDrawnFromTextMakesAConsistentSite) {
 }
 
 TEST(Scaffold, OptionValuesParse) {
-  const krr::site::ScaffoldDomain d = krr::site::parseScaffoldDomain("--domain", "b_40x24:40x24:300");
+  const krr::site::ScaffoldDomain d =
+      krr::site::parseScaffoldDomain("--domain", "b_40x24:40x24:300");
   EXPECT_EQ(d.name, "b_40x24");
   EXPECT_EQ(d.cols, 40);
   EXPECT_EQ(d.rows, 24);

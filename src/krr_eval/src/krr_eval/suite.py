@@ -256,7 +256,8 @@ def main(argv=None, stdout=sys.stdout, stderr=sys.stderr):
         ("cli_columns", experiments.COLUMNS)])
     results, times = [], params["times_s"]
     say("KRR-RL evaluation: %s%s, seed %d, %s%s -> %s" % (
-        ", ".join(only), " on site %s" % site if site else "", a.seed, "replaying %s" % a.replay if a.replay else
+        ", ".join(only), " on site %s" % site if site else "", a.seed,
+        "replaying %s" % a.replay if a.replay else
         ("Dask scheduler %s" % a.scheduler if a.scheduler else "%d workers" % a.workers),
         " (quick)" if a.quick else "", out))
     try:

@@ -16,11 +16,11 @@
  *                     description (floor_plan.h)
  *
  * Output, the files of a site folder: site.yaml (shop, domains, the navigation experiments'
- * places), map.yaml + map.<ext> and places.yaml (copies, or the drawn map as map.pgm), knowledge.plog (the lab's structure:
- * sorts, offices as place(P, R), the request prior pr(curr_room(P)=R | place(P,R)=true) =
- * 8/10, the request and serve attributes) and language.yaml (the lab's word lists, minus any
- * word that is a name of the building, and synonyms built from the names, see
- * Scaffold::synonyms()).
+ * places), map.yaml + map.<ext> and places.yaml (copies, or the drawn map as map.pgm),
+ * knowledge.plog (the lab's structure: sorts, offices as place(P, R), the request prior
+ * pr(curr_room(P)=R | place(P,R)=true) = 8/10, the request and serve attributes) and
+ * language.yaml (the lab's word lists, minus any word that is a name of the building, and
+ * synonyms built from the names, see Scaffold::synonyms()).
  *
  * Everything is validated before a file is written; an error is a ConfigError naming the
  * option and the value. A step limit not given is derived: 5 x the longest shortest route
