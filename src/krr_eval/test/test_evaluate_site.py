@@ -83,7 +83,8 @@ class SiteSuiteTest(FakeEnv):
         self.assertIn("the paper's comparison is skipped", report)
         self.assertIn("not the paper's office", report)
         self.assertNotIn("182.07", report)  # the paper's Table I reward at br 0.1
-        self.assertIn("(no claims)", self.stdout)
+        self.assertIn("(no claims: the paper's claims are about its office and are skipped on "
+                      "site lab)", self.stdout)
 
     def test_a_replay_recomputes_the_same_tables(self):
         before = len(self.calls)

@@ -336,7 +336,9 @@ def main(argv=None, stdout=sys.stdout, stderr=sys.stderr):
                [[k, v, cpu.get(k)] for k, v in times.items()] +
                [["total", sum(times.values()), sum(cpu.values())]],
                formats={"wall s": "%.1f", "CPU s": "%.1f"})
-    say("\n" + ct.text() if claims else "\n(no claims)")
+    say("\n" + ct.text() if claims else "\n(no claims)" if not site else
+        "\n(no claims: the paper's claims are about its office and are skipped on site %s)"
+        % os.path.basename(site))
     say("\n%d of %d claims supported" % (sum(c.supported for c in claims), len(claims)))
     say("\n" + tt.text())
     say("\nreport: %s" % os.path.join(out, "report.md"))
