@@ -66,7 +66,7 @@ class Context(object):
 
     def __init__(self, out_dir, runner, seed=1, scale=1.0, trials=None, quick=False,
                  alpha=0.05, recorded=None, log=print, allow_unconverged=False,
-                 solver_trials=None):
+                 solver_trials=None, site=None):
         if scale <= 0:
             raise ValueError("trials scale must be positive, got %r" % (scale,))
         self.out_dir, self.runner, self.seed, self.scale = out_dir, runner, int(seed), scale
@@ -76,6 +76,9 @@ class Context(object):
         if solver_trials is not None and solver_trials < 0:
             raise ValueError("solver trials must be >= 0, got %r" % (solver_trials,))
         self.solver_trials = solver_trials  # --solver-trials: overrides every experiment's
+        # --site: a site folder (absolute) the delivery trials run on instead of the office;
+        # its rooms come from the trials' CSV, and the paper's office comparisons are skipped
+        self.site = site
         self.params = collections.OrderedDict()
         # measured facts one experiment leaves for another's reasons (exp2 -> exp4)
         self.facts = {}
@@ -124,6 +127,17 @@ def norm_room(name):
     """room3 for 'room3', 'Room3' or 'office3'."""
     v = name.strip().lower()
     return "room" + v[len("office"):] if v.startswith("office") else v
+
+
+def site_args(ctx):
+    """The trial CLIs' --site option of a run on a site folder ([] on the office)."""
+    return ["--site", ctx.site] if getattr(ctx, "site", None) else []
+
+
+def room_namer(ctx):
+    """How a trial CSV's room names are read: the office's are normalised (office3 -> room3);
+    a site's are its own names, kept as they are."""
+    return (lambda r: r.strip()) if getattr(ctx, "site", None) else norm_room
 
 
 def _sub(values, mask):

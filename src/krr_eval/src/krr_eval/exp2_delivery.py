@@ -1,13 +1,14 @@
 """Experiment 2: Table I, delivery trials (outdated vs learned knowledge) and the serve-reward
 ablation; the delivery-trial helpers experiments 3 and 4 use."""
 import collections
+import os
 
 import numpy as np
 
 from . import stats
 from .paper import PAPER_TABLE1, PAPER_TABLE1_P
 from .context import (CONDITIONS, DEFAULTS, TITLES, _sub, dialog_discount, norm_room, policy_report,
-                      question_cost, solver_args)
+                      question_cost, room_namer, site_args, solver_args)
 from .report import Claim, Est, P, Result, Table
 from .runner import TrialSpec
 
@@ -26,7 +27,8 @@ def delivery_specs(ctx):
     n, brs = ctx.trials("exp2"), ctx.setting("exp2", "brs")
     return collections.OrderedDict(
         ((br, c), TrialSpec("delivery_br%g_%s" % (br, c), "delivery_trials",
-                            ["--br", "%g" % br, "--condition", c] + solver_args(ctx, "exp2"),
+                            ["--br", "%g" % br, "--condition", c] + solver_args(ctx, "exp2") +
+                            site_args(ctx),
                             ctx.seed, n,
                             min_chunk=CHEAP_TRIALS_CHUNK))
         for br in brs for c in CONDITIONS)
@@ -66,9 +68,9 @@ def _paired_index(t0, t1):
     return [a for a, _ in pairs], [b for _, b in pairs]
 
 
-def delivery_data(t):
+def delivery_data(t, room=norm_room):
     """The columns of a delivery_trials table the tables and claims use, as numpy arrays (None
-    for a column the CSV lacks: old or fake data)."""
+    for a column the CSV lacks: old or fake data); `room` reads the room names (room_namer)."""
     def col(name, kind=float):
         if not t.has(name):
             return None
@@ -80,8 +82,8 @@ def delivery_data(t):
          "expected": col("expected_reward"), "identified": col("correct", bool),
          "nav_ok": None if nav_failed is None else ~nav_failed,
          "served_p": col("served_probability"), "forced": col("forced", bool),
-         "room": [norm_room(r) for r in t.strings("room")],
-         "served_room": [norm_room(r) for r in t.strings("served_room")]
+         "room": [room(r) for r in t.strings("room")],
+         "served_room": [room(r) for r in t.strings("served_room")]
          if t.has("served_room") else None}
     for k in ("policy_lower", "policy_upper", "reward_error"):
         d[k] = float(t.floats(k)[0]) if t.has(k) and len(t) else None
@@ -289,9 +291,10 @@ def _qa_reason(br, o, l, s):
     return out
 
 
-def exp2_fulfilment_note(brs, data):
+def exp2_fulfilment_note(brs, data, site=None):
     """Why the paper's Fulfilled column is tested on identification: generated from the
-    measured navigation success, delivered and identified rates per br (conditions pooled)."""
+    measured navigation success, delivered and identified rates per br (conditions pooled).
+    On a site (not the paper's office) only the measured rates are stated."""
     def pooled(br, key):
         vals = [data[br, c][key] for c in CONDITIONS if data[br, c][key] is not None]
         return float(np.mean(np.concatenate(vals))) if vals else None
@@ -303,16 +306,18 @@ def exp2_fulfilment_note(brs, data):
              "extraction %s) although its text defines fulfilment as correct identification and "
              "safe navigation." % tuple("/".join("%.3f" % PAPER_TABLE1[br][c][1]
                                                   for br in sorted(PAPER_TABLE1))
-                                         for c in CONDITIONS))
+                                         for c in CONDITIONS)) if not site else ""
     if nav[lo] is None or ide[lo] is None:
         return (paper + " These trials lack the identified / navigation columns, so the claim is "
-                "tested on delivered.")
+                "tested on delivered.").strip()
     rng = lambda v: max(v.values()) - min(v.values())  # noqa: E731
     txt = (" In our trials navigation success falls from %.3f at br %g to %.3f at br %g (both "
            "conditions pooled) and delivered in the end with it (%.3f -> %.3f), while "
            "identification stays within %.3f-%.3f (range %.3f against %.3f for navigation)"
            % (nav[lo], lo, nav[hi], hi, dl[lo], dl[hi], min(ide.values()), max(ide.values()),
               rng(ide), rng(nav)))
+    if site:
+        return txt.strip() + "."
     if rng(ide) < rng(nav):
         txt += (": only identification is flat like the paper's column, so the fulfilment claim "
                 "is tested on identification (served = request), with navigation success and "
@@ -360,6 +365,30 @@ def exp2_trial_count_note(n, pairs_sd):
     return txt
 
 
+def without_paper(table):
+    """`table` without its columns of the paper's (office) numbers, for a run on a site."""
+    keep = [i for i, c in enumerate(table.columns) if not c.startswith("paper")]
+    table.columns = [table.columns[i] for i in keep]
+    table.rows = [[r[i] for i in keep] for r in table.rows]
+    table.title = table.title.replace(", paper beside", "")
+    return table
+
+
+def site_note(site, pairs_sd, n):
+    """What a run on a site folder (--site) reports instead of the comparison with the paper:
+    the paper's Table I, its claims and its pilot are about the office."""
+    txt = ("**Site %s: the paper's comparison is skipped.** The paper's Table I (its numbers, "
+           "p-values and the claims tested against them, and the trial-count pilot) is about the "
+           "paper's office; this run delivers in the site folder %s (its rooms, people and items: "
+           "the trials' room column), so the tables give our measurements only, without the "
+           "paper's columns, and no claim is evaluated." % (os.path.basename(site), site))
+    if pairs_sd:
+        txt += (" Achieved in this run (n = %d): %s." % (n, "; ".join(
+            "br %g: SD %.2f of the paired expected-reward difference, 95%% half-width %.2f"
+            % (br, sd, half) for br, (sd, half, _) in pairs_sd.items())))
+    return txt
+
+
 def exp2_table1(ctx):
     res = Result("exp2", TITLES["exp2"])
     specs = delivery_specs(ctx)
@@ -368,13 +397,15 @@ def exp2_table1(ctx):
     tables = ctx.runner.run(list(specs.values()), label="exp2")
     res.tables.append(policy_report(ctx, "exp2", collections.OrderedDict(
         ("br %g %s" % (br, c), tables[s.name]) for (br, c), s in specs.items())))
-    data = collections.OrderedDict(((br, c), delivery_data(tables[s.name]))
+    site = ctx.site  # another building: the paper's office numbers do not apply
+    paper_t1, paper_t1p = ({}, {}) if site else (PAPER_TABLE1, PAPER_TABLE1_P)
+    data = collections.OrderedDict(((br, c), delivery_data(tables[s.name], room_namer(ctx)))
                                    for (br, c), s in specs.items())
     has_exp = all(d["expected"] is not None for d in data.values())
     has_id = all(d["identified"] is not None for d in data.values())
     rows = []
     for (br, c), d in data.items():
-        pr = PAPER_TABLE1.get(br, {}).get(c, (None, None, None))
+        pr = paper_t1.get(br, {}).get(c, (None, None, None))
         rows.append(["%g" % br, c, d["n"], Est.of(stats.mean_ci(d["reward"])),
                      Est.of(stats.mean_ci(d["expected"])) if d["expected"] is not None else None,
                      pr[0], _rate(d["identified"]), _rate(d["nav_ok"]), _rate(d["delivered"]),
@@ -382,7 +413,7 @@ def exp2_table1(ctx):
         ctx.facts.setdefault("exp2", {})[br, c] = {
             "nav_by_room": _nav_by_room(d), "identified": _mean(d["identified"]),
             "nav_ok": _mean(d["nav_ok"]), "policy_lower": d["policy_lower"]}
-    res.tables.append(Table(
+    res.tables.append((without_paper if site else (lambda t: t))(Table(
         "exp2_table1", "Table I: overall delivery performance (ours with 95% CI, paper beside)",
         ["br", "condition", "trials", "reward", "expected reward", "paper reward", "identified",
          "navigation success", "delivered", "paper fulfilled", "QA cost", "paper QA cost",
@@ -395,8 +426,8 @@ def exp2_table1(ctx):
              "reward under the true world model for its (request, served) pair, minus its QA "
              "cost. identified: served = request; navigation success: no navigation leg "
              "failed; delivered: the right item reached the person in the end. Rates: Wilson "
-             "95%% intervals. The paper's Fulfilled is compared with identified (see the notes)."
-             % OUTDATED_BR))
+             "95%% intervals.%s" % (OUTDATED_BR, "" if site else " The paper's Fulfilled is "
+                                    "compared with identified (see the notes)."))))
 
     sig, rates, counts, pairs_sd = [], [], [], collections.OrderedDict()
     sanity = []
@@ -419,7 +450,7 @@ def exp2_table1(ctx):
                                       if key in s else None)
         pcell = lambda key: P(s[key][1].p) if key in s else None  # noqa: E731
         sig.append(["%g" % br, s["n"], cell("expected"), pcell("expected"), cell("reward"),
-                    pcell("reward"), P(sub.p), PAPER_TABLE1_P.get(br), cell("qa"), pcell("qa")])
+                    pcell("reward"), P(sub.p), paper_t1p.get(br), cell("qa"), pcell("qa")])
         mc = lambda key: s[key + "_mcnemar"] if key + "_mcnemar" in s else None  # noqa: E731
         rates.append(["%g" % br, s["n"]] + sum(
             ([Est(s[key].mean, s[key].half, "%.3f") if key in s else None,
@@ -437,6 +468,8 @@ def exp2_table1(ctx):
                            stats.trials_for_half_width(s["expected_sd"], TARGET_HALF),
                            stats.trials_for_half_width(s["reward_sd"], TARGET_HALF)
                            if "reward_sd" in s else None])
+        if site:  # the claims compare with the paper's office: skipped (noted below)
+            continue
         pp = PAPER_TABLE1.get(br)
         fmt = ("%.2f", "%.3f", "%.2f")
         ptxt = (lambda i: (fmt[i] + " -> " + fmt[i]) % (pp["outdated"][i], pp["learned"][i])) \
@@ -491,7 +524,7 @@ def exp2_table1(ctx):
             c.reason = _qa_reason(br, o, l, s)
         res.claims.append(c)
     n = ctx.params["exp2"]["trials"]
-    res.tables.append(Table(
+    res.tables.append((without_paper if site else (lambda t: t))(Table(
         "exp2_significance", "Table I: learned minus outdated, paired on the same trials "
         "(same requests, answers and walkers)",
         ["br", "pairs", "d expected reward", "p (paired t)", "d reward", "p reward (paired t)",
@@ -500,7 +533,7 @@ def exp2_table1(ctx):
         formats={"paper p (reward)": "%.3f"},
         note="Differences are learned minus outdated with paired 95%% CIs. The paper's p-values "
              "come from %d randomly selected trials per condition; we report that test "
-             "(seeded subsample, Welch) beside the paired tests over all trials." % k))
+             "(seeded subsample, Welch) beside the paired tests over all trials." % k)))
     res.tables.append(Table(
         "exp2_paired_rates", "Identified, navigation success and delivered: learned minus "
         "outdated on the same trials",
@@ -549,7 +582,7 @@ def exp2_table1(ctx):
     else:
         res.notes.append("These trials have no expected_reward column: the reward claims rest on "
                          "the realised reward only.")
-    res.notes.append("**Fulfilment.** " + exp2_fulfilment_note(brs, data))
+    res.notes.append("**Fulfilment.** " + exp2_fulfilment_note(brs, data, site))
     res.notes.append("**Pairing.** Trial i of both conditions at the same br and seed uses the "
                      "same random streams (request, the person's answers, the walkers), so the "
                      "conditions are compared on joined trials: paired t-tests for rewards and QA "
@@ -557,6 +590,9 @@ def exp2_table1(ctx):
                      (" WARNING: joined trials with different requests (the CLI breaks the "
                       "pairing contract): %s." % "; ".join(mismatched) if mismatched else
                       " Every joined pair has the same request."))
+    if site:
+        res.notes.append(site_note(site, pairs_sd, n))
+        return res
     if has_exp:
         res.notes.append("**Trial count.** " + exp2_trial_count_note(n, pairs_sd))
     res.notes.append(
@@ -574,7 +610,8 @@ def ablation_specs(ctx):
     return collections.OrderedDict(
         (br, TrialSpec("delivery_br%g_learned_no_penalty" % br, "delivery_trials",
                        ["--br", "%g" % br, "--condition", "learned",
-                        "--wrong-delivery-penalty", "0"] + solver_args(ctx, "exp2"), ctx.seed, n,
+                        "--wrong-delivery-penalty", "0"] + solver_args(ctx, "exp2") +
+                       site_args(ctx), ctx.seed, n,
                        min_chunk=CHEAP_TRIALS_CHUNK)) for br in ctx.setting("exp2", "brs"))
 
 
@@ -586,26 +623,38 @@ def serve_reward_ablation(ctx, tables, specs):
     brs = ctx.params["exp2"]["brs"]
     abl = ablation_specs(ctx)
     got = ctx.runner.run(list(abl.values()), label="exp2 ablation")
-    rows = []
+    rows, name = [], room_namer(ctx)
+    # The rooms the robot always reaches: the office's room1 and room4 (P^N = 1 on its map); on
+    # a site, the rooms every learned trial at that br reached (measured, from exp2's facts).
+    easy_rooms = {br: ("room1", "room4") for br in brs}
+    if ctx.site:
+        nav = ctx.facts.get("exp2", {})
+        easy_rooms = {br: tuple(r for r, (rate, _) in nav.get((br, "learned"), {}).get(
+            "nav_by_room", {}).items() if rate >= 1.0) for br in brs}
     for br in brs:
         for label, t in (("0", got[abl[br].name]),
                          ("default", tables[specs[br, "learned"].name])):
             t = t.head(n)
             ident = t.bools("correct") if t.has("correct") else None
-            room = [norm_room(r) for r in t.strings("served_room")] if t.has("served_room") else []
+            room = [name(r) for r in t.strings("served_room")] if t.has("served_room") else []
             ent = t.floats("entropy") if t.has("entropy") else []
-            easy = _sub(ent, [r in ("room1", "room4") for r in room]) if room else []
+            easy = _sub(ent, [r in easy_rooms[br] for r in room]) if room else []
             rows.append(["%g" % br, label, len(t),
                          float(np.mean(ident)) if ident is not None else None,
                          float(np.mean(t.floats("turns"))) if t.has("turns") else None,
                          float(np.mean(easy)) if easy else None,
                          float(np.mean(t.floats("reward")))])
+    easy_col = "entropy at serve, room1/room4"
+    note = ("penalty 0: the robot may serve an always-reachable room (room1, room4: P^N = 1) as "
+            "a probe, since a wrong delivery there costs only a round trip; 'default' is "
+            "config/dialog.yaml's penalty (the first trials of the Table I set). Rewards include "
+            "the penalty where it applies.")
+    if ctx.site:
+        easy_col = "entropy at serve, always-reached rooms"
+        note = note.replace("(room1, room4: P^N = 1)", "(here: the rooms every learned trial "
+                            "reached, %s)" % "; ".join("br %g: %s" % (br, ", ".join(r) or "none")
+                                                     for br, r in easy_rooms.items()))
     return Table("exp2_serve_reward", "Effect of the wrong-delivery penalty (learned knowledge)",
-                 ["br", "penalty", "trials", "identified", "questions",
-                  "entropy at serve, room1/room4", "reward"], rows,
-                 formats={"identified": "%.3f", "questions": "%.2f",
-                          "entropy at serve, room1/room4": "%.3f", "reward": "%.2f"},
-                 note="penalty 0: the robot may serve an always-reachable room (room1, room4: "
-                      "P^N = 1) as a probe, since a wrong delivery there costs only a round "
-                      "trip; 'default' is config/dialog.yaml's penalty (the first trials of "
-                      "the Table I set). Rewards include the penalty where it applies.")
+                 ["br", "penalty", "trials", "identified", "questions", easy_col, "reward"], rows,
+                 formats={"identified": "%.3f", "questions": "%.2f", easy_col: "%.3f",
+                          "reward": "%.2f"}, note=note)

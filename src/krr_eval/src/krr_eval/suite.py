@@ -31,6 +31,7 @@ examples:
   rosrun krr_eval evaluate --out out/e --only exp2,exp3 --trials exp2=2000
   rosrun krr_eval evaluate --out out/e --trials-scale 0.1 --scheduler tcp://10.0.0.5:8786
   rosrun krr_eval evaluate --replay out/eval       # recompute tables from saved trials
+  rosrun krr_eval evaluate --only exp2 --site config/sites/lab --out out/lab  # another building
   rosrun krr_eval evaluate _out:=/tmp/e _quick:=true   # as a ROS node
 Works from any directory: config/ and the programs are found through the package
 (KRR_ROOT overrides the repository root, KRR_BIN_DIR the programs' folder).
@@ -90,6 +91,11 @@ def build_parser():
                     help="report tables resting on dialog policies not certified to "
                          "config/dialog.yaml's precision (the report says so; a --quick "
                          "smoke run does this without the flag)")
+    ap.add_argument("--site", metavar="DIR",
+                    help="run on a site folder (config/sites/NAME, relative: to the current "
+                         "directory, else the repository root) instead of the paper's office: "
+                         "exp2 only (Table I-style delivery with the site's rooms, people and "
+                         "items); the paper's office comparisons are skipped")
     g = ap.add_mutually_exclusive_group()
     g.add_argument("--ros", action="store_true", help="run as a ROS node (needs a master)")
     g.add_argument("--no-ros", action="store_true", help="never start a ROS node")
@@ -155,6 +161,25 @@ def write_json(path, obj):
     os.replace(tmp, path)
 
 
+SITE_EXPERIMENTS = ("exp2",)  # the experiments that run on any site (--site)
+
+
+def resolve_site(site, only, ap):
+    """--site DIR as an absolute site folder, refused (ap.error) when it is no site folder or an
+    experiment of `only` is one of the paper's office-specific ones."""
+    other = [k for k in only if k not in SITE_EXPERIMENTS]
+    if other:
+        ap.error("--site supports %s only: %s %s the paper's office experiments (their places, "
+                 "utterances and claims are the office's); run --only %s --site %s"
+                 % (", ".join(SITE_EXPERIMENTS), ", ".join(other),
+                    "is one of" if len(other) == 1 else "are", ",".join(SITE_EXPERIMENTS), site))
+    for d in (site, paths.repo(site)):
+        if os.path.isfile(os.path.join(d, "site.yaml")):
+            return os.path.realpath(d)
+    ap.error("--site %s: no site folder there (a folder with site.yaml, relative to the current "
+             "directory or to %s)" % (site, paths.root()))
+
+
 def main(argv=None, stdout=sys.stdout, stderr=sys.stderr):
     """Run the suite; returns the exit code (0: every experiment ran; 1: one failed; 2: usage)."""
     argv = list(sys.argv[1:] if argv is None else argv)
@@ -177,6 +202,7 @@ def main(argv=None, stdout=sys.stdout, stderr=sys.stderr):
             rec_params = json.load(f)
         recorded = rec_params.get("experiments", {})
         a.seed = rec_params.get("seed", a.seed)
+        a.site = a.site or rec_params.get("site")
         a.alpha = rec_params.get("alpha", a.alpha) if "--alpha" not in own else a.alpha
     out = a.out or a.replay or DEFAULT_OUT
     if a.only:
@@ -194,6 +220,10 @@ def main(argv=None, stdout=sys.stdout, stderr=sys.stderr):
     if a.trials_scale <= 0:
         ap.error("--trials-scale must be positive")
     trials = parse_trials(a.trials, ap)
+    site = None
+    if a.site:  # a replay keeps the recorded folder's path: it runs nothing there
+        replayed = recorded is not None and a.site == rec_params.get("site")
+        site = a.site if replayed else resolve_site(a.site, only, ap)
     os.makedirs(out, exist_ok=True)
 
     node = rosnode.start("krr_evaluate", "on" if a.ros else "off" if a.no_ros else "auto",
@@ -212,11 +242,12 @@ def main(argv=None, stdout=sys.stdout, stderr=sys.stderr):
     ctx = experiments.Context(out, runner, seed=a.seed, scale=a.trials_scale, trials=trials,
                               quick=a.quick, alpha=a.alpha, recorded=recorded, log=say,
                               allow_unconverged=a.allow_unconverged,
-                              solver_trials=a.solver_trials)
+                              solver_trials=a.solver_trials, site=site)
     params = collections.OrderedDict([
         ("tool", "rosrun krr_eval evaluate"), ("argv", argv), ("seed", a.seed), ("alpha", a.alpha),
         ("trials_scale", a.trials_scale), ("trials_overrides", trials), ("quick", a.quick),
         ("allow_unconverged", a.allow_unconverged), ("solver_trials", a.solver_trials),
+        ("site", site),
         ("workers", a.workers), ("scheduler", a.scheduler),
         ("chunks_per_worker", a.chunks_per_worker), ("replayed_from", a.replay),
         ("experiments", ctx.params), ("completed", []), ("failed", {}),
@@ -224,8 +255,9 @@ def main(argv=None, stdout=sys.stdout, stderr=sys.stderr):
         ("cpu_s", collections.OrderedDict()),
         ("cli_columns", experiments.COLUMNS)])
     results, times = [], params["times_s"]
-    say("KRR-RL evaluation: %s, seed %d, %s%s -> %s" % (
-        ", ".join(only), a.seed, "replaying %s" % a.replay if a.replay else
+    say("KRR-RL evaluation: %s%s, seed %d, %s%s -> %s" % (
+        ", ".join(only), " on site %s" % site if site else "", a.seed,
+        "replaying %s" % a.replay if a.replay else
         ("Dask scheduler %s" % a.scheduler if a.scheduler else "%d workers" % a.workers),
         " (quick)" if a.quick else "", out))
     try:
@@ -291,6 +323,9 @@ def main(argv=None, stdout=sys.stdout, stderr=sys.stderr):
                   "Recomputed from the trials recorded in `%s`." % a.replay if a.replay else
                   "Trials: `trials/*.csv`; all parameters and versions: `params.json`."),
               "Command: `rosrun krr_eval evaluate %s`" % " ".join(argv)]
+    if site:
+        header += ["", "Site: `%s` (not the paper's office: the comparisons with the paper are "
+                   "skipped)." % site]
     if params["failed"]:
         header += ["", "**Failed experiments:** " + "; ".join(
             "%s (%s)" % kv for kv in params["failed"].items())]
@@ -301,7 +336,9 @@ def main(argv=None, stdout=sys.stdout, stderr=sys.stderr):
                [[k, v, cpu.get(k)] for k, v in times.items()] +
                [["total", sum(times.values()), sum(cpu.values())]],
                formats={"wall s": "%.1f", "CPU s": "%.1f"})
-    say("\n" + ct.text() if claims else "\n(no claims)")
+    say("\n" + ct.text() if claims else "\n(no claims)" if not site else
+        "\n(no claims: the paper's claims are about its office and are skipped on site %s)"
+        % os.path.basename(site))
     say("\n%d of %d claims supported" % (sum(c.supported for c in claims), len(claims)))
     say("\n" + tt.text())
     say("\nreport: %s" % os.path.join(out, "report.md"))

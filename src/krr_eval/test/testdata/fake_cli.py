@@ -84,6 +84,18 @@ DELIVERY_HEADER = ["trial", "room", "reward", "fulfilled", "qa_cost", "turns", "
 REACH = {"room1": 0.0, "room2": 0.3, "room3": 0.2, "room4": 0.0, "room5": 0.4}
 
 
+def site_names(site):
+    """The rooms, items and persons of a site folder's knowledge.plog (its `room = {...}.`
+    lines), as delivery_trials --site takes them from the site."""
+    names = {}
+    with open(os.path.join(site, "knowledge.plog")) as f:
+        for line in f:
+            for sort in ("room", "item", "person"):
+                if line.startswith(sort + " = {"):
+                    names[sort] = [v.strip() for v in line.split("{")[1].split("}")[0].split(",")]
+    return names["room"], names["item"], names["person"]
+
+
 def delivery_row(opts, i):
     """Like delivery_trials: trial i of both conditions at the same br and seed shares the
     request and the random draws of the person and the walkers (paired rows); the learned
@@ -93,15 +105,20 @@ def delivery_row(opts, i):
     learned = opts.get("condition") == "learned"
     shared = rng_for("delivery", opts, i, ["br"])  # same draws in both conditions
     own = rng_for("delivery", opts, i, ["br", "condition"])
-    room = ROOMS[shared.randrange(5)]
-    person = "bob" if room in ("room2", "room4") else "john"
-    request = "%s_%s_%s" % (["coke", "coffee", "soda"][shared.randrange(3)], room, person)
+    if "site" in opts:  # the site's names; reach by position in the room list
+        rooms, items, persons = site_names(opts["site"])
+        reach_of = dict(zip(rooms, [REACH[r] for r in ROOMS] * len(rooms)))
+    else:
+        rooms, items, persons, reach_of = ROOMS, ["coke", "coffee", "soda"], ["john", "bob"], REACH
+    room = rooms[shared.randrange(len(rooms))]
+    person = persons[-1] if rooms.index(room) in (1, 3) else persons[0]
+    request = "%s_%s_%s" % (items[shared.randrange(len(items))], room, person)
     good = (1 if learned else -1) * sign() * scale()
     u_id, u_nav, z_qa = shared.random(), shared.random(), shared.gauss(0, 3.0)
     correct = u_id < 0.93 + 0.03 * good
-    served_room = room if correct else ROOMS[(ROOMS.index(room) + 1) % 5]
-    served = request if correct else "soda_%s_john" % served_room
-    reach = 1 - br * REACH[served_room]
+    served_room = room if correct else rooms[(rooms.index(room) + 1) % len(rooms)]
+    served = request if correct else "%s_%s_%s" % (items[-1], served_room, persons[0])
+    reach = 1 - br * reach_of[served_room]
     nav_failed = u_nav > reach + 0.02 * good
     fulfilled = not nav_failed
     qa = max(1.5, {"room4": 12.0, "room2": 17.0}.get(room, 15.0) - 1.0 * good + z_qa
