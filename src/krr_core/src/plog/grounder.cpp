@@ -161,7 +161,7 @@ class Grounder {
     }
     true_ = syms_->intern("true");
     false_ = syms_->intern("false");
-    facts_.resize(p.attributes.size());
+    facts_.resize(p.attributes.size());  // (made for the attributes that get facts)
     // symbol -> position in each sort (membership and value indices in O(1))
     sort_pos_.resize(sort_vals_.size());
     for (size_t i = 0; i < sort_vals_.size(); ++i) {
@@ -174,10 +174,16 @@ class Grounder {
     }
     attr_range_sort_.assign(p.attributes.size(), -1);
     attr_arg_sorts_.resize(p.attributes.size());
+    const std::string* last_range = nullptr;  // (most attributes share their range: boolean)
+    int last_range_sort = -1;
     for (size_t a = 0; a < p.attributes.size(); ++a) {
       const AttributeDecl& d = p.attributes[a];
-      auto it = sort_index_.find(d.range_sort);
-      if (it != sort_index_.end()) attr_range_sort_[a] = it->second;
+      if (!last_range || *last_range != d.range_sort) {
+        auto it = sort_index_.find(d.range_sort);
+        last_range = &d.range_sort;
+        last_range_sort = it == sort_index_.end() ? -1 : it->second;
+      }
+      attr_range_sort_[a] = last_range_sort;
       for (const auto& s : d.arg_sorts) {
         if (s.empty()) {
           attr_arg_sorts_[a].push_back(-1);
@@ -245,10 +251,9 @@ class Grounder {
     start_ = std::chrono::steady_clock::now();
     // Consistency-restoring rules make the possible worlds depend on a global minimisation
     // over all answer sets, which the native engine does not do.
-    for (const auto& r : prog_.rules)
-      if (r.consistency_restoring)
-        throw OutsideFragmentError(r.loc.str() + ": consistency-restoring rule (':+') is outside "
-                                   "the native reasoner's fragment (use the ASP back end)");
+    if (const Rule* cr = scanRules())
+      throw OutsideFragmentError(cr->loc.str() + ": consistency-restoring rule (':+') is outside "
+                                 "the native reasoner's fragment (use the ASP back end)");
     for (const auto& r : prog_.random_rules)
       if (r.consistency_restoring)
         throw OutsideFragmentError(r.loc.str() + ": consistency-restoring rule (':+') is outside "
@@ -263,14 +268,14 @@ class Grounder {
     // atom. One pass in program order (which also reports unknown attributes in that order),
     // then the rest propagates along body -> head edges: O(rules), where repeated passes cost
     // O(rules x chain length) on a chain b_i :- b_{i+1} that ends in a random attribute.
-    rule_head_attr_.assign(prog_.rules.size(), -1);
     for (size_t i = 0; i < prog_.rules.size(); ++i) {
-      const Rule& r = prog_.rules[i];
-      if (!r.head) continue;
-      const int h = attrId(r.head->attr, r.loc);
-      rule_head_attr_[i] = h;
-      if (g_.attr_dynamic[h]) continue;
-      for (const auto& l : r.body)
+      if (!(rule_flags_[i] & kHasHead)) continue;
+      // (a rule is read only when its head is unknown, reported in rule order, or it has a
+      // body: see scanRules)
+      if (rule_head_attr_[i] < 0) attrId(prog_.rules[i].head->attr, prog_.rules[i].loc);
+      const int h = rule_head_attr_[i];
+      if (g_.attr_dynamic[h] || !(rule_flags_[i] & kHasBody)) continue;
+      for (const auto& l : prog_.rules[i].body)
         if (l.kind == Literal::Kind::Atom && g_.attr_dynamic[attrId(l.atom.attr, l.loc)]) {
           g_.attr_dynamic[h] = true;
           break;
@@ -285,7 +290,8 @@ class Grounder {
       std::vector<Use> uses;
       for (size_t i = 0; i < prog_.rules.size(); ++i) {
         const int h = rule_head_attr_[i];
-        if (h < 0 || g_.attr_dynamic[static_cast<size_t>(h)]) continue;
+        if (h < 0 || g_.attr_dynamic[static_cast<size_t>(h)] || !(rule_flags_[i] & kHasBody))
+          continue;
         for (const auto& l : prog_.rules[i].body)
           if (l.kind == Literal::Kind::Atom) uses.push_back({attr_index_.of(l.atom.attr), h, false});
       }
@@ -320,7 +326,7 @@ class Grounder {
     g_.static_atoms.assign(na, {});
     for (size_t a = 0; a < na; ++a) {
       if (g_.attr_dynamic[a] || !g_.attr_in_cone[a]) continue;
-      for (const auto& t : facts_[a].tuples) {
+      for (const auto& t : factsOf(static_cast<int>(a)).tuples) {
         std::string s = prog_.attributes[a].name;
         if (t.size() > 1) {
           s += "(";
@@ -334,6 +340,36 @@ class Grounder {
   }
 
  private:
+  /// rule_flags_ bits.
+  static constexpr unsigned char kHasHead = 1, kHasBody = 2, kGroundHead = 4;
+
+  /// @brief One pass over the rules that records what the later passes need of each (its
+  /// head's attribute in rule_head_attr_, -1 when unknown or absent, and rule_flags_), so
+  /// that they do not read the rules again: 10^5 rules are 40 MB, and every pass over them
+  /// cost a cache miss per rule. Returns the first consistency-restoring rule, if any.
+  const Rule* scanRules() {
+    const size_t nr = prog_.rules.size();
+    rule_head_attr_.assign(nr, -1);
+    rule_flags_.assign(nr, 0);
+    const Rule* first_cr = nullptr;
+    for (size_t i = 0; i < nr; ++i) {
+      const Rule& r = prog_.rules[i];
+      if (r.consistency_restoring && !first_cr) first_cr = &r;
+      unsigned char f = r.body.empty() ? 0 : kHasBody;
+      if (r.head) {
+        f |= kHasHead;
+        rule_head_attr_[i] = attr_index_.of(r.head->attr);
+        if (!(f & kHasBody)) {
+          bool ground = r.head->value.isGround();
+          for (const auto& t : r.head->attr.args) ground = ground && t.isGround();
+          if (ground) f |= kGroundHead;
+        }
+      }
+      rule_flags_[i] = f;
+    }
+    return first_cr;
+  }
+
   /// The attribute of a term (its hint, else its name), UnknownSymbolError when undeclared.
   int attrId(const AttributeTerm& t, const SourceLocation& loc) const {
     const int a = attr_index_.of(t);
@@ -567,7 +603,7 @@ class Grounder {
 
   // Does the static atom hold?  (args, value bound)
   bool staticAtom(int attr, const std::vector<int>& args, int value, bool neg) const {
-    const FactSet& f = facts_[static_cast<size_t>(attr)];
+    const FactSet& f = factsOf(attr);
     auto it = f.by_args.find(args);
     if (it == f.by_args.end()) return false;
     bool has = std::find(it->second.begin(), it->second.end(), value) != it->second.end();
@@ -704,7 +740,7 @@ class Grounder {
           else
             continue;
         } else {
-          const FactSet& f = facts_[static_cast<size_t>(l.attr)];
+          const FactSet& f = factsOf(l.attr);
           if (args_bound && vb) {
             cost = 0;
           } else {
@@ -877,7 +913,7 @@ class Grounder {
   void joinStatic(JoinState& j, const CLit& l, int best_pos) {
     std::vector<int>& b = j.b;
     auto recurse = [&]() { joinStep(j); };
-    const FactSet& f = facts_[static_cast<size_t>(l.attr)];
+    const FactSet& f = factsOf(l.attr);
     bool all = true;
     for (const auto& a : l.args) all = all && bound(a, b);
     all = all && bound(l.value, b);
@@ -965,11 +1001,11 @@ class Grounder {
     };
     std::vector<Ref> rule_refs, edge_list, stat_list;  // head -> rule; head -> body attribute
     for (size_t r = 0; r < prog_.rules.size(); ++r) {
-      const Rule& rule = prog_.rules[r];
-      if (!rule.head) continue;
-      int h = rule_head_attr_[r];
-      if (g_.attr_dynamic[h]) continue;
+      const int h = rule_head_attr_[r];  // (every head is known by now: -1 is a constraint)
+      if (h < 0 || g_.attr_dynamic[h]) continue;
       rule_refs.push_back({h, static_cast<int>(r), false});
+      if (!(rule_flags_[r] & kHasBody)) continue;
+      const Rule& rule = prog_.rules[r];
       for (const auto& l : rule.body)
         if (l.kind == Literal::Kind::Atom) {
           const Ref e{h, attrId(l.atom.attr, l.loc), l.naf || l.negated};
@@ -1072,7 +1108,7 @@ class Grounder {
           spend(0, 0);
         });
         for (auto& nv : news) {
-          FactSet& f = facts_[static_cast<size_t>(h)];
+          FactSet& f = factsFor(h);
           if (f.add(nv.first, nv.second)) {
             added = true;
             spend(1, 0);
@@ -1102,18 +1138,17 @@ class Grounder {
       groundPrAtom(p, pr_ids_ ? (*pr_ids_)[i] : static_cast<std::uint64_t>(i + 1));
     }
     for (size_t ri = 0; ri < prog_.rules.size(); ++ri) {
+      const int h = rule_head_attr_[ri];  // (-1: a constraint)
+      if (h >= 0 && (!g_.attr_dynamic[h] || !g_.attr_in_cone[h] || !headDemanded(h))) continue;
       const Rule& r = prog_.rules[ri];
-      if (r.head) {
-        const int h = rule_head_attr_[ri];
-        if (!g_.attr_dynamic[h] || !g_.attr_in_cone[h] || !headDemanded(h)) continue;
-      } else {
+      if (!r.head) {
         bool touches = false;
         for (const auto& l : r.body)
           if (l.kind == Literal::Kind::Atom && g_.attr_in_cone[attrId(l.atom.attr, l.loc)])
             touches = true;
         if (!touches && !r.body.empty()) continue;
       }
-      groundDynamicRule(r, r.head ? rule_head_attr_[ri] : -1);
+      groundDynamicRule(r, h);
     }
   }
 
@@ -1562,13 +1597,12 @@ class Grounder {
       for (const auto& l : body)
         if (l.kind == Literal::Kind::Atom) off(l.atom.attr);
     };
-    for (const auto& r : prog_.rules) {
-      if (r.head) {
-        bool ground = r.head->value.isGround();
-        for (const auto& t : r.head->attr.args) ground = ground && t.isGround();
-        if (!r.body.empty() || !ground) off(r.head->attr);
-      }
-      offBody(r.body);
+    for (size_t i = 0; i < prog_.rules.size(); ++i) {
+      const unsigned char f = rule_flags_[i];
+      // (a head's attribute is rule_head_attr_: a rule is read only when it has a body)
+      if ((f & kHasHead) && ((f & kHasBody) || !(f & kGroundHead)))
+        guard_attr_[static_cast<size_t>(rule_head_attr_[i])] = 0;
+      if (f & kHasBody) offBody(prog_.rules[i].body);
     }
     for (const auto& r : prog_.random_rules) {
       offBody(r.body);
@@ -1583,11 +1617,10 @@ class Grounder {
   // attributes in the cone: the facts of the others do not enter the grounding (changeFact).
   void countGuardFacts() {
     for (size_t i = 0; i < prog_.rules.size(); ++i) {
-      const Rule& r = prog_.rules[i];
-      if (!r.head || !r.body.empty()) continue;
+      if (!(rule_flags_[i] & kHasHead) || (rule_flags_[i] & kHasBody)) continue;
       const int a = rule_head_attr_[i];
       if (!isGuard(a) || !g_.attr_in_cone[static_cast<size_t>(a)]) continue;
-      ++fact_count_[factKey(a, *r.head)];
+      ++fact_count_[factKey(a, *prog_.rules[i].head)];
     }
   }
 
@@ -1617,7 +1650,7 @@ class Grounder {
     if ((before > 0) == (count > 0)) return true;  // truth unchanged
     const std::vector<int> args(key.begin() + 1, key.end() - 1);
     const int value = key.back();
-    FactSet& f = facts_[static_cast<size_t>(a)];
+    FactSet& f = factsFor(a);
     if (delta > 0) {
       auto it = f.by_args.find(args);
       if (it != f.by_args.end() && !it->second.empty() && it->second[0] != value) {
@@ -1666,10 +1699,26 @@ class Grounder {
   /// Per rule of the program: its head's attribute (-1: a constraint). Made by run(), for
   /// the grounding it does (an incremental update receives another program).
   std::vector<int> rule_head_attr_;
+  /// Per rule (with rule_head_attr_): kHasHead, kHasBody, kGroundHead (scanRules).
+  std::vector<unsigned char> rule_flags_;
   int attrLookup(const std::string& n) const { return attr_index_.find(n); }
   std::unordered_map<std::string, int> sort_index_;
   std::vector<std::vector<int>> sort_vals_;
-  std::vector<FactSet> facts_;
+  /// Static facts per attribute, made when the first one is added: most attributes of a
+  /// large program are never evaluated (outside the cone), and a FactSet is 120 bytes.
+  std::vector<std::unique_ptr<FactSet>> facts_;
+  /// @brief The static facts of attribute a (an empty set when it has none).
+  const FactSet& factsOf(int a) const {
+    static const FactSet kNone;
+    const auto& f = facts_[static_cast<size_t>(a)];
+    return f ? *f : kNone;
+  }
+  /// @brief The static facts of attribute a, to add to.
+  FactSet& factsFor(int a) {
+    auto& f = facts_[static_cast<size_t>(a)];
+    if (!f) f = std::make_unique<FactSet>();
+    return *f;
+  }
   int true_ = 0, false_ = 0;
   int anon_ = 0;
   // fast lookups
@@ -1802,10 +1851,13 @@ std::set<std::string> relevanceCone(const Program& program, const std::set<std::
   for (const auto& pr : program.pr_atoms)
     if (!pr.body.empty()) edges(idOf(pr.atom.attr), pr.body, false);
   // Derived attribute -> may it get two values in a world (two head values or a variable)?
+  // (the first head value as an id of `values`: 8 bytes per attribute, not a string)
   struct HeadValue {
-    bool seen = false, multi = false;
-    std::string first;
+    int first = -1;  ///< -1: no head yet; kVarValue: a variable
+    bool multi = false;
   };
+  constexpr int kVarValue = -2;
+  NameTable values;
   std::vector<HeadValue> head_values(count());
   // (every random attribute has an id by now: ids made later are not random)
   std::vector<char> is_random(count(), 0);
@@ -1823,11 +1875,11 @@ std::set<std::string> relevanceCone(const Program& program, const std::set<std::
     if (head_values.size() <= static_cast<size_t>(h)) head_values.resize(count());
     HeadValue& hv = head_values[static_cast<size_t>(h)];
     const bool var = r.head->value.kind == Term::Kind::Variable;
-    if (!hv.seen) {
-      hv.seen = true;
+    if (hv.first == -1) {
       hv.multi = var;
-      if (!var) hv.first = toString(r.head->value);
-    } else if (!hv.multi && (var || toString(r.head->value) != hv.first)) {
+      hv.first = var ? kVarValue : values.intern(toString(r.head->value));
+    } else if (!hv.multi && (var || hv.first == kVarValue ||
+                             values.intern(toString(r.head->value)) != hv.first)) {
       hv.multi = true;
     }
   }

@@ -41,7 +41,8 @@ std::vector<Token> lex(const std::string& src, const std::string& file, MemoryGu
       continue;
     }
     Token t;
-    t.loc = SourceLocation{file, line, col};
+    t.line = line;
+    t.column = col;
     auto two = [&](const char* s) { return src.compare(i, 2, s) == 0; };
     if (std::isalpha(static_cast<unsigned char>(c)) || c == '_') {
       size_t j = i;
@@ -97,19 +98,20 @@ std::vector<Token> lex(const std::string& src, const std::string& file, MemoryGu
             std::string shown = std::isprint(static_cast<unsigned char>(c))
                                     ? std::string("'") + c + "'"
                                     : "byte " + std::to_string(static_cast<unsigned char>(c));
-            throw ParseError(t.loc, "unexpected character " + shown);
+            throw ParseError(t.loc(file), "unexpected character " + shown);
           }
         }
       }
       t.text = src.substr(i, n);
       adv(n);
     }
-    if (guard) guard->tick("reading the text (tokens)", t.loc);
+    if (guard) guard->tickAt("reading the text (tokens)", [&] { return t.loc(file); });
     out.push_back(std::move(t));
   }
   Token e;
   e.kind = Tok::End;
-  e.loc = SourceLocation{file, line, col};
+  e.line = line;
+  e.column = col;
   out.push_back(e);
   return out;
 }

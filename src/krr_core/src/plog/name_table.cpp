@@ -73,8 +73,28 @@ int NameTable::find(std::string_view name) const {
   return s.id1 == 0 ? -1 : static_cast<int>(s.id1 - 1);
 }
 
+std::shared_ptr<const AttributeNames> AttributeNames::make(
+    const std::vector<AttributeDecl>& decls) {
+  NameTable names;
+  names.reserve(decls.size());
+  for (std::size_t i = 0; i < decls.size(); ++i)
+    if (static_cast<std::size_t>(names.intern(decls[i].name)) != i) return nullptr;
+  return std::make_shared<const AttributeNames>(std::move(names));
+}
+
+bool AttributeNames::indexes(const std::vector<AttributeDecl>& decls) const {
+  if (decls.size() != names_.size()) return false;
+  for (std::size_t i = 0; i < decls.size(); ++i)
+    if (names_.name(static_cast<int>(i)) != decls[i].name) return false;
+  return true;
+}
+
 AttributeIndex::AttributeIndex(const Program& program, bool last_wins)
     : attributes_(&program.attributes) {
+  if (program.attribute_names && program.attribute_names->indexes(program.attributes)) {
+    shared_ = program.attribute_names;  // distinct names: first and last declaration agree
+    return;
+  }
   names_.reserve(program.attributes.size());
   decl_.reserve(program.attributes.size());
   for (std::size_t i = 0; i < program.attributes.size(); ++i) {

@@ -30,7 +30,8 @@ class Parser {
  public:
   Parser(const std::string& text, const std::string& file, Program& prog, Dialect dialect,
          MemoryGuard* guard = nullptr)
-      : toks_(lex(text, file, guard)), text_(text), prog_(prog), dialect_(dialect), guard_(guard) {}
+      : toks_(lex(text, file, guard)), text_(text), file_(file), prog_(prog), dialect_(dialect),
+        guard_(guard) {}
 
   std::vector<RawStmt> parseAll() {
     if (dialect_ == Dialect::Auto) {
@@ -51,7 +52,7 @@ class Parser {
     std::vector<RawStmt> out;
     size_t dots = 0;  // an upper bound on the statements: no reallocation while reading
     for (const auto& t : toks_) dots += t.kind == Tok::Dot;
-    if (guard_) guard_->check("parsing", toks_.front().loc, (dots + 1) * sizeof(RawStmt));
+    if (guard_) guard_->check("parsing", locOf(toks_.front()), (dots + 1) * sizeof(RawStmt));
     out.reserve(dots + 1);
     parseStatements(out);
     for (const auto& d : pending_domains_)
@@ -59,7 +60,7 @@ class Parser {
         throw UnknownSymbolError(d.loc.str() + ": unknown sort '" + d.sort + "' in #domain");
     for (const auto& n : pending_sorts_) {
       if (!prog_.findSort(n.text))
-        throw UnknownSymbolError(n.loc.str() + ": unknown sort '" + n.text + "'");
+        throw UnknownSymbolError(locOf(n).str() + ": unknown sort '" + n.text + "'");
     }
     if (!pending_sorts_.empty())
       for (auto& a : prog_.attributes) a.range_sort = booleanRange(a.range_sort);
@@ -78,7 +79,7 @@ class Parser {
           continue;
         }
       }
-      if (guard_) guard_->tick("parsing", peek().loc);
+      if (guard_) guard_->tickAt("parsing", [&] { return locOf(peek()); });
       parseStatement(out);
     }
   }
@@ -94,7 +95,7 @@ class Parser {
   // Query parsing entry (for parseQuery): "?" optional.
   RawQuery parseStandaloneQuery() {
     if (peek().kind == Tok::Question) next();
-    RawQuery q = parseQueryBody(peek().loc);
+    RawQuery q = parseQueryBody(locOf(peek()));
     if (peek().kind == Tok::Dot) next();
     expect(Tok::End, "end of query");
     return q;
@@ -118,7 +119,7 @@ class Parser {
   }
   [[noreturn]] void fail(const Token& t, const std::string& expected) {
     std::string got = t.kind == Tok::End ? "end of input" : "'" + t.text + "'";
-    throw ParseError(t.loc, "unexpected " + got + ", expected " + expected);
+    throw ParseError(locOf(t), "unexpected " + got + ", expected " + expected);
   }
   const Token& expect(Tok k, const std::string& what) {
     if (peek().kind != k) fail(peek(), what);
@@ -160,7 +161,7 @@ class Parser {
   /// conditional `do(a, y) :- b.` would need actions that depend on the world.
   void refuseBody(const char* what) {
     if (peek().kind == Tok::If)
-      throw ParseError(peek().loc, std::string(what) + " must be a fact: a rule with " + what +
+      throw ParseError(locOf(peek()), std::string(what) + " must be a fact: a rule with " + what +
                                        " as its head is not supported");
   }
 
@@ -222,19 +223,19 @@ class Parser {
           pos_ = save + k;  // re-parse the signature for each name
           parseAttributeDecl();
           prog_.attributes.back().name = n.text;
-          prog_.attributes.back().loc = n.loc;
+          prog_.attributes.back().loc = locOf(n);
         }
         return;
       }
     }
     RawStmt st;
-    st.loc = first.loc;
+    st.loc = locOf(first);
     if (first.kind == Tok::LBracket) {
       next();
       const Token& l = peek();
       if (l.kind != Tok::Ident && l.kind != Tok::Var && l.kind != Tok::Int)
         fail(l, "label name after '['");
-      st.label = next().text;
+      st.w().label = next().text;
       if (l.kind == Tok::Ident && peek().kind == Tok::LParen) {
         // classic `[r(B)] random(place(B))`: the label names the rule; its arguments only
         // repeat the attribute's, so labels match by name
@@ -267,7 +268,7 @@ class Parser {
     } else if (first.kind == Tok::Question) {
       next();
       st.kind = RawStmt::Kind::Query;
-      st.w().query = parseQueryBody(first.loc);
+      st.w().query = parseQueryBody(locOf(first));
       if (peek().kind != Tok::End) endStatement();
     } else if (first.kind == Tok::If) {
       next();
@@ -302,18 +303,18 @@ class Parser {
     Term v = parseExpr();
     long long x = evalConst(v);
     if (consts_.count(n.text))
-      throw ParseError(n.loc, "constant '" + n.text + "' defined twice");
+      throw ParseError(locOf(n), "constant '" + n.text + "' defined twice");
     consts_[n.text] = x;
     endStatement();
   }
 
   void parseDomain() {
-    SourceLocation loc = peek().loc;
+    SourceLocation loc = locOf(peek());
     next();  // '#'
     next();  // domain
     do {
       DomainDecl d;
-      d.loc = peek().loc;
+      d.loc = locOf(peek());
       d.sort = expect(Tok::Ident, "sort name in #domain").text;
       expect(Tok::LParen, "'(' after sort name in #domain");
       do {
@@ -426,14 +427,14 @@ class Parser {
     next();  // '('
     std::vector<std::vector<Term>> args;
     do {
-      SourceLocation aloc = peek().loc;
+      SourceLocation aloc = locOf(peek());
       SortDecl arg;
       arg.name = s.name;
       std::set<std::string> aseen;
       int r = 0, o = 0;
       parseSortUnion(arg, aseen, r, o);
       if (peek().kind == Tok::LParen)
-        throw ParseError(peek().loc, "record sorts with variables and conditions "
+        throw ParseError(locOf(peek()), "record sorts with variables and conditions "
                                      "(f(#s(X)) : ...) are not supported");
       if (arg.values.empty()) throw ParseError(aloc, "empty sort in record sort " + f.text);
       args.push_back(std::move(arg.values));
@@ -443,18 +444,18 @@ class Parser {
     for (const auto& a : args) {
       total *= a.size();
       if (total > kMaxSortValues)
-        throw ParseError(f.loc, "record sort " + f.text + "(...) has more than " +
+        throw ParseError(locOf(f), "record sort " + f.text + "(...) has more than " +
                                     std::to_string(kMaxSortValues) + " values");
     }
     if (guard_)
       guard_->check(("expanding the record sort " + f.text + "(...) of sort " + s.name).c_str(),
-                    f.loc, static_cast<std::size_t>(total) * (sizeof(Term) * (args.size() + 1) + 64));
+                    locOf(f), static_cast<std::size_t>(total) * (sizeof(Term) * (args.size() + 1) + 64));
     std::vector<size_t> idx(args.size(), 0);
     for (unsigned long long k = 0; k < total; ++k) {
       Term c;
       c.kind = Term::Kind::Compound;
       c.name = f.text;
-      c.loc = f.loc;
+      c.loc = locOf(f);
       for (size_t i = 0; i < args.size(); ++i) c.args.push_back(args[i][idx[i]]);
       addValue(s, c, seen);
       for (size_t i = args.size(); i-- > 0;) {
@@ -502,7 +503,7 @@ class Parser {
     accept(Tok::Hash);
     const Token& n = expect(Tok::Ident, "'{', a range or a sort name");
     const SortDecl* other = prog_.findSort(n.text);
-    if (!other) throw UnknownSymbolError(n.loc.str() + ": unknown sort '" + n.text + "'");
+    if (!other) throw UnknownSymbolError(locOf(n).str() + ": unknown sort '" + n.text + "'");
     for (const auto& v : other->values) addValue(s, v, seen);
     others += 2;
   }
@@ -535,7 +536,7 @@ class Parser {
 
   void parseSortDecl() {
     SortDecl s;
-    s.loc = peek().loc;
+    s.loc = locOf(peek());
     s.name = next().text;
     expect(Tok::Eq, "'=' in sort declaration");
     if (prog_.findSort(s.name) && !(s.name == "boolean"))
@@ -556,7 +557,7 @@ class Parser {
     if (!prog_.findSort(n.text)) {
       // the classic examples declare `kc : kind.` before `kind = {1..4}.`
       if (dialect_ != Dialect::Classic)
-        throw UnknownSymbolError(n.loc.str() + ": unknown sort '" + n.text + "'");
+        throw UnknownSymbolError(locOf(n).str() + ": unknown sort '" + n.text + "'");
       pending_sorts_.push_back(n);
     }
     return n.text;
@@ -574,7 +575,7 @@ class Parser {
 
   void parseAttributeDecl() {
     AttributeDecl a;
-    a.loc = peek().loc;
+    a.loc = locOf(peek());
     a.name = next().text;
     next();  // ':'
     std::vector<std::string> sorts;
@@ -618,7 +619,7 @@ class Parser {
     next();  // random
     next();  // (
     RawLit h;
-    h.loc = peek().loc;
+    h.loc = locOf(peek());
     h.lhs = parseExpr();
     st.head = h;
     if (accept(Tok::Colon)) {
@@ -646,7 +647,7 @@ class Parser {
   double finiteProbabilityPart(const Token& t) {
     const double v = std::strtod(t.text.c_str(), nullptr);
     if (!std::isfinite(v))
-      throw ParseError(t.loc, "number " +
+      throw ParseError(locOf(t), "number " +
                                   (t.text.size() > 40 ? t.text.substr(0, 40) + "..." : t.text) +
                                   " in probability is too large for a double");
     return v;
@@ -673,7 +674,7 @@ class Parser {
         if (d.kind != Tok::Int && d.kind != Tok::Decimal) fail(d, "denominator");
         next();
         double dv = finiteProbabilityPart(d);
-        if (dv == 0) throw ParseError(d.loc, "zero denominator in probability");
+        if (dv == 0) throw ParseError(locOf(d), "zero denominator in probability");
         v /= dv;
         txt += "/" + d.text;
       }
@@ -704,7 +705,7 @@ class Parser {
         if (flag.name == "false") o.truth = !o.truth;
         o.lit.has_op = true;
         o.lit.op = CompareOp::Eq;
-        o.lit.rhs = v;
+        o.lit.setRhs() = v;
         expect(Tok::RParen, "')' closing obs(...)");
         return o;
       }
@@ -721,7 +722,7 @@ class Parser {
       } else {
         o.lit.has_op = true;
         o.lit.op = CompareOp::Eq;
-        o.lit.rhs = v;
+        o.lit.setRhs() = v;
       }
     }
     expect(Tok::RParen, "')' closing obs(...)");
@@ -737,8 +738,8 @@ class Parser {
       if (l.has_op) fail(peek(), "')' closing do(...)");
       l.has_op = true;
       l.op = CompareOp::Eq;
-      l.rhs = parseExpr();
-      if (args) *args = {l.lhs, l.rhs};
+      l.setRhs() = parseExpr();
+      if (args) *args = {l.lhs, l.rhs()};
       if (accept(Tok::Comma)) {
         // plog2.0 `do(a, y, true)`; an intervention cannot make a = y false
         Term flag = parseExpr();
@@ -766,7 +767,7 @@ class Parser {
     if (accept(Tok::Bar)) {
       do {
         if (isIdent("obs") && peek(1).kind == Tok::LParen) {
-          SourceLocation l = next().loc;
+          SourceLocation l = locOf(next());
           next();
           q.obs.push_back(parseObsArgs(l));
         } else if (isIdent("do") && peek(1).kind == Tok::LParen) {
@@ -800,7 +801,7 @@ class Parser {
 
   RawLit parseLiteral(bool allow_naf) {
     RawLit l;
-    l.loc = peek().loc;
+    l.loc = locOf(peek());
     if (isIdent("not") && peek(1).kind != Tok::LParen && peek(1).kind != Tok::Eq) {
       if (!allow_naf) fail(peek(), "literal without 'not'");
       next();
@@ -828,7 +829,7 @@ class Parser {
              : k == Tok::Gt                  ? CompareOp::Gt
              : k == Tok::Le                  ? CompareOp::Le
                                              : CompareOp::Ge;
-      l.rhs = parseExpr();
+      l.setRhs() = parseExpr();
     }
     return l;
   }
@@ -851,13 +852,13 @@ class Parser {
       }
     }
     if (++term_operators_ > kMaxTermOperators)
-      throw ParseError(op_token.loc, "term too large: more than " +
+      throw ParseError(locOf(op_token), "term too large: more than " +
                                          std::to_string(kMaxTermOperators) +
                                          " arithmetic operators in one term (the limit of a "
                                          "term's size; fold it or split it with variables)");
     Term b;
     b.kind = Term::Kind::Binary;
-    b.loc = op_token.loc;
+    b.loc = locOf(op_token);
     b.name = std::move(op);
     b.args.reserve(2);
     b.args.push_back(std::move(lhs));
@@ -867,7 +868,7 @@ class Parser {
 
   Term parseExpr() {
     if (depth_ == 0) term_operators_ = 0;  // a new top-level term
-    if (++depth_ > 200) throw ParseError(peek().loc, "expression nested too deeply");
+    if (++depth_ > 200) throw ParseError(locOf(peek()), "expression nested too deeply");
     Term t = parseProduct();
     while (peek().kind == Tok::Plus || peek().kind == Tok::Minus) {
       const Token& op = next();
@@ -891,7 +892,7 @@ class Parser {
 
   Term parseUnary() {
     if (peek().kind == Tok::Minus) {
-      SourceLocation loc = next().loc;
+      SourceLocation loc = locOf(next());
       if (++depth_ > 200) throw ParseError(loc, "expression nested too deeply");
       Term inner = parseUnary();
       --depth_;
@@ -917,27 +918,27 @@ class Parser {
         next();
         errno = 0;
         long long v = std::strtoll(t.text.c_str(), nullptr, 10);
-        if (errno == ERANGE) throw ParseError(t.loc, "integer too large '" + t.text + "'");
-        return Term::integer(v, t.loc);
+        if (errno == ERANGE) throw ParseError(locOf(t), "integer too large '" + t.text + "'");
+        return Term::integer(v, locOf(t));
       }
       case Tok::Var:
         next();
-        return Term::variable(t.text, t.loc);
+        return Term::variable(t.text, locOf(t));
       case Tok::Ident: {
         next();
         if (accept(Tok::LParen)) {
           Term c;
           c.kind = Term::Kind::Compound;
           c.name = t.text;
-          c.loc = t.loc;
+          c.loc = locOf(t);
           c.args.push_back(parseExpr());
           while (accept(Tok::Comma)) c.args.push_back(parseExpr());
           expect(Tok::RParen, "')' or ',' in argument list");
           return c;
         }
         auto c = consts_.find(t.text);
-        if (c != consts_.end()) return Term::integer(c->second, t.loc);
-        return Term::symbol(t.text, t.loc);
+        if (c != consts_.end()) return Term::integer(c->second, locOf(t));
+        return Term::symbol(t.text, locOf(t));
       }
       case Tok::LParen: {
         next();
@@ -952,6 +953,9 @@ class Parser {
 
   std::vector<Token> toks_;
   const std::string& text_;
+  /// @brief The text's file name, for the locations of tokens (Token::loc).
+  std::string file_;
+  SourceLocation locOf(const Token& t) const { return t.loc(file_); }
   Program& prog_;
   Dialect dialect_;
   size_t pos_ = 0;

@@ -24,10 +24,14 @@ enum class Tok {
   Slash, Question, Hash, Arrow
 };
 
+/// @brief A token: its line and column only (the file is the text's, the same for all: a
+/// SourceLocation per token copied the file's name once per token, 80 bytes a token).
 struct Token {
   Tok kind = Tok::End;
+  int line = 0, column = 0;
   std::string text;
-  SourceLocation loc;
+  /// @brief Where the token starts in `file`.
+  SourceLocation loc(const std::string& file) const { return SourceLocation{file, line, column}; }
 };
 
 /// @brief The tokens of a P-log text; comments and whitespace dropped, Tok::End last.
@@ -35,29 +39,6 @@ struct Token {
 /// @throws BudgetExceededError when the tokens outgrow `guard`'s budget (if given).
 std::vector<Token> lex(const std::string& src, const std::string& file,
                        MemoryGuard* guard = nullptr);
-
-struct RawLit {
-  bool naf = false;
-  Term lhs;
-  bool has_op = false;
-  CompareOp op = CompareOp::Eq;
-  Term rhs;
-  SourceLocation loc;
-};
-
-struct RawObs {
-  RawLit lit;
-  bool truth = true;
-  SourceLocation loc;
-};
-
-struct RawQuery {
-  std::vector<RawLit> formula;
-  std::vector<RawObs> obs;
-  std::vector<RawLit> dos;
-  std::string text;
-  SourceLocation loc;
-};
 
 /// @brief A value held on the heap and copied deeply, absent until first written: the parts
 /// of a raw statement that most statements (facts, rules) do not have, so that a million facts
@@ -89,8 +70,39 @@ class Boxed {
   std::unique_ptr<T> p_;
 };
 
+struct RawLit {
+  bool naf = false;
+  bool has_op = false;
+  CompareOp op = CompareOp::Eq;
+  Term lhs;
+  SourceLocation loc;
+  /// @brief The right side `y` of `lhs op y` (has_op), a default term otherwise.
+  const Term& rhs() const { return rhs_.get(); }
+  /// @brief The right side, to write (made on first use).
+  Term& setRhs() { return rhs_.mut(); }
+
+ private:
+  /// (on the heap: most literals, every fact's head among them, have none)
+  Boxed<Term> rhs_;
+};
+
+struct RawObs {
+  RawLit lit;
+  bool truth = true;
+  SourceLocation loc;
+};
+
+struct RawQuery {
+  std::vector<RawLit> formula;
+  std::vector<RawObs> obs;
+  std::vector<RawLit> dos;
+  std::string text;
+  SourceLocation loc;
+};
+
 /// @brief The fields of the rarer statement kinds (selection rules, pr-atoms, obs, do, queries).
 struct RawStmtRare {
+  std::string label;               // Random, Pr: `[r]`
   bool has_range = false;          // Random
   std::string range_var;
   std::vector<RawLit> range_body;
@@ -106,11 +118,10 @@ struct RawStmtRare {
 
 struct RawStmt {
   enum class Kind { Rule, Random, Pr, Obs, Do, Query } kind = Kind::Rule;
-  std::string label;
-  std::optional<RawLit> head;      // Rule (absent: constraint); Random: lhs = attribute term
-  std::vector<RawLit> body;
   int priority = 0;                // Pr: knowledge generation
   bool consistency_restoring = false;  // Rule, Random: written with ':+'
+  std::optional<RawLit> head;      // Rule (absent: constraint); Random: lhs = attribute term
+  std::vector<RawLit> body;
   SourceLocation loc;
   Boxed<RawStmtRare> rare;
   /// @brief The rare fields (defaults when the statement has none).

@@ -225,20 +225,8 @@ void Reasoner::structuralChange() {
     pr_index_valid_ = false;
   }
   // attribute names -> index (the last declaration of a name wins)
-  attr_names_.clear();
-  attr_decl_.clear();
-  attr_hints_ = true;
   attr_count_ = program_.attributes.size();
-  attr_names_.reserve(attr_count_);
-  for (size_t i = 0; i < attr_count_; ++i) {
-    const int id = attr_names_.intern(program_.attributes[i].name);
-    if (static_cast<size_t>(id) == attr_decl_.size()) {
-      attr_decl_.push_back(static_cast<int>(i));
-    } else {
-      attr_decl_[static_cast<size_t>(id)] = static_cast<int>(i);
-      attr_hints_ = false;
-    }
-  }
+  attr_index_ = std::make_unique<AttributeIndex>(program_, true);
   attr_random_.assign(program_.attributes.size(), 0);
   for (const auto& r : program_.random_rules) {
     const int a = attrOf(r.attr);
@@ -259,16 +247,13 @@ void Reasoner::structuralChange() {
 }
 
 int Reasoner::attrByName(const std::string& name) const {
-  const int id = attr_names_.find(name);
-  return id < 0 ? -1 : attr_decl_[static_cast<size_t>(id)];
+  const int a = attr_index_->find(name);
+  return static_cast<size_t>(a) < attr_count_ ? a : -1;
 }
 
 int Reasoner::attrOf(const AttributeTerm& t) const {
-  if (attr_hints_ && t.index >= 0 && static_cast<size_t>(t.index) < attr_count_ &&
-      static_cast<size_t>(t.index) < program_.attributes.size() &&
-      program_.attributes[static_cast<size_t>(t.index)].name == t.name)
-    return t.index;
-  return attrByName(t.name);
+  if (t.index >= 0 && static_cast<size_t>(t.index) >= attr_count_) return attrByName(t.name);
+  return attr_index_->of(t);
 }
 
 void Reasoner::ensureCounts() {
@@ -384,6 +369,7 @@ size_t Reasoner::addStatements(const std::string& text, const std::string& tag,
     program_.dialect = work.dialect;
     program_.sorts = std::move(work.sorts);
     program_.attributes = std::move(work.attributes);
+    program_.attribute_names = std::move(work.attribute_names);
     program_.domains = std::move(work.domains);
     for (size_t i = nrr; i < work.random_rules.size(); ++i)
       program_.random_rules.push_back(std::move(work.random_rules[i]));

@@ -39,11 +39,50 @@ class Resolver {
     if (last_attr_ != kNone && last_attr_name_ == name)
       return &prog_.attributes[last_attr_];
     const int id = attr_index_.find(name);
-    if (id < 0) return nullptr;
+    if (id < 0 || attr_decl_[static_cast<std::size_t>(id)] == kNone) return nullptr;
     last_attr_ = attr_decl_[static_cast<std::size_t>(id)];
     last_attr_name_ = name;
     return &prog_.attributes[last_attr_];
   }
+  /// @brief Id of `name` in the attribute index, added (without a declaration) when absent:
+  /// the statements' names are interned once, and the ids serve the later steps.
+  int internAttrName(const std::string& name) {
+    indexNames(prog_.attributes, attr_index_, attr_decl_, attr_indexed_);
+    const int id = attr_index_.intern(name);
+    if (static_cast<std::size_t>(id) == attr_decl_.size()) attr_decl_.push_back(kNone);
+    return id;
+  }
+  bool declaredId(int id) const { return attr_decl_[static_cast<std::size_t>(id)] != kNone; }
+  /// @brief The statement's head names attribute `id`: findAttr answers from its last-answer
+  /// cache, without hashing the name again.
+  void primeAttr(int id) {
+    indexNames(prog_.attributes, attr_index_, attr_decl_, attr_indexed_);
+    if (!declaredId(id)) return;
+    last_attr_ = attr_decl_[static_cast<std::size_t>(id)];
+    last_attr_name_ = attr_index_.name(id);
+  }
+  /// @brief The head's id of the k-th statement (as splitOverloadedPredicates interned it),
+  /// -1 when not recorded.
+  int headId(std::size_t k) const { return k < head_ids_.size() ? head_ids_[k] : -1; }
+
+  /// @brief Hands the attribute index to the program (Program::attribute_names) so that the
+  /// passes after parsing do not hash the names again: as it is when its ids are the
+  /// declarations' positions, else made afresh from the declarations.
+  void exportAttributeNames() {
+    indexNames(prog_.attributes, attr_index_, attr_decl_, attr_indexed_);
+    bool aligned = attr_index_.size() == prog_.attributes.size();
+    for (std::size_t i = 0; aligned && i < attr_decl_.size(); ++i) aligned = attr_decl_[i] == i;
+    if (aligned)
+      prog_.attribute_names = std::make_shared<const AttributeNames>(std::move(attr_index_));
+    else
+      prog_.attribute_names = AttributeNames::make(prog_.attributes);
+    attr_index_.clear();
+    attr_decl_.clear();
+    attr_indexed_ = 0;
+    last_attr_ = kNone;
+    head_ids_.clear();
+  }
+
   /// @brief Program::findSort in O(1) (see findAttr).
   const SortDecl* findSortDecl(const std::string& name) {
     indexNames(prog_.sorts, sort_index_, sort_decl_, sort_indexed_);
@@ -235,6 +274,25 @@ class Resolver {
     return r;
   }
 
+  /// @brief `p(t)` / `-p(t)` (a literal without an operator, not a body's obs test) as the
+  /// atom p(t) = true / false.
+  Atom predicateAtom(const RawLit& r) {
+    const Term* t = &r.lhs;
+    bool neg = false;
+    if (t->kind == Term::Kind::Negate) {
+      neg = true;
+      t = &t->args[0];
+    }
+    if (t->kind != Term::Kind::Symbol && t->kind != Term::Kind::Compound)
+      throw ParseError(r.loc, "expected a literal, got '" + toString(r.lhs) + "'");
+    const AttributeDecl* d = findAttr(t->name);
+    if (!d) throw UnknownSymbolError(t->loc.str() + ": unknown predicate '" + t->name + "'");
+    if (d->range_sort != "boolean")
+      throw ParseError(r.loc, "attribute '" + t->name + "' has range " + d->range_sort +
+                                  " and needs a value: " + t->name + "=...");
+    return makeAtom(*t, Term::symbol(neg ? "false" : "true", t->loc));
+  }
+
   // Resolve one raw literal into zero or more literals (rewrites may add literals).
   void resolveLit(const RawLit& r, std::vector<Literal>& out) {
     Literal l;
@@ -248,25 +306,12 @@ class Resolver {
       return;
     }
     if (!r.has_op) {
-      const Term* t = &r.lhs;
-      bool neg = false;
-      if (t->kind == Term::Kind::Negate) {
-        neg = true;
-        t = &t->args[0];
-      }
-      if (t->kind != Term::Kind::Symbol && t->kind != Term::Kind::Compound)
-        throw ParseError(r.loc, "expected a literal, got '" + toString(r.lhs) + "'");
-      const AttributeDecl* d = findAttr(t->name);
-      if (!d) throw UnknownSymbolError(t->loc.str() + ": unknown predicate '" + t->name + "'");
-      if (d->range_sort != "boolean")
-        throw ParseError(r.loc, "attribute '" + t->name + "' has range " + d->range_sort +
-                                    " and needs a value: " + t->name + "=...");
       l.kind = Literal::Kind::Atom;
-      l.atom = makeAtom(*t, Term::symbol(neg ? "false" : "true", t->loc));
+      l.atom = predicateAtom(r);
       out.push_back(std::move(l));
       return;
     }
-    bool la = isAttributeTerm(r.lhs), ra = isAttributeTerm(r.rhs);
+    bool la = isAttributeTerm(r.lhs), ra = isAttributeTerm(r.rhs());
     if (la && ra && (r.op == CompareOp::Eq || r.op == CompareOp::Ne)) {
       // a(t) = y where y is also a declared 0-ary attribute name: prefer the value reading.
       const AttributeDecl* d = findAttr(r.lhs.name);
@@ -274,7 +319,7 @@ class Resolver {
       bool is_value = false;
       if (s)
         for (const auto& x : s->values)
-          if (x == r.rhs) is_value = true;
+          if (x == r.rhs()) is_value = true;
       if (is_value) ra = false;
     }
     if ((la || ra) && r.naf && (la && ra))
@@ -283,20 +328,20 @@ class Resolver {
     if (la && !ra && (r.op == CompareOp::Eq || r.op == CompareOp::Ne)) {
       l.kind = Literal::Kind::Atom;
       l.negated = r.op == CompareOp::Ne;
-      l.atom = makeAtom(r.lhs, r.rhs);
+      l.atom = makeAtom(r.lhs, r.rhs());
       out.push_back(std::move(l));
       return;
     }
     if (ra && !la && (r.op == CompareOp::Eq || r.op == CompareOp::Ne)) {
       l.kind = Literal::Kind::Atom;
       l.negated = r.op == CompareOp::Ne;
-      l.atom = makeAtom(r.rhs, r.lhs);
+      l.atom = makeAtom(r.rhs(), r.lhs);
       out.push_back(std::move(l));
       return;
     }
     if (la && ra && r.op == CompareOp::Eq && !r.naf) {
       Term v = freshVar();
-      for (const Term* side : {&r.lhs, &r.rhs}) {
+      for (const Term* side : {&r.lhs, &r.rhs()}) {
         Literal a;
         a.kind = Literal::Kind::Atom;
         a.loc = r.loc;
@@ -305,7 +350,7 @@ class Resolver {
       }
       return;
     }
-    Term lhs = r.lhs, rhs = r.rhs;
+    Term lhs = r.lhs, rhs = r.rhs();
     if (la || ra) {
       if (r.naf)
         throw Error(r.loc.str() + ": 'not' before a comparison of attribute terms is not "
@@ -324,7 +369,7 @@ class Resolver {
         Literal a;
         a.kind = Literal::Kind::Atom;
         a.loc = r.loc;
-        a.atom = makeAtom(r.rhs, v);
+        a.atom = makeAtom(r.rhs(), v);
         out.push_back(a);
         rhs = v;
       }
@@ -361,6 +406,9 @@ class Resolver {
         !findAttr(h->name))
       throw UnknownSymbolError(h->loc.str() + ": undeclared attribute '" + h->name + "' in " +
                                what);
+    // p(t) and -p(t) (a fact's head): the one atom resolveLit would make, without a literal
+    if (!r.has_op && !(r.lhs.kind == Term::Kind::Compound && r.lhs.name == "obs"))
+      return predicateAtom(r);
     std::vector<Literal> tmp;
     resolveLit(r, tmp);
     if (tmp.size() != 1 || tmp[0].kind != Literal::Kind::Atom || tmp[0].negated)
@@ -506,20 +554,21 @@ class Resolver {
     prog_.attributes.reserve(prog_.attributes.size() + stmts.size());
     attr_index_.reserve(prog_.attributes.size() + stmts.size());
     attr_decl_.reserve(prog_.attributes.size() + stmts.size());
-    for (const auto& s : stmts) {
+    for (std::size_t k = 0; k < stmts.size(); ++k) {
+      const RawStmt& s = stmts[k];
       if (s.kind != RawStmt::Kind::Rule || !s.head) continue;
       const RawLit& h = *s.head;
-      if (h.has_op && !(h.op == CompareOp::Eq && h.rhs.kind == Term::Kind::Symbol &&
-                        (h.rhs.name == "true" || h.rhs.name == "false")))
+      if (h.has_op && !(h.op == CompareOp::Eq && h.rhs().kind == Term::Kind::Symbol &&
+                        (h.rhs().name == "true" || h.rhs().name == "false")))
         continue;
       const Term* t = &h.lhs;
       if (t->kind == Term::Kind::Negate) t = &t->args[0];
       if (t->kind != Term::Kind::Symbol && t->kind != Term::Kind::Compound) continue;
-      // one lookup: the name is added to the index with its new declaration
+      // no lookup when splitOverloadedPredicates interned the head (the same name here)
       indexNames(prog_.attributes, attr_index_, attr_decl_, attr_indexed_);
-      const int id = attr_index_.intern(t->name);
-      if (static_cast<std::size_t>(id) < attr_decl_.size()) continue;  // declared
-      attr_decl_.push_back(prog_.attributes.size());
+      const int id = headId(k) >= 0 ? headId(k) : internAttrName(t->name);
+      if (declaredId(id)) continue;
+      attr_decl_[static_cast<std::size_t>(id)] = prog_.attributes.size();
       AttributeDecl d;
       d.name = t->name;
       d.arg_sorts.assign(t->args.size(), "");
@@ -550,7 +599,7 @@ class Resolver {
     };
     auto lit = [&](const RawLit& l) {
       visit(l.lhs);
-      if (l.has_op) visit(l.rhs);
+      if (l.has_op) visit(l.rhs());
     };
     for (const auto& s : stmts) {
       if (s.head) lit(*s.head);
@@ -577,46 +626,59 @@ class Resolver {
   bool splitOverloadedPredicates(const std::vector<RawStmt>& stmts, std::vector<RawStmt>& out) {
     if (plog2_) return false;
     // name -> its arities in first-use order: the first one per name, the others (rare) in
-    // a map (hashed: a program of n undeclared predicates costs O(n); the renaming below
-    // does not depend on the order of the names)
-    NameTable names;
+    // a map (by the names' ids in the attribute index, where every name is interned once and
+    // the heads' ids are kept for the later steps; the renaming below does not depend on the
+    // order of the names)
     if (guard_ && !stmts.empty())
       guard_->check("resolving the statements", stmts.front().loc,
-                    (stmts.size() + 16) * (sizeof(std::string) + 16));
-    names.reserve(stmts.size() + 16);  // (at most a head and a few body names per statement)
-    std::vector<size_t> first_arity;
+                    (stmts.size() + 16) * (sizeof(std::string) + 32));
+    // (at most a head and a few body names per statement)
+    attr_index_.reserve(prog_.attributes.size() + stmts.size() + 16);
+    attr_decl_.reserve(prog_.attributes.size() + stmts.size() + 16);
+    head_ids_.assign(stmts.size(), -1);
+    std::vector<size_t> first_arity;  // by id; kNone: not used as an undeclared predicate
     std::map<int, std::vector<size_t>> more_arities;
     auto top = [](const RawLit& l) -> const Term* {
       const Term* t = &l.lhs;
       if (t->kind == Term::Kind::Negate) t = &t->args[0];
       return (t->kind == Term::Kind::Symbol || t->kind == Term::Kind::Compound) ? t : nullptr;
     };
-    auto note = [&](const RawLit& l) {
+    auto note = [&](const RawLit& l) -> int {
       const Term* t = top(l);
-      if (!t || findAttr(t->name) || t->name == "obs" || t->name == "do") return;
-      const int id = names.intern(t->name);
-      if (static_cast<size_t>(id) == first_arity.size()) {
-        first_arity.push_back(t->args.size());
-        return;
+      if (!t) return -1;
+      const int id = internAttrName(t->name);
+      if (declaredId(id) || t->name == "obs" || t->name == "do") return id;
+      const size_t i = static_cast<size_t>(id);
+      if (first_arity.size() <= i) first_arity.resize(i + 1, kNone);
+      if (first_arity[i] == kNone) {
+        first_arity[i] = t->args.size();
+        return id;
       }
-      if (first_arity[static_cast<size_t>(id)] == t->args.size()) return;
+      if (first_arity[i] == t->args.size()) return id;
       auto& v = more_arities[id];
       if (std::find(v.begin(), v.end(), t->args.size()) == v.end()) v.push_back(t->args.size());
+      return id;
     };
-    for (const auto& s : stmts) {
-      if (s.kind == RawStmt::Kind::Rule && s.head) note(*s.head);
+    constexpr size_t kAhead = 8;  // statements between a head's prefetch and its intern
+    for (size_t k = 0; k < stmts.size(); ++k) {
+      if (k + kAhead < stmts.size() && stmts[k + kAhead].head)
+        if (const Term* t = top(*stmts[k + kAhead].head)) attr_index_.prefetch(t->name);
+      const RawStmt& s = stmts[k];
+      if (s.kind == RawStmt::Kind::Rule && s.head) head_ids_[k] = note(*s.head);
       for (const auto& l : s.body) note(l);
     }
     std::map<std::pair<std::string, size_t>, std::string> rename;
     for (const auto& a : more_arities) {
-      const std::string& name = names.name(a.first);
+      const std::string name = attr_index_.name(a.first);
       for (size_t arity : a.second) {
         std::string n = name + "_" + std::to_string(arity);
-        while (findAttr(n) || names.find(n) >= 0) n += "_";
+        // (the index holds the declared names and every name the statements use)
+        while (findAttr(n) || attr_index_.find(n) >= 0) n += "_";
         rename[{name, arity}] = n;
       }
     }
     if (rename.empty()) return false;
+    head_ids_.clear();  // renamed heads are other names: looked up again
     out = stmts;
     auto fix = [&](RawLit& l) {
       Term* t = &l.lhs;
@@ -669,6 +731,8 @@ class Resolver {
           r.loc = s.loc;
           r.consistency_restoring = s.consistency_restoring;
           if (s.head) {
+            const int hid = headId(static_cast<std::size_t>(&s - stmts.data()));
+            if (hid >= 0) primeAttr(hid);
             try {
               r.head = resolveHeadAtom(*s.head, "a rule head");
             } catch (const IllSortedValue& e) {
@@ -696,7 +760,7 @@ class Resolver {
         case RawStmt::Kind::Random: {
           RandomRule r;
           r.loc = s.loc;
-          r.label = s.label;
+          r.label = s.r().label;
           r.consistency_restoring = s.consistency_restoring;
           const Term& t = s.head->lhs;
           if (t.kind != Term::Kind::Symbol && t.kind != Term::Kind::Compound)
@@ -736,7 +800,7 @@ class Resolver {
         case RawStmt::Kind::Pr: {
           PrAtom p;
           p.loc = s.loc;
-          p.label = s.label;
+          p.label = s.r().label;
           p.atom = resolveHeadAtom(s.r().pr_atom, "the atom of a pr-atom");
           p.body = resolveBody(s.body);
           p.probability = s.r().prob;
@@ -773,7 +837,7 @@ class Resolver {
             l.lhs = a[1];
             l.has_op = true;
             l.op = CompareOp::Eq;
-            l.rhs = a[2];
+            l.setRhs() = a[2];
             prog_.interventions.push_back(resolveDo(l));
           } else {
             requireKnownAttribute(s.r().do_lit);
@@ -787,6 +851,7 @@ class Resolver {
           break;
       }
     }
+    exportAttributeNames();
   }
 
   int fresh_ = 0;
@@ -811,14 +876,19 @@ class Resolver {
   /// Names of the attributes and sorts -> position of their first declaration
   /// (attr_decl_[id], sort_decl_[id]), extended as declarations are appended.
   NameTable attr_index_, sort_index_;
+  /// (attr_decl_[id] is kNone for a name that the statements use and nothing declares.)
   std::vector<std::size_t> attr_decl_, sort_decl_;
   std::size_t attr_indexed_ = 0, sort_indexed_ = 0;
+  /// Per statement: the id of its head's name in attr_index_ (splitOverloadedPredicates),
+  /// empty when the statements were renamed or not scanned.
+  std::vector<int> head_ids_;
   template <class Decls>
   static void indexNames(const Decls& decls, NameTable& index, std::vector<std::size_t>& first,
                          std::size_t& indexed) {
     for (; indexed < decls.size(); ++indexed) {
       const int id = index.intern(decls[indexed].name);
       if (static_cast<std::size_t>(id) == first.size()) first.push_back(indexed);
+      else if (first[static_cast<std::size_t>(id)] == kNone) first[static_cast<std::size_t>(id)] = indexed;
     }
   }
 };

@@ -15,6 +15,7 @@
 #pragma once
 
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -23,6 +24,8 @@
 
 namespace krr {
 namespace plog {
+
+class AttributeNames;
 
 /// @brief Which surface syntax a program was written in (export always writes Classic).
 enum class Dialect { Auto, Classic, Plog2 };
@@ -213,6 +216,11 @@ struct Program {
   /// @brief What the parser left out or read in a lenient way, one "file:line:col: warning:
   /// ..." line each (e.g. a fact with a value outside its sort, which sorted grounding drops).
   std::vector<std::string> warnings;
+  /// @brief The attribute names as the parser interned them (name_table.h), shared by the
+  /// passes over the program instead of each hashing every name again. A cache: used only
+  /// while it still names exactly `attributes` (checked in order), so a program edited by hand
+  /// needs no care; nullptr when absent.
+  std::shared_ptr<const AttributeNames> attribute_names;
 
   /// @brief Declaration of a sort, nullptr when absent.
   const SortDecl* findSort(const std::string& name) const;

@@ -78,6 +78,12 @@ class MemoryGuard {
   void tick(const char* phase, const SourceLocation& where) {
     if ((++ticks_ & 1023u) == 0) check(phase, where);
   }
+  /// @brief tick() with the location made by `where()` only when it is checked (a location
+  /// copies the file's name: the lexer ticks once per token).
+  template <class Where>
+  void tickAt(const char* phase, const Where& where) {
+    if ((++ticks_ & 1023u) == 0) check(phase, where());
+  }
   std::size_t budget() const { return budget_; }
   /// @brief Heap growth since construction (0 when the heap shrank).
   std::size_t used() const;

@@ -365,9 +365,9 @@ class Reasoner {
   bool pr_index_valid_ = false;
   std::uint64_t next_id_ = 1;
   // Dependency structure (attribute indices), to know when relevance cones may change.
-  NameTable attr_names_;         ///< attribute names; attr_decl_[id]: their index
-  std::vector<int> attr_decl_;   ///< (the last declaration of a name)
-  bool attr_hints_ = true;       ///< no name is declared twice: AttributeTerm::index is usable
+  /// @brief Attribute names -> index (the last declaration of a name wins); the program's
+  /// shared table when it is valid (AttributeIndex).
+  std::unique_ptr<AttributeIndex> attr_index_;
   std::size_t attr_count_ = 0;   ///< attributes indexed (program_.attributes may have grown)
   /// @brief Index of an attribute, -1 when it is not among those indexed.
   int attrByName(const std::string& name) const;
