@@ -8,7 +8,12 @@
  * hold: exponent <= 1.2, a 20000-term sum <= 0.1 s, 1 MB of facts <= 1 s, a 100000-rule chain
  * <= 2 s, one atom of a 10000 x 10000 relation <= 0.1 s.
  *
- * Usage: bench_plog_scale [--repeat N] [--quick]
+ * Each run is a fresh child process (this program with --measure), as `plog FILE` runs: in one
+ * process, the allocator hands the small sizes the pages earlier runs had faulted in while the
+ * large sizes fault in fresh ones (about 2.3 us a page on this VM), which skewed the fitted
+ * slope by up to +-0.08 from run to run. --same-process measures in this process instead.
+ *
+ * Usage: bench_plog_scale [--repeat N] [--quick] [--same-process]
  */
 #include <algorithm>
 #include <cmath>
@@ -19,7 +24,9 @@
 #include <vector>
 
 #include "krr_core/common/cli.h"
+#include "krr_core/common/errors.h"
 #include "krr_core/common/resources.h"
+#include "krr_core/common/subprocess.h"
 #include "krr_core/plog/reasoner.h"
 
 namespace {
@@ -57,6 +64,23 @@ double runOnce(const std::string& text) {
   return t;
 }
 
+/// @brief One run of `class_index` at `size` in a child process (this program with
+/// --measure): the seconds it prints. @throws krr::Error when the child fails.
+double runChild(std::size_t class_index, int size) {
+  std::fflush(stdout);
+  krr::Subprocess child({"/proc/self/exe", "--measure",
+                         std::to_string(class_index) + ":" + std::to_string(size)});
+  child.setStdout(krr::Subprocess::Stream::pipe()).setStderr(krr::Subprocess::Stream::inherit());
+  child.start();
+  const krr::SubprocessResult r = child.wait(600.0);
+  if (r.end != krr::SubprocessResult::End::kExited || r.exit_code != 0)
+    throw krr::Error("bench_plog_scale: the child measuring class " +
+                     std::to_string(class_index) + " at size " + std::to_string(size) +
+                     " failed (exit " + std::to_string(r.exit_code) + ", signal " +
+                     std::to_string(r.signal) + ")");
+  return std::stod(r.out);
+}
+
 double slope(const std::vector<double>& x, const std::vector<double>& y) {
   double mx = 0, my = 0;
   for (size_t i = 0; i < x.size(); ++i) mx += std::log(x[i]), my += std::log(y[i]);
@@ -74,13 +98,18 @@ double slope(const std::vector<double>& x, const std::vector<double>& y) {
 
 int main(int argc, char** argv) {
   int repeat = 3;
-  bool quick = false;
+  bool quick = false, same_process = false;
+  std::string measure;
   krr::OptionParser cli("bench_plog_scale",
                         "Growth of the P-log front end (parse + ground + answer) on generated\n"
                         "sums, facts, rule chains and one atom of an n x n relation; fitted\n"
                         "log-log slopes and the targets.");
   cli.add("--repeat", "N", "runs per size (the median is printed; at least 1)", &repeat);
   cli.flag("--quick", "the three smallest sizes only, without the time targets", &quick);
+  cli.flag("--same-process", "measure every run in this process (not a fresh child each)",
+           &same_process);
+  cli.add("--measure", "CLASS:SIZE", "one run in this process, its seconds on stdout (what each "
+          "child does)", &measure);
   if (const auto status = cli.parse(argc, argv)) return *status;
   repeat = std::max(1, repeat);
   struct Class {
@@ -99,10 +128,24 @@ int main(int argc, char** argv) {
       {"one atom of n x n (n)", relationProgram, {625, 1250, 2500, 5000, 10000}, 10000, 0.1,
        "10000 x 10000, one atom <= 0.1 s"},
   };
+  if (!measure.empty()) {
+    const std::size_t colon = measure.find(':');
+    const std::size_t k = colon == std::string::npos ? classes.size()
+                                                     : std::stoul(measure.substr(0, colon));
+    if (k >= classes.size()) {
+      std::fprintf(stderr, "bench_plog_scale: --measure %s: not CLASS:SIZE\n", measure.c_str());
+      return 2;
+    }
+    std::printf("%.9f\n", runOnce(classes[k].gen(std::stoi(measure.substr(colon + 1)))));
+    return 0;
+  }
   bool all_ok = true;
-  std::printf("| class | size | bytes | seconds (CPU, median of %d) |\n| --- | ---: | ---: | ---: |\n", repeat);
+  std::printf("| class | size | bytes | seconds (CPU, median of %d, %s) |\n"
+              "| --- | ---: | ---: | ---: |\n",
+              repeat, same_process ? "one process" : "a fresh process each");
   std::vector<std::string> summary;
-  for (auto& c : classes) {
+  for (std::size_t ci = 0; ci < classes.size(); ++ci) {
+    const Class& c = classes[ci];
     std::vector<int> sizes = c.sizes;
     if (quick) sizes.resize(3);
     std::vector<double> xs, ys;
@@ -110,7 +153,8 @@ int main(int argc, char** argv) {
     for (int n : sizes) {
       const std::string text = c.gen(n);
       std::vector<double> t;
-      for (int k = 0; k < repeat; ++k) t.push_back(runOnce(text));
+      for (int k = 0; k < repeat; ++k)
+        t.push_back(same_process ? runOnce(text) : runChild(ci, n));
       std::sort(t.begin(), t.end());
       const double med = t[t.size() / 2];
       std::printf("| %s | %d | %zu | %.3f |\n", c.name, n, text.size(), med);
