@@ -1,5 +1,9 @@
 #include "krr_core/common/limits.h"
 
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -9,9 +13,23 @@
 
 namespace krr {
 
+std::size_t defaultMemoryBudget() {
+  std::size_t budget = kDefaultMemoryBudget;
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGE_SIZE);
+  if (pages > 0 && page > 0) {
+    const std::size_t eighth = saturatingMul(static_cast<std::size_t>(pages),
+                                             static_cast<std::size_t>(page)) / 8;
+    budget = std::clamp(eighth, kDefaultMemoryBudget, kMaxDefaultMemoryBudget);
+  }
+  struct rlimit rl;
+  if (::getrlimit(RLIMIT_AS, &rl) == 0 && rl.rlim_cur != RLIM_INFINITY)
+    budget = std::min(budget, static_cast<std::size_t>(rl.rlim_cur) / 2);
+  return budget;
+}
+
 std::size_t memoryBudget() {
   const char* env = std::getenv("KRR_MEMORY_BUDGET_MIB");
-  if (!env || !*env) return kDefaultMemoryBudget;
+  if (!env || !*env) return defaultMemoryBudget();
   char* end = nullptr;
   const double mib = std::strtod(env, &end);
   if (end == env || *end != '\0' || !std::isfinite(mib) || mib <= 0.0 || mib > 1e12) {

@@ -1,7 +1,10 @@
 #include <gtest/gtest.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdint>
@@ -181,8 +184,35 @@ TEST(Files, ReadFileHonoursTheMemoryBudget) {
   ::setenv("KRR_MEMORY_BUDGET_MIB", "two", 1);
   EXPECT_THROW(krr::memoryBudget(), krr::ConfigError);  // a typo never disables the limit
   ::unsetenv("KRR_MEMORY_BUDGET_MIB");
-  EXPECT_EQ(krr::memoryBudget(), krr::kDefaultMemoryBudget);
+  EXPECT_EQ(krr::memoryBudget(), krr::defaultMemoryBudget());
   EXPECT_EQ(krr::readFile(path).size(), std::size_t(3) << 20);
+}
+
+TEST(Limits, TheDefaultBudgetComesFromTheMachine) {
+  ::unsetenv("KRR_MEMORY_BUDGET_MIB");
+  const std::size_t physical = static_cast<std::size_t>(::sysconf(_SC_PHYS_PAGES)) *
+                               static_cast<std::size_t>(::sysconf(_SC_PAGE_SIZE));
+  struct rlimit rl;
+  ASSERT_EQ(::getrlimit(RLIMIT_AS, &rl), 0);
+  std::size_t expected = std::clamp(physical / 8, krr::kDefaultMemoryBudget,
+                                    krr::kMaxDefaultMemoryBudget);
+  if (rl.rlim_cur != RLIM_INFINITY) expected = std::min(expected, rl.rlim_cur / 2);
+  EXPECT_EQ(krr::defaultMemoryBudget(), expected);
+  EXPECT_EQ(krr::memoryBudget(), expected);
+  // Under an address-space limit the budget is at most half of it (reached before an
+  // allocation fails): checked in a child, whose limit does not reach this process.
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    struct rlimit low = rl;
+    low.rlim_cur = std::size_t(512) << 20;
+    if (::setrlimit(RLIMIT_AS, &low) != 0) ::_exit(2);
+    ::_exit(krr::defaultMemoryBudget() == (std::size_t(256) << 20) ? 0 : 1);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "512 MiB address space: budget not 256 MiB";
 }
 
 TEST(Limits, SaturatingArithmeticAndFormatting) {

@@ -270,13 +270,15 @@ TEST(CassandraIo, DeclaredSizesAboveTheMemoryBudgetAreRefused) {
   const std::string big =
       "discount: 0.95\nvalues: reward\nstates: 5000000\nactions: 1\nobservations: 1\n"
       "T: * identity\nO: * uniform\n";
-  const std::string e = budgetError(big);
+  // 1 GiB, the smallest default (the default follows the machine: limits.h).
+  const std::size_t gib = std::size_t(1) << 30;
+  const std::string e = budgetError(big, gib);
   EXPECT_EQ(e.substr(0, 13), "m.pomdp:3:9: ") << e;
   EXPECT_NE(e.find("states: 5000000 needs about"), std::string::npos) << e;
   EXPECT_NE(e.find("GiB"), std::string::npos) << e;
   EXPECT_NE(e.find("memory budget of 1 GiB"), std::string::npos) << e;
   // The product is what counts: a later declaration can push it over the budget.
-  const std::string e2 = budgetError("discount: 0.9\nstates: 20000\nactions: 500\n");
+  const std::string e2 = budgetError("discount: 0.9\nstates: 20000\nactions: 500\n", gib);
   EXPECT_EQ(e2.substr(0, 12), "m.pomdp:3:10") << e2;
   EXPECT_NE(e2.find("actions: 500"), std::string::npos) << e2;
   // Counts whose products overflow 64 bits saturate instead of wrapping to a small size.

@@ -11,11 +11,22 @@
 
 namespace krr {
 
-/// @brief Default memory budget of a loader: 1 GiB.
+/// @brief The smallest default memory budget (and the default where the machine's memory is
+/// unknown): 1 GiB.
 constexpr std::size_t kDefaultMemoryBudget = std::size_t(1) << 30;
+/// @brief The largest default memory budget: 8 GiB (more only through the variable).
+constexpr std::size_t kMaxDefaultMemoryBudget = std::size_t(8) << 30;
+
+/**
+ * @brief The default memory budget from the machine: an eighth of its physical memory, within
+ * [kDefaultMemoryBudget, kMaxDefaultMemoryBudget] (3 GiB on a 24 GiB machine), and at most half
+ * of the process's address-space limit (RLIMIT_AS) when one is set, so that the budget is
+ * reached before an allocation fails.
+ */
+std::size_t defaultMemoryBudget();
 
 /// @brief The memory budget of a loader in bytes: $KRR_MEMORY_BUDGET_MIB (a positive number of
-/// MiB) if set, else kDefaultMemoryBudget. @throws ConfigError if the variable is malformed, so
+/// MiB) if set, else defaultMemoryBudget(). @throws ConfigError if the variable is malformed, so
 /// that a typo never silently disables the limit.
 std::size_t memoryBudget();
 

@@ -26,7 +26,7 @@ struct GroundingLimits {
   /// @brief Wall-clock seconds for one inference (one query, one table row set).
   double max_inference_seconds = 60.0;
   /// @brief Bytes by which one grounding, and one inference, may grow the heap; 0:
-  /// krr::memoryBudget() (1 GiB unless $KRR_MEMORY_BUDGET_MIB says otherwise).
+  /// krr::memoryBudget() (from the machine's memory unless $KRR_MEMORY_BUDGET_MIB says otherwise).
   std::size_t memory_budget = 0;
   /// @brief When set and true, grounding and inference stop with CancelledError (another
   /// back end answered first, see Reasoner's Backend::Auto).

@@ -21,7 +21,7 @@ struct ParseOptions {
   /// an UnknownSymbolError instead.
   bool strict_sorts = false;
   /// @brief Bytes by which reading and resolving one text may grow the heap; 0:
-  /// krr::memoryBudget() (1 GiB, $KRR_MEMORY_BUDGET_MIB). Exhausting it is a
+  /// krr::memoryBudget() (limits.h, $KRR_MEMORY_BUDGET_MIB). Exhausting it is a
   /// BudgetExceededError naming the phase and the statement (file:line:col).
   std::size_t memory_budget = 0;
 };

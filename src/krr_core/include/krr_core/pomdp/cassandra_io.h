@@ -32,7 +32,7 @@ namespace pomdp {
 
 /// @brief Resource budgets of the reader.
 struct CassandraLimits {
-  /// Bytes the parse and the resulting Model may use; 0: krr::memoryBudget() (1 GiB unless
+  /// Bytes the parse and the resulting Model may use; 0: krr::memoryBudget() (limits.h unless
   /// $KRR_MEMORY_BUDGET_MIB says otherwise).
   std::size_t memory_budget = 0;
   /// Seconds the parse may take (checked between statements and in long loops); 0: no limit.
