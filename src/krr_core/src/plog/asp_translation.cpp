@@ -243,13 +243,8 @@ std::string groundLiteralBody(const Program& program, const Literal& l, int& fre
   return b.str();
 }
 
-}  // namespace
-
-std::string translateBase(const Program& program) {
-  std::ostringstream out;
-  MemoryGuard guard;  // the translation's memory budget (krr::memoryBudget())
-  int fresh = 0;
-  out << "% P-log program translated to ASP by krr::plog::AspBackend\n";
+/// @brief `sort(s, v).` for every value of every sort (an integer range in one atom).
+void translateSorts(const Program& program, std::ostream& out) {
   out << "% sorts\n";
   for (const auto& s : program.sorts) {
     const std::string name = aspName(s.name, s.loc);
@@ -260,115 +255,117 @@ std::string translateBase(const Program& program) {
     }
     for (const auto& v : s.values) out << "sort(" << name << "," << aspTerm(v) << ").\n";
   }
-  out << "% an attribute term has at most one value\n";
-  out << ":- val(WA,WY1), val(WA,WY2), WY1 != WY2.\n";
+}
 
-  out << "% rules; a consistency-restoring rule (:+) only fires where appl(r(i), instance) is\n";
-  out << "% chosen, and the number of such atoms is minimised (see runScenarios)\n";
-  for (std::size_t ri = 0; ri < program.rules.size(); ++ri) {
-    guard.tick("translating the program to ASP", program.rules[ri].loc);
-    const Rule& r = program.rules[ri];
-    out << kAspSourceMarker << where(r.loc) << "\n";
-    BodyBuilder b(program, r.variable_sorts, fresh);
-    std::string head;
-    if (r.head) {
-      head = aspVal(*r.head);
-      b.attr(r.head->attr);
-      b.term(r.head->value);
-      // Arithmetic in the head (next = C+1): ground instances whose value falls outside the
-      // sort are ill-typed and not part of the ground program, as in P-log's grounding.
-      const AttributeDecl& decl = attributeOf(program, r.head->attr);
-      auto arithmetic = [](const Term& t) {
-        return t.kind == Term::Kind::Binary || t.kind == Term::Kind::Negate;
-      };
-      for (std::size_t k = 0; k < r.head->attr.args.size() && k < decl.arg_sorts.size(); ++k) {
-        if (arithmetic(r.head->attr.args[k]) && !decl.arg_sorts[k].empty()) {
-          b.raw("sort(" + aspName(decl.arg_sorts[k], decl.loc) + "," +
-                aspTerm(r.head->attr.args[k]) + ")");
-        }
-      }
-      if (arithmetic(r.head->value)) {
-        b.raw("sort(" + aspName(decl.range_sort, decl.loc) + "," + aspTerm(r.head->value) + ")");
-      }
+/// @brief Arithmetic in a rule's head (next = C+1): ground instances whose value falls outside
+/// the sort are ill-typed and not part of the ground program, as in P-log's grounding, so the
+/// body requires the computed arguments and value to be in their sorts.
+void addHeadSortGuards(const Program& program, const Atom& head, BodyBuilder& b) {
+  const AttributeDecl& decl = attributeOf(program, head.attr);
+  auto arithmetic = [](const Term& t) {
+    return t.kind == Term::Kind::Binary || t.kind == Term::Kind::Negate;
+  };
+  for (std::size_t k = 0; k < head.attr.args.size() && k < decl.arg_sorts.size(); ++k) {
+    if (arithmetic(head.attr.args[k]) && !decl.arg_sorts[k].empty()) {
+      b.raw("sort(" + aspName(decl.arg_sorts[k], decl.loc) + "," +
+            aspTerm(head.attr.args[k]) + ")");
     }
+  }
+  if (arithmetic(head.value)) {
+    b.raw("sort(" + aspName(decl.range_sort, decl.loc) + "," + aspTerm(head.value) + ")");
+  }
+}
+
+/// @brief Rule ri; a consistency-restoring rule (:+) fires only where its appl(r(ri), instance)
+/// atom is chosen.
+void translateRule(const Program& program, std::size_t ri, int& fresh, std::ostream& out) {
+  const Rule& r = program.rules[ri];
+  out << kAspSourceMarker << where(r.loc) << "\n";
+  BodyBuilder b(program, r.variable_sorts, fresh);
+  std::string head;
+  if (r.head) {
+    head = aspVal(*r.head);
+    b.attr(r.head->attr);
+    b.term(r.head->value);
+    addHeadSortGuards(program, *r.head, b);
+  }
+  b.literals(r.body);
+  if (r.consistency_restoring) {
+    if (!r.head) return;  // `:+ body.` could only make a world inconsistent: never applied
+    const std::string appl = "appl(r(" + std::to_string(ri) + ")," + b.instanceTerm() + ")";
+    out << "{ " << appl << " }" << (b.str().empty() ? ".\n" : " :- " + b.str() + ".\n");
+    b.raw(appl);
+  }
+  out << ruleText(head, b.str());
+}
+
+/// @brief Random selection rule i: sel(i, a) where it applies (and a is not intervened on),
+/// poss(i, a, y) for the values of its range, and the choice of one possible value.
+void translateRandomRule(const Program& program, std::size_t i, int& fresh, std::ostream& out) {
+  const RandomRule& r = program.random_rules[i];
+  out << kAspSourceMarker << where(r.loc) << "\n";
+  const AttributeDecl& decl = attributeOf(program, r.attr);
+  const std::string a = aspAttr(r.attr), idx = std::to_string(i);
+  {
+    BodyBuilder b(program, r.variable_sorts, fresh);
+    b.attr(r.attr);
     b.literals(r.body);
+    b.raw("not intervene(" + a + ")");
     if (r.consistency_restoring) {
-      if (!r.head) continue;  // `:+ body.` could only make a world inconsistent: never applied
-      const std::string appl = "appl(r(" + std::to_string(ri) + ")," + b.instanceTerm() + ")";
-      out << "{ " << appl << " }" << (b.str().empty() ? ".\n" : " :- " + b.str() + ".\n");
+      const std::string appl = "appl(s(" + idx + ")," + b.instanceTerm() + ")";
+      out << "{ " << appl << " } :- " << b.str() << ".\n";
       b.raw(appl);
     }
-    out << ruleText(head, b.str());
+    out << ruleText("sel(" + idx + "," + a + ")", b.str());
   }
-
-  out << "% random selections: sel(rule, attribute term), poss(rule, attribute term, value)\n";
-  for (std::size_t i = 0; i < program.random_rules.size(); ++i) {
-    const RandomRule& r = program.random_rules[i];
-    out << kAspSourceMarker << where(r.loc) << "\n";
-    const AttributeDecl& decl = attributeOf(program, r.attr);
-    const std::string a = aspAttr(r.attr), idx = std::to_string(i);
-    {
-      BodyBuilder b(program, r.variable_sorts, fresh);
-      b.attr(r.attr);
+  {
+    BodyBuilder b(program, r.variable_sorts, fresh);
+    std::string y = r.has_range ? aspVar(r.range_var) : "WY";
+    b.raw("sel(" + idx + "," + a + ")");
+    b.raw("sort(" + aspName(decl.range_sort, decl.loc) + "," + y + ")");
+    if (r.has_range) {
+      // The range may use variables bound by the selection body (random(y : {Z : Z > X})
+      // :- x = X), so the body is evaluated again with the range.
       b.literals(r.body);
-      b.raw("not intervene(" + a + ")");
-      if (r.consistency_restoring) {
-        const std::string appl = "appl(s(" + idx + ")," + b.instanceTerm() + ")";
-        out << "{ " << appl << " } :- " << b.str() << ".\n";
-        b.raw(appl);
-      }
-      out << ruleText("sel(" + idx + "," + a + ")", b.str());
+      b.literals(r.range_body);
+      b.forget(r.range_var);  // already ranged over the attribute's range sort above
     }
-    {
-      BodyBuilder b(program, r.variable_sorts, fresh);
-      std::string y = r.has_range ? aspVar(r.range_var) : "WY";
-      b.raw("sel(" + idx + "," + a + ")");
-      b.raw("sort(" + aspName(decl.range_sort, decl.loc) + "," + y + ")");
-      if (r.has_range) {
-        // The range may use variables bound by the selection body (random(y : {Z : Z > X})
-        // :- x = X), so the body is evaluated again with the range.
-        b.literals(r.body);
-        b.literals(r.range_body);
-        b.forget(r.range_var);  // already ranged over the attribute's range sort above
-      }
-      out << ruleText("poss(" + idx + "," + a + "," + y + ")", b.str());
-    }
-    // An empty dynamic range leaves the term without a value (npos = 0 is then reported as
-    // incoherent, as the native engine does) instead of silently killing the world.
-    out << "1 { val(" << a << ",WY) : poss(" << idx << "," << a << ",WY) } 1 :- sel(" << idx
-        << "," << a << "), poss(" << idx << "," << a << ",_).\n";
+    out << ruleText("poss(" + idx + "," + a + "," + y + ")", b.str());
   }
-  out << "% chosen(rule, attribute term, value, number of possible values); empty ranges\n";
-  out << "npos(WI,WA,WN) :- sel(WI,WA), WN = #count{ WY : poss(WI,WA,WY) }.\n";
-  out << "chosen(WI,WA,WY,WN) :- sel(WI,WA), val(WA,WY), npos(WI,WA,WN).\n";
-  out << "empty(WI,WA) :- npos(WI,WA,0).\n";
+  // An empty dynamic range leaves the term without a value (npos = 0 is then reported as
+  // incoherent, as the native engine does) instead of silently killing the world.
+  out << "1 { val(" << a << ",WY) : poss(" << idx << "," << a << ",WY) } 1 :- sel(" << idx
+      << "," << a << "), poss(" << idx << "," << a << ",_).\n";
+}
 
-  out << "% pr-atoms: pra(pr-atom, attribute term, value) when it applies\n";
-  for (std::size_t j = 0; j < program.pr_atoms.size(); ++j) {
-    const PrAtom& p = program.pr_atoms[j];
-    out << kAspSourceMarker << where(p.loc) << "\n";
-    attributeOf(program, p.atom.attr);
-    const std::string a = aspAttr(p.atom.attr), y = aspTerm(p.atom.value);
-    std::vector<std::string> rules;
-    if (p.label.empty()) {
-      rules.push_back("WI");
-    } else {
-      for (std::size_t i = 0; i < program.random_rules.size(); ++i) {
-        if (program.random_rules[i].label == p.label) rules.push_back(std::to_string(i));
-      }
-    }
-    for (const auto& ri : rules) {
-      BodyBuilder b(program, p.variable_sorts, fresh);
-      b.raw("sel(" + ri + "," + a + ")");
-      b.raw("poss(" + ri + "," + a + "," + y + ")");
-      b.attr(p.atom.attr);
-      b.term(p.atom.value);
-      b.literals(p.body);
-      out << ruleText("pra(" + std::to_string(j) + "," + a + "," + y + ")", b.str());
+/// @brief Pr-atom j: pra(j, a, y) when it applies, once per selection rule it may apply to
+/// (those with its label; any rule WI when it has none).
+void translatePrAtom(const Program& program, std::size_t j, int& fresh, std::ostream& out) {
+  const PrAtom& p = program.pr_atoms[j];
+  out << kAspSourceMarker << where(p.loc) << "\n";
+  attributeOf(program, p.atom.attr);
+  const std::string a = aspAttr(p.atom.attr), y = aspTerm(p.atom.value);
+  std::vector<std::string> rules;
+  if (p.label.empty()) {
+    rules.push_back("WI");
+  } else {
+    for (std::size_t i = 0; i < program.random_rules.size(); ++i) {
+      if (program.random_rules[i].label == p.label) rules.push_back(std::to_string(i));
     }
   }
+  for (const auto& ri : rules) {
+    BodyBuilder b(program, p.variable_sorts, fresh);
+    b.raw("sel(" + ri + "," + a + ")");
+    b.raw("poss(" + ri + "," + a + "," + y + ")");
+    b.attr(p.atom.attr);
+    b.term(p.atom.value);
+    b.literals(p.body);
+    out << ruleText("pra(" + std::to_string(j) + "," + a + "," + y + ")", b.str());
+  }
+}
 
-  out << "% interventions and observations of the program\n";
+/// @brief The program's own do (facts marked intervened) and obs (constraints on pobs(k)).
+void translateProgramEvidence(const Program& program, int& fresh, std::ostream& out) {
   for (const auto& d : program.interventions) {
     out << kAspSourceMarker << where(d.loc) << "\n";
     out << aspVal(d.atom) << ". intervene(" << aspAttr(d.atom.attr) << ").\n";
@@ -380,6 +377,39 @@ std::string translateBase(const Program& program) {
                     groundLiteralBody(program, o.literal, fresh));
     out << ":- " << (o.truth ? "not " : "") << "pobs(" << k << ").\n";
   }
+}
+
+}  // namespace
+
+std::string translateBase(const Program& program) {
+  std::ostringstream out;
+  MemoryGuard guard;  // the translation's memory budget (krr::memoryBudget())
+  int fresh = 0;
+  out << "% P-log program translated to ASP by krr::plog::AspBackend\n";
+  translateSorts(program, out);
+  out << "% an attribute term has at most one value\n";
+  out << ":- val(WA,WY1), val(WA,WY2), WY1 != WY2.\n";
+
+  out << "% rules; a consistency-restoring rule (:+) only fires where appl(r(i), instance) is\n";
+  out << "% chosen, and the number of such atoms is minimised (see runScenarios)\n";
+  for (std::size_t ri = 0; ri < program.rules.size(); ++ri) {
+    guard.tick("translating the program to ASP", program.rules[ri].loc);
+    translateRule(program, ri, fresh, out);
+  }
+
+  out << "% random selections: sel(rule, attribute term), poss(rule, attribute term, value)\n";
+  for (std::size_t i = 0; i < program.random_rules.size(); ++i)
+    translateRandomRule(program, i, fresh, out);
+  out << "% chosen(rule, attribute term, value, number of possible values); empty ranges\n";
+  out << "npos(WI,WA,WN) :- sel(WI,WA), WN = #count{ WY : poss(WI,WA,WY) }.\n";
+  out << "chosen(WI,WA,WY,WN) :- sel(WI,WA), val(WA,WY), npos(WI,WA,WN).\n";
+  out << "empty(WI,WA) :- npos(WI,WA,0).\n";
+
+  out << "% pr-atoms: pra(pr-atom, attribute term, value) when it applies\n";
+  for (std::size_t j = 0; j < program.pr_atoms.size(); ++j) translatePrAtom(program, j, fresh, out);
+
+  out << "% interventions and observations of the program\n";
+  translateProgramEvidence(program, fresh, out);
   out << kAspSourceMarker << "<translation>\n";
   out << "#defined intervene/1. #defined pobs/1. #defined pra/3. #defined val/2.\n";
   out << "#defined sel/2. #defined poss/3. #defined appl/2.\n";

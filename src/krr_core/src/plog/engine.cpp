@@ -576,19 +576,40 @@ void ExactEngine::scopeOfItems(int inst, std::vector<int>& out) {
   }
 }
 
-void ExactEngine::buildCpt(int inst, Factor& f) {
-  const GInstance& gi = g_.instances[static_cast<size_t>(inst)];
-  const std::vector<Item>& items = liveItemsCached(inst);
+/// @brief buildCpt's state for the rows of one instance's table: where each value's state is
+/// and, per row, which values are possible and which pr-atom assigned each (the vectors are
+/// reused from row to row, so a row allocates nothing).
+struct ExactEngine::CptRow {
+  CptRow(const std::vector<int>& xs, int domain_size)
+      : states(xs.size()), has_undef(!xs.empty() && xs.back() == domain_size),
+        nv(has_undef ? states - 1 : states), pos_of(static_cast<size_t>(domain_size), -1),
+        possible(states), assigned(states), assigned_by(states) {
+    for (size_t k = 0; k < nv; ++k) pos_of[static_cast<size_t>(xs[k])] = static_cast<int>(k);
+  }
+  size_t states;                ///< states of the instance (its values, then "undefined")
+  bool has_undef;               ///< the last state is "undefined"
+  size_t nv;                    ///< number of value states
+  std::vector<int> pos_of;      ///< value index -> its state, -1 when not a state
+  std::vector<char> possible;   ///< per state: possible in this row
+  std::vector<double> assigned;  ///< per state: assigned probability, -1 when none
+  std::vector<int> assigned_by;  ///< per state: the pr-atom that assigned it
+  double* out = nullptr;        ///< the row's entries in the table
+};
+
+std::vector<int> ExactEngine::cptParents(int inst) {
   std::vector<int> parents;
   scopeOfItems(inst, parents);
   std::sort(parents.begin(), parents.end());
   parents.erase(std::unique(parents.begin(), parents.end()), parents.end());
   if (std::binary_search(parents.begin(), parents.end(), inst))
-    throw OutsideFragmentError("random attribute " + gi.name + " depends on itself (cyclic pr-atom or selection "
+    throw OutsideFragmentError("random attribute " + g_.instances[static_cast<size_t>(inst)].name +
+                " depends on itself (cyclic pr-atom or selection "
                 "rule); this is outside the native reasoner's fast path (use the ASP back end)");
-  const int D = static_cast<int>(gi.domain.size());
-  const std::vector<int>& xs = states_[static_cast<size_t>(inst)];
-  const size_t S = xs.size();
+  return parents;
+}
+
+size_t ExactEngine::cptScope(int inst, const std::vector<int>& parents, Factor& f) {
+  const size_t S = states_[static_cast<size_t>(inst)].size();
   f.vars.assign(1, inst);
   f.card.assign(1, static_cast<int>(S));
   size_t total = S;
@@ -597,19 +618,23 @@ void ExactEngine::buildCpt(int inst, Factor& f) {
     f.card.push_back(card(p));
     total *= static_cast<size_t>(card(p));
     if (total > kMaxFactor)
-      throw OutsideFragmentError("factor for " + gi.name + " is too large (" + std::to_string(parents.size()) +
+      throw OutsideFragmentError("factor for " + g_.instances[static_cast<size_t>(inst)].name +
+                  " is too large (" + std::to_string(parents.size()) +
                   " parents); this is outside the native reasoner's fast path");
   }
+  return total;
+}
+
+void ExactEngine::buildCpt(int inst, Factor& f) {
+  const GInstance& gi = g_.instances[static_cast<size_t>(inst)];
+  const std::vector<Item>& items = liveItemsCached(inst);
+  const std::vector<int> parents = cptParents(inst);
+  const size_t total = cptScope(inst, parents, f);
   checkMemory(total * sizeof(double));
   f.t.assign(total, 0.0);
   std::vector<int> cur(parents.size(), 0);
-  std::vector<char> possible(S);
-  std::vector<double> assigned(S);
-  std::vector<int> assigned_by(S);
-  const bool has_undef = !xs.empty() && xs.back() == D;
-  const size_t NV = has_undef ? S - 1 : S;  // number of value states
-  std::vector<int> pos_of(static_cast<size_t>(D), -1);
-  for (size_t k = 0; k < NV; ++k) pos_of[static_cast<size_t>(xs[k])] = static_cast<int>(k);
+  CptRow r(states_[static_cast<size_t>(inst)], static_cast<int>(gi.domain.size()));
+  const size_t S = r.states;
   const size_t nrows = total / S;
   for (size_t row = 0; row < nrows; ++row) {
     checkTime(63);
@@ -617,89 +642,13 @@ void ExactEngine::buildCpt(int inst, Factor& f) {
       assign_[static_cast<size_t>(parents[k])] =
           states_[static_cast<size_t>(parents[k])][static_cast<size_t>(cur[k])];
     newStamp();
-    double* out = &f.t[row * S];
+    r.out = &f.t[row * S];
     try {
-    int fired = -1;
-    for (const auto& it : items) {
-      if (it.kind != 0) continue;
-      if (bodyHolds(gi.selections[static_cast<size_t>(it.index)].body)) {
-        if (fired >= 0)
-          throw IncoherentError(gi.selections[static_cast<size_t>(it.index)].loc.str() +
-                                ": two random selection rules for " + gi.name +
-                                " apply in the same possible world");
-        fired = it.index;
-      }
-    }
-    if (fired < 0) {
-      if (has_undef) out[S - 1] = 1.0;
-    } else {
-      const GSelection& sel = gi.selections[static_cast<size_t>(fired)];
-      int npossible = 0;
-      if (!sel.dynamic_range) {
-        std::fill(possible.begin(), possible.end(), 1);
-        if (has_undef) possible[S - 1] = 0;
-        npossible = static_cast<int>(NV);
-      } else {
-        std::fill(possible.begin(), possible.end(), 0);
-        for (const auto& r : sel.range) {
-          size_t k = static_cast<size_t>(pos_of[static_cast<size_t>(r.first)]);
-          if (!possible[k] && bodyHolds(r.second)) {
-            possible[k] = 1;
-            ++npossible;
-          }
-        }
-      }
-      if (npossible == 0)
-        throw IncoherentError(sel.loc.str() + ": random attribute " + gi.name +
-                              " has an empty dynamic range in a possible world where its "
-                              "selection rule applies");
-      std::fill(assigned.begin(), assigned.end(), -1.0);
-      double sum = 0;
-      int nassigned = 0;
-      for (const auto& it : items) {
-        if (it.kind != 1) continue;
-        const GPr& pr = gi.prs[static_cast<size_t>(it.index)];
-        int kp = pos_of[static_cast<size_t>(pr.value)];
-        if (kp < 0) continue;
-        size_t k = static_cast<size_t>(kp);
-        if (!possible[k]) continue;
-        if (!pr.label.empty() && pr.label != sel.label) continue;
-        if (!bodyHolds(pr.body)) continue;
-        if (assigned[k] >= 0) {
-          const GPr& old = gi.prs[static_cast<size_t>(assigned_by[k])];
-          if (pr.priority > old.priority) {  // newer knowledge overrides
-            sum += pr.probability - assigned[k];
-            assigned[k] = pr.probability;
-            assigned_by[k] = it.index;
-            continue;
-          }
-          if (pr.priority < old.priority) continue;
-          if (std::fabs(assigned[k] - pr.probability) > 1e-12)
-            throw IncoherentError(pr.loc.str() + ": conflicting probabilities for " + gi.name +
-                                  "=" + g_.symbols->text(gi.domain[static_cast<size_t>(pr.value)]) +
-                                  " (" + std::to_string(assigned[k]) + " from " +
-                                  gi.prs[static_cast<size_t>(assigned_by[k])].loc.str() +
-                                  " and " + std::to_string(pr.probability) + ")");
-          continue;
-        }
-        assigned[k] = pr.probability;
-        assigned_by[k] = it.index;
-        sum += pr.probability;
-        ++nassigned;
-      }
-      sum = checkProbabilitySum(gi, assigned, assigned_by, NV, nassigned == npossible && nassigned > 0,
-                                sum, std::max(1, nassigned), warnings_);
-      int rest = npossible - nassigned;
-      double share = rest > 0 ? std::max(0.0, 1.0 - sum) / rest : 0.0;
-      for (size_t k = 0; k < NV; ++k) {
-        if (!possible[k]) continue;
-        out[k] = assigned[k] >= 0 ? assigned[k] : share;
-      }
-    }
+      fillCptRow(gi, items, r);
     } catch (const IncoherentError& e) {
       // Only an error if this parent configuration occurs in a possible world: checked after
       // all factors are built (see checkPendingErrors).
-      std::fill(out, out + S, 0.0);
+      std::fill(r.out, r.out + S, 0.0);
       pending_errors_.push_back(PendingError{pending_factor_, row, e.what()});
     }
     for (size_t k = 0; k < cur.size(); ++k) {
@@ -708,6 +657,102 @@ void ExactEngine::buildCpt(int inst, Factor& f) {
     }
   }
   for (int p : parents) assign_[static_cast<size_t>(p)] = -1;
+}
+
+void ExactEngine::fillCptRow(const GInstance& gi, const std::vector<Item>& items, CptRow& r) {
+  const int fired = firedSelection(gi, items);
+  if (fired < 0) {
+    if (r.has_undef) r.out[r.states - 1] = 1.0;
+    return;
+  }
+  const GSelection& sel = gi.selections[static_cast<size_t>(fired)];
+  const int npossible = markPossibleValues(sel, r);
+  if (npossible == 0)
+    throw IncoherentError(sel.loc.str() + ": random attribute " + gi.name +
+                          " has an empty dynamic range in a possible world where its "
+                          "selection rule applies");
+  double sum = 0;
+  const int nassigned = assignProbabilities(gi, items, sel, r, sum);
+  sum = checkProbabilitySum(gi, r.assigned, r.assigned_by, r.nv,
+                            nassigned == npossible && nassigned > 0, sum, std::max(1, nassigned),
+                            warnings_);
+  int rest = npossible - nassigned;
+  double share = rest > 0 ? std::max(0.0, 1.0 - sum) / rest : 0.0;
+  for (size_t k = 0; k < r.nv; ++k) {
+    if (!r.possible[k]) continue;
+    r.out[k] = r.assigned[k] >= 0 ? r.assigned[k] : share;
+  }
+}
+
+int ExactEngine::firedSelection(const GInstance& gi, const std::vector<Item>& items) {
+  int fired = -1;
+  for (const auto& it : items) {
+    if (it.kind != 0) continue;
+    if (bodyHolds(gi.selections[static_cast<size_t>(it.index)].body)) {
+      if (fired >= 0)
+        throw IncoherentError(gi.selections[static_cast<size_t>(it.index)].loc.str() +
+                              ": two random selection rules for " + gi.name +
+                              " apply in the same possible world");
+      fired = it.index;
+    }
+  }
+  return fired;
+}
+
+int ExactEngine::markPossibleValues(const GSelection& sel, CptRow& r) {
+  if (!sel.dynamic_range) {
+    std::fill(r.possible.begin(), r.possible.end(), 1);
+    if (r.has_undef) r.possible[r.states - 1] = 0;
+    return static_cast<int>(r.nv);
+  }
+  int npossible = 0;
+  std::fill(r.possible.begin(), r.possible.end(), 0);
+  for (const auto& rg : sel.range) {
+    size_t k = static_cast<size_t>(r.pos_of[static_cast<size_t>(rg.first)]);
+    if (!r.possible[k] && bodyHolds(rg.second)) {
+      r.possible[k] = 1;
+      ++npossible;
+    }
+  }
+  return npossible;
+}
+
+int ExactEngine::assignProbabilities(const GInstance& gi, const std::vector<Item>& items,
+                                     const GSelection& sel, CptRow& r, double& sum) {
+  std::fill(r.assigned.begin(), r.assigned.end(), -1.0);
+  int nassigned = 0;
+  for (const auto& it : items) {
+    if (it.kind != 1) continue;
+    const GPr& pr = gi.prs[static_cast<size_t>(it.index)];
+    int kp = r.pos_of[static_cast<size_t>(pr.value)];
+    if (kp < 0) continue;
+    size_t k = static_cast<size_t>(kp);
+    if (!r.possible[k]) continue;
+    if (!pr.label.empty() && pr.label != sel.label) continue;
+    if (!bodyHolds(pr.body)) continue;
+    if (r.assigned[k] >= 0) {
+      const GPr& old = gi.prs[static_cast<size_t>(r.assigned_by[k])];
+      if (pr.priority > old.priority) {  // newer knowledge overrides
+        sum += pr.probability - r.assigned[k];
+        r.assigned[k] = pr.probability;
+        r.assigned_by[k] = it.index;
+        continue;
+      }
+      if (pr.priority < old.priority) continue;
+      if (std::fabs(r.assigned[k] - pr.probability) > 1e-12)
+        throw IncoherentError(pr.loc.str() + ": conflicting probabilities for " + gi.name +
+                              "=" + g_.symbols->text(gi.domain[static_cast<size_t>(pr.value)]) +
+                              " (" + std::to_string(r.assigned[k]) + " from " +
+                              gi.prs[static_cast<size_t>(r.assigned_by[k])].loc.str() +
+                              " and " + std::to_string(pr.probability) + ")");
+      continue;
+    }
+    r.assigned[k] = pr.probability;
+    r.assigned_by[k] = it.index;
+    sum += pr.probability;
+    ++nassigned;
+  }
+  return nassigned;
 }
 
 ExactEngine::Factor ExactEngine::indicatorFactor(std::vector<int> scope,
@@ -908,152 +953,182 @@ void pushUnique(std::vector<int>& v, int x) {
 }
 }  // namespace
 
+/// @brief What a query's factors are built for: the random instances it depends on, the
+/// constraints and the derived instances that may get two values (buildFactors).
+struct ExactEngine::Relevance {
+  std::vector<int> rel;          ///< random instances, in the order found (one CPT each)
+  std::vector<int> queue;        ///< instances of rel whose parents are still to be added
+  std::vector<int> constraints;  ///< indices in g_.constraints (one indicator each)
+  std::vector<int> derived;      ///< derived instances that may get two values
+  std::vector<int> scope;        ///< scratch for the scopes being added
+};
+
+void ExactEngine::addRelevant(Relevance& r, const std::vector<int>& scope) {
+  for (int v : scope)
+    if (rel_stamp_[static_cast<size_t>(v)] != rel_counter_) {
+      rel_stamp_[static_cast<size_t>(v)] = rel_counter_;
+      r.rel.push_back(v);
+      r.queue.push_back(v);
+      computeStates(v);
+    }
+}
+
+void ExactEngine::closeRelevant(Relevance& r) {
+  while (!r.queue.empty()) {
+    int x = r.queue.back();
+    r.queue.pop_back();
+    r.scope.clear();
+    scopeOfItems(x, r.scope);
+    addRelevant(r, r.scope);
+  }
+}
+
 void ExactEngine::buildFactors(const std::vector<const std::vector<GCondition>*>& seeds,
                                int seed_inst, std::vector<Factor>& factors) {
+  Relevance r;
+  collectRelevant(seeds, seed_inst, r);
+  collectEvidence(r);
+  planFactors(seeds, r);
+  pending_errors_.clear();
+  fillFactors(r, factors);
+}
+
+void ExactEngine::collectRelevant(const std::vector<const std::vector<GCondition>*>& seeds,
+                                  int seed_inst, Relevance& r) {
   // Relevance: random instances reachable from the conditions, constraints touching them.
   ++rel_counter_;
   touched_derived_.clear();
-  std::vector<int> rel, queue;
-  auto addScope = [&](const std::vector<int>& s) {
-    for (int v : s)
-      if (rel_stamp_[static_cast<size_t>(v)] != rel_counter_) {
-        rel_stamp_[static_cast<size_t>(v)] = rel_counter_;
-        rel.push_back(v);
-        queue.push_back(v);
-        computeStates(v);
-      }
-  };
-  std::vector<int> s;
-  if (seed_inst >= 0) addScope({seed_inst});
+  if (seed_inst >= 0) addRelevant(r, {seed_inst});
   for (const auto* cs : seeds)
     for (const auto& c : *cs)
       for (const auto& l : c.lits) {
-        s.clear();
-        scopeOfLit(l, s);
-        addScope(s);
+        r.scope.clear();
+        scopeOfLit(l, r.scope);
+        addRelevant(r, r.scope);
       }
-  auto drain = [&]() {
-    while (!queue.empty()) {
-      int x = queue.back();
-      queue.pop_back();
-      s.clear();
-      scopeOfItems(x, s);
-      addScope(s);
-    }
-  };
-  drain();
+  closeRelevant(r);
   // A selection over a dynamic range has no possible world where the range is empty, so it
   // conditions every query like a constraint (checkPendingErrors reports it when such a world
   // has positive measure).
   for (int x : dynamic_range_)
-    if (fixed_[static_cast<size_t>(x)] < 0) addScope({x});
-  drain();
+    if (fixed_[static_cast<size_t>(x)] < 0) addRelevant(r, {x});
+  closeRelevant(r);
+}
+
+void ExactEngine::collectEvidence(Relevance& r) {
   // Constraints (and derived instances that may get two values, which make a world
   // inconsistent) act as evidence. They are all included: one independent of the query scales
   // both measures by the same constant (its ratio is unchanged), but when it can never be
   // satisfied the program has no possible world, which must be reported.
   std::vector<char> used(g_.constraints.size(), 0);
-  std::vector<int> used_list;
   std::vector<char> dused(conflict_derived_.size(), 0);
-  std::vector<int> derived;
   bool changed = true;
   while (changed) {
     changed = false;
     for (size_t c = 0; c < g_.constraints.size(); ++c) {
       if (used[c] || bodyDead(g_.constraints[c].first)) continue;
-      s.clear();
-      for (const auto& l : g_.constraints[c].first) scopeOfLit(l, s);
+      r.scope.clear();
+      for (const auto& l : g_.constraints[c].first) scopeOfLit(l, r.scope);
       used[c] = 1;
-      used_list.push_back(static_cast<int>(c));
-      addScope(s);
-      drain();
+      r.constraints.push_back(static_cast<int>(c));
+      addRelevant(r, r.scope);
+      closeRelevant(r);
       changed = true;
     }
     for (size_t k = 0; k < conflict_derived_.size(); ++k) {
       int d = conflict_derived_[k];
       if (dused[k] || fixed_[static_cast<size_t>(d)] >= 0) continue;
-      s.clear();
-      scopeOfInstance(d, s);
+      r.scope.clear();
+      scopeOfInstance(d, r.scope);
       dused[k] = 1;
-      derived.push_back(d);
-      addScope(s);
-      drain();
+      r.derived.push_back(d);
+      addRelevant(r, r.scope);
+      closeRelevant(r);
       changed = true;
     }
   }
+}
+
+void ExactEngine::planFactors(const std::vector<const std::vector<GCondition>*>& seeds,
+                              Relevance& r) {
   // The plan: rows of every table about to be filled (log2). Over the cost cap, stop before
   // any row is evaluated.
-  {
-    double largest = 0, rows = 0;
-    auto scopeLog2 = [&](std::vector<int>& scope) {
-      std::sort(scope.begin(), scope.end());
-      scope.erase(std::unique(scope.begin(), scope.end()), scope.end());
-      double l = 0;
-      for (int v : scope) l += std::log2(std::max(1, card(v)));
-      largest = std::max(largest, l);
-      rows += std::exp2(l);
-    };
-    for (int x : rel) {
-      s.clear();
-      scopeOfItems(x, s);
-      s.push_back(x);
-      scopeLog2(s);
-    }
-    for (int c : used_list) {
-      s.clear();
-      for (const auto& l : g_.constraints[static_cast<size_t>(c)].first) scopeOfLit(l, s);
-      scopeLog2(s);
-    }
-    for (int d : derived) {
-      s.clear();
-      scopeOfInstance(d, s);
-      scopeLog2(s);
-    }
-    for (const auto* cs : seeds)  // the indicators of buildIndicator
-      for (const auto& c : *cs) {
-        if (splitsIntoLiterals(c)) {
-          for (const auto& l : c.lits) {
-            s.clear();
-            scopeOfLit(l, s);
-            scopeLog2(s);
-          }
-          continue;
-        }
-        s.clear();
-        for (const auto& l : c.lits) scopeOfLit(l, s);
-        scopeLog2(s);
-      }
-    last_planned_log2_ = largest;
-    const bool recursive = !scc_atoms_.empty();
-    last_plan_ = EnginePlan();
-    last_plan_.largest_log2 = largest;
-    last_plan_.rows = rows;
-    last_plan_.recursive = recursive;
-    // Counted by the grounder (O(1) per query: summing the instances' rules here made every
-    // query linear in the whole grounding, 4x on nav_transfer).
-    last_plan_.derived_rules = g_.derived_rules;
-    if (on_plan_) on_plan_(last_plan_);
-    const double cap = recursive ? cost_cap_recursive_log2_ : cost_cap_log2_;
-    if (largest > cap) {
-      throw CostlierError("the native engine's largest table has 2^" + std::to_string(largest) +
-                          " rows, over its cost cap of 2^" + std::to_string(cap) +
-                          (recursive ? " (recursive derived atoms)" : ""));
-    }
+  double largest = 0, rows = 0;
+  std::vector<int>& s = r.scope;
+  auto scopeLog2 = [&](std::vector<int>& scope) {
+    std::sort(scope.begin(), scope.end());
+    scope.erase(std::unique(scope.begin(), scope.end()), scope.end());
+    double l = 0;
+    for (int v : scope) l += std::log2(std::max(1, card(v)));
+    largest = std::max(largest, l);
+    rows += std::exp2(l);
+  };
+  for (int x : r.rel) {
+    s.clear();
+    scopeOfItems(x, s);
+    s.push_back(x);
+    scopeLog2(s);
   }
-  pending_errors_.clear();
-  for (int x : rel) {
+  for (int c : r.constraints) {
+    s.clear();
+    for (const auto& l : g_.constraints[static_cast<size_t>(c)].first) scopeOfLit(l, s);
+    scopeLog2(s);
+  }
+  for (int d : r.derived) {
+    s.clear();
+    scopeOfInstance(d, s);
+    scopeLog2(s);
+  }
+  for (const auto* cs : seeds)  // the indicators of buildIndicator
+    for (const auto& c : *cs) {
+      if (splitsIntoLiterals(c)) {
+        for (const auto& l : c.lits) {
+          s.clear();
+          scopeOfLit(l, s);
+          scopeLog2(s);
+        }
+        continue;
+      }
+      s.clear();
+      for (const auto& l : c.lits) scopeOfLit(l, s);
+      scopeLog2(s);
+    }
+  reportPlan(largest, rows);
+}
+
+void ExactEngine::reportPlan(double largest, double rows) {
+  last_planned_log2_ = largest;
+  const bool recursive = !scc_atoms_.empty();
+  last_plan_ = EnginePlan();
+  last_plan_.largest_log2 = largest;
+  last_plan_.rows = rows;
+  last_plan_.recursive = recursive;
+  // Counted by the grounder (O(1) per query: summing the instances' rules here made every
+  // query linear in the whole grounding, 4x on nav_transfer).
+  last_plan_.derived_rules = g_.derived_rules;
+  if (on_plan_) on_plan_(last_plan_);
+  const double cap = recursive ? cost_cap_recursive_log2_ : cost_cap_log2_;
+  if (largest > cap) {
+    throw CostlierError("the native engine's largest table has 2^" + std::to_string(largest) +
+                        " rows, over its cost cap of 2^" + std::to_string(cap) +
+                        (recursive ? " (recursive derived atoms)" : ""));
+  }
+}
+
+void ExactEngine::fillFactors(const Relevance& r, std::vector<Factor>& factors) {
+  for (int x : r.rel) {
     Factor f;
     pending_factor_ = factors.size();
     buildCpt(x, f);
     factors.push_back(std::move(f));
   }
-  for (int c : used_list)
+  for (int c : r.constraints)
     buildIndicator({}, true, &g_.constraints[static_cast<size_t>(c)].first, factors);
-  for (int d : derived) {
+  for (int d : r.derived) {
     const GInstance& gi = g_.instances[static_cast<size_t>(d)];
     std::vector<int> vals;
-    for (const auto& r : gi.rules)
-      if (!bodyDead(r.second)) pushUnique(vals, r.first);
+    for (const auto& rule : gi.rules)
+      if (!bodyDead(rule.second)) pushUnique(vals, rule.first);
     if (vals.size() < 2) continue;
     // factor: at most one value of d holds
     std::vector<int> scope;

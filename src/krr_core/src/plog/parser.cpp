@@ -168,85 +168,115 @@ class Parser {
   // Statement terminator: '.' (a query at end of input may omit it).
   void endStatement() { expect(Tok::Dot, "'.' at end of statement"); }
 
+  /// @brief One statement: declarations and directives go into prog_ at once, everything
+  /// else (rules, selections, pr-atoms, obs, do, queries) is appended to `out` raw.
   void parseStatement(std::vector<RawStmt>& out) {
     const Token& first = peek();
-    // plog2 and classic sort declarations: '#s = ...' / 's = {...}'
     if (first.kind == Tok::Hash) {
-      if (peek(1).kind == Tok::Ident && peek(1).text == "generation" &&
-          peek(2).kind == Tok::Int) {
-        // `#generation N.` (extension written by export): pr-atoms that follow belong to
-        // knowledge generation N (see PrAtom::priority)
-        next();
-        next();
-        const Token& n = expect(Tok::Int, "generation number");
-        generation_ = std::atoi(n.text.c_str());
-        endStatement();
-        return;
-      }
-      if (peek(1).kind == Tok::Ident && peek(1).text == "domain" &&
-          peek(2).kind == Tok::Ident) {
-        parseDomain();
-        return;
-      }
-      if (peek(1).kind == Tok::Ident && peek(1).text == "const" && peek(2).kind == Tok::Ident) {
-        parseConst();
-        return;
-      }
-      if (peek(1).kind == Tok::Ident && peek(2).kind == Tok::Eq) {
-        next();
-        parseSortDecl();
-        return;
-      }
-      fail(peek(1), "sort name, 'const' or 'domain' after '#'");
+      parseHashStatement();
+      return;
     }
+    if (parseDeclaration()) return;
+    RawStmt st;
+    st.loc = locOf(first);
+    if (first.kind == Tok::LBracket) parseLabel(st);
+    parseRawStatement(st, first);
+    out.push_back(std::move(st));
+  }
+
+  /// @brief A statement starting with '#': `#generation N.`, `#domain`, `#const` or a plog2.0
+  /// sort declaration `#s = ...`.
+  void parseHashStatement() {
+    if (peek(1).kind == Tok::Ident && peek(1).text == "generation" &&
+        peek(2).kind == Tok::Int) {
+      // `#generation N.` (extension written by export): pr-atoms that follow belong to
+      // knowledge generation N (see PrAtom::priority)
+      next();
+      next();
+      const Token& n = expect(Tok::Int, "generation number");
+      generation_ = std::atoi(n.text.c_str());
+      endStatement();
+      return;
+    }
+    if (peek(1).kind == Tok::Ident && peek(1).text == "domain" &&
+        peek(2).kind == Tok::Ident) {
+      parseDomain();
+      return;
+    }
+    if (peek(1).kind == Tok::Ident && peek(1).text == "const" && peek(2).kind == Tok::Ident) {
+      parseConst();
+      return;
+    }
+    if (peek(1).kind == Tok::Ident && peek(2).kind == Tok::Eq) {
+      next();
+      parseSortDecl();
+      return;
+    }
+    fail(peek(1), "sort name, 'const' or 'domain' after '#'");
+  }
+
+  /// @brief A classic sort declaration `s = {...}` / `s = 1..n` or attribute declarations
+  /// (`a : s.`, `a1, a2 : s.`), read into prog_; false (nothing read) for other statements.
+  bool parseDeclaration() {
+    const Token& first = peek();
     if (first.kind == Tok::Ident && peek(1).kind == Tok::Eq &&
         (peek(2).kind == Tok::LBrace ||
          (peek(2).kind == Tok::Int && peek(3).kind == Tok::DotDot) ||
          (peek(2).kind == Tok::Hash))) {
       parseSortDecl();
-      return;
+      return true;
     }
     if (first.kind == Tok::Ident && peek(1).kind == Tok::Colon && peek(2).kind != Tok::Plus) {
       // (`a :+ b.` is a consistency-restoring rule, not a declaration)
       parseAttributeDecl();
-      return;
+      return true;
     }
-    if (first.kind == Tok::Ident && peek(1).kind == Tok::Comma) {
-      // `a1, a2, a3 : s.` declares several attributes with the same signature
-      size_t k = 0;
-      while (peek(k).kind == Tok::Ident && peek(k + 1).kind == Tok::Comma) k += 2;
-      if (peek(k).kind == Tok::Ident && peek(k + 1).kind == Tok::Colon) {
-        std::vector<Token> names;
-        for (size_t j = 0; j <= k; j += 2) names.push_back(peek(j));
-        size_t save = pos_;
-        for (const auto& n : names) {
-          pos_ = save + k;  // re-parse the signature for each name
-          parseAttributeDecl();
-          prog_.attributes.back().name = n.text;
-          prog_.attributes.back().loc = locOf(n);
-        }
-        return;
-      }
+    if (first.kind == Tok::Ident && peek(1).kind == Tok::Comma) return parseAttributeDeclList();
+    return false;
+  }
+
+  /// @brief `a1, a2, a3 : s.` declares several attributes with the same signature; false
+  /// (nothing read) when the names are not followed by ':'.
+  bool parseAttributeDeclList() {
+    size_t k = 0;
+    while (peek(k).kind == Tok::Ident && peek(k + 1).kind == Tok::Comma) k += 2;
+    if (peek(k).kind != Tok::Ident || peek(k + 1).kind != Tok::Colon) return false;
+    std::vector<Token> names;
+    for (size_t j = 0; j <= k; j += 2) names.push_back(peek(j));
+    size_t save = pos_;
+    for (const auto& n : names) {
+      pos_ = save + k;  // re-parse the signature for each name
+      parseAttributeDecl();
+      prog_.attributes.back().name = n.text;
+      prog_.attributes.back().loc = locOf(n);
     }
-    RawStmt st;
-    st.loc = locOf(first);
-    if (first.kind == Tok::LBracket) {
+    return true;
+  }
+
+  /// @brief The label `[r]` (or classic `[r(B)]`) of a selection rule or pr-atom, which must
+  /// follow it.
+  void parseLabel(RawStmt& st) {
+    next();
+    const Token& l = peek();
+    if (l.kind != Tok::Ident && l.kind != Tok::Var && l.kind != Tok::Int)
+      fail(l, "label name after '['");
+    st.w().label = next().text;
+    if (l.kind == Tok::Ident && peek().kind == Tok::LParen) {
+      // classic `[r(B)] random(place(B))`: the label names the rule; its arguments only
+      // repeat the attribute's, so labels match by name
       next();
-      const Token& l = peek();
-      if (l.kind != Tok::Ident && l.kind != Tok::Var && l.kind != Tok::Int)
-        fail(l, "label name after '['");
-      st.w().label = next().text;
-      if (l.kind == Tok::Ident && peek().kind == Tok::LParen) {
-        // classic `[r(B)] random(place(B))`: the label names the rule; its arguments only
-        // repeat the attribute's, so labels match by name
-        next();
-        parseExpr();
-        while (accept(Tok::Comma)) parseExpr();
-        expect(Tok::RParen, "')' closing the label's arguments");
-      }
-      expect(Tok::RBracket, "']' after label");
-      if (!isIdent("random") && !isIdent("pr")) fail(peek(), "'random' or 'pr' after a label");
+      parseExpr();
+      while (accept(Tok::Comma)) parseExpr();
+      expect(Tok::RParen, "')' closing the label's arguments");
     }
+    expect(Tok::RBracket, "']' after label");
+    if (!isIdent("random") && !isIdent("pr")) fail(peek(), "'random' or 'pr' after a label");
+  }
+
+  /// @brief The statement after any label, by its first tokens: a selection rule, pr-atom,
+  /// obs, do, query, constraint (`:- body`, `:+ body`) or rule. `first` is the statement's
+  /// first token (the label's '[' when it has one).
+  void parseRawStatement(RawStmt& st, const Token& first) {
     if (isIdent("random") && peek(1).kind == Tok::LParen) {
       parseRandom(st);
     } else if (isIdent("pr") && peek(1).kind == Tok::LParen) {
@@ -290,7 +320,6 @@ class Parser {
       parseRuleTail(st);
       endStatement();
     }
-    out.push_back(std::move(st));
   }
 
   /// @brief `#const n = 3.`: n stands for the integer wherever it is used as a term, so

@@ -1008,13 +1008,146 @@ std::string negationLoopReason(const Program& program) {
   return "";
 }
 
+namespace {
+
+/// @brief Neither engine could answer: say why for both (e.g. a factor too large natively, too
+/// many possible worlds for clingo within the time budget).
+Error bothFailed(const std::string& why, const std::exception& e) {
+  return Error(why + "; the ASP back end could not answer either: " + e.what());
+}
+
+/// @brief Rethrows clingo's failure in a raced query: answers about the program as they are,
+/// an abandoned or failed clingo run together with why the native engine did not answer.
+[[noreturn]] void rethrowAspFailure(const std::exception_ptr& asp_error, const std::string& why) {
+  try {
+    std::rethrow_exception(asp_error);
+  } catch (const IncoherentError&) {
+    throw;
+  } catch (const UnknownSymbolError&) {
+    throw;
+  } catch (const CancelledError&) {
+    throw Error(why + "; the ASP back end was abandoned");
+  } catch (const Error& e) {
+    throw bothFailed(why, e);
+  }
+}
+
+using RaceClock = std::chrono::steady_clock;
+
+/// @brief `seconds` after `from`; time_point::max (never) when absurdly late.
+RaceClock::time_point after(RaceClock::time_point from, double seconds) {
+  if (!(seconds < 1e9)) return RaceClock::time_point::max();  // never (or absurdly late)
+  return from + std::chrono::duration_cast<RaceClock::duration>(std::chrono::duration<double>(seconds));
+}
+
+/// @brief The clingo side of a raced query: a helper thread that runs `job` (clingo) at once,
+/// at a join time, or when the query wants clingo's answer. The helper is detached and shares
+/// only `Shared` with the query: a query the native engine answers before clingo starts returns
+/// at once, without waiting for the helper to be scheduled (which took milliseconds on a loaded
+/// machine). From construction to finish(), the clingo back end's cancel flag is this race's,
+/// set when the native engine answers.
+class AspRace {
+ public:
+  AspRace(AspBackend& backend, std::function<void()>& job, bool start_now,
+          RaceClock::time_point join_at)
+      : backend_(backend), job_(&job), sh_(std::make_shared<Shared>()) {
+    backend_.setCancelFlag(&native_done_);
+    sh_->start_now = start_now;
+    sh_->join_at = join_at;
+  }
+
+  /// @brief Starts the helper (once). It is started when clingo may be needed: at once for a
+  /// program that may loop through negation, otherwise at the plan when the decision races or
+  /// sets a time for clingo to join (a thread started for every query cost a sizeable part of
+  /// sub-millisecond queries). A grounding that took longer than clingo would have joined
+  /// races at the plan.
+  void spawn() {
+    if (spawned_) return;
+    spawned_ = true;
+    std::thread([sh = sh_, job = job_]() {
+      {
+        std::unique_lock<std::mutex> lock(sh->m);
+        for (;;) {
+          if (sh->stop) return;  // the query is over: `job` must not be touched
+          if (sh->start_now || RaceClock::now() >= sh->join_at) break;
+          if (sh->join_at == RaceClock::time_point::max()) sh->cv.wait(lock);
+          else sh->cv.wait_until(lock, sh->join_at);
+        }
+        sh->started = true;  // from here on the query waits for `finished`
+      }
+      (*job)();
+      {
+        std::lock_guard<std::mutex> lock(sh->m);
+        sh->finished = true;
+      }
+      sh->cv.notify_all();
+    }).detach();
+  }
+
+  /// @brief The decision at the native plan: clingo starts now, or joins after
+  /// d.asp_join_seconds if the native engine has not answered by then.
+  void decide(const AutoDecision& d) {
+    {
+      std::lock_guard<std::mutex> lock(sh_->m);
+      if (d.choice != AutoChoice::Native || RaceClock::now() >= sh_->join_at) sh_->start_now = true;
+      else sh_->join_at = after(RaceClock::now(), d.asp_join_seconds);
+    }
+    if (sh_->start_now || sh_->join_at != RaceClock::time_point::max()) spawn();
+    sh_->cv.notify_all();
+  }
+
+  /// @brief Waits at most `wait` for clingo to finish.
+  void waitFinished(std::chrono::duration<double> wait) {
+    std::unique_lock<std::mutex> lock(sh_->m);
+    sh_->cv.wait_for(lock, wait, [&]() { return sh_->finished; });
+  }
+
+  /// @brief Ends the race: with cancel_asp, clingo is told to stop (a helper that has not
+  /// started exits on its own); otherwise clingo's answer is wanted and waited for.
+  void finish(bool cancel_asp) {
+    if (cancel_asp) native_done_ = true;
+    if (!cancel_asp) spawn();  // clingo's answer is wanted
+    std::unique_lock<std::mutex> lock(sh_->m);
+    if (cancel_asp && !sh_->started) {
+      sh_->stop = true;  // clingo never started: the helper exits on its own
+    } else {
+      sh_->start_now = true;
+      sh_->cv.notify_all();
+      sh_->cv.wait(lock, [&]() { return sh_->finished; });
+    }
+    lock.unlock();
+    sh_->cv.notify_all();
+    backend_.setCancelFlag(nullptr);
+  }
+
+ private:
+  /// @brief All the helper thread shares with the query.
+  struct Shared {
+    std::mutex m;
+    std::condition_variable cv;
+    bool start_now = false, stop = false, started = false, finished = false;
+    RaceClock::time_point join_at = RaceClock::time_point::max();
+  };
+  std::atomic<bool> native_done_{false};
+  AspBackend& backend_;
+  std::function<void()>* job_;
+  std::shared_ptr<Shared> sh_;
+  bool spawned_ = false;
+};
+
+}  // namespace
+
+void Reasoner::noteAspAnswer() {
+  stats_.last_backend = Backend::Asp;
+  ++stats_.asp_answers;
+}
+
 template <typename T, typename Native, typename Asp>
 T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_answer,
                      bool race) {
   auto viaAsp = [&]() {
     T r = asp_answer();
-    stats_.last_backend = Backend::Asp;
-    ++stats_.asp_answers;
+    noteAspAnswer();
     return r;
   };
   if (backend_ == Backend::Asp) return viaAsp();
@@ -1023,74 +1156,75 @@ T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_
     auto it = outside_fragment_.find(key);
     if (it != outside_fragment_.end() && it->second == structure_version_) return viaAsp();
   }
-  auto combined = [](const std::string& why, const std::exception& e) {
-    // Neither engine could answer: say why for both (e.g. a factor too large natively, too
-    // many possible worlds for clingo within the time budget).
-    return Error(why + "; the ASP back end could not answer either: " + e.what());
-  };
-  if (backend_ == Backend::Native || !race) {
-    std::string why;
-    try {
-      T r = native();
-      stats_.last_backend = Backend::Native;
-      return r;
-    } catch (const OutsideFragmentError& e) {
-      if (backend_ != Backend::Auto) throw;
-      outside_fragment_[key] = structure_version_;
-      why = e.what();
-    }
-    try {
-      return viaAsp();
-    } catch (const IncoherentError&) {
-      throw;  // an answer about the program, not a failure of the back end
-    } catch (const UnknownSymbolError&) {
-      throw;
-    } catch (const Error& e) {
-      throw combined(why, e);
-    }
-  }
+  if (backend_ == Backend::Native || !race) return dispatchInTurn<T>(key, native, viaAsp);
+  return dispatchRace<T>(key, native, asp_answer);
+}
 
-  // Auto: the native engine grounds and plans; decideAuto then chooses from both estimates
-  // (see setBackend). A program that may loop through negation (negationLoopReason) is usually
-  // refused by the native engine, but only once it has grounded the query's cone: clingo
-  // starts at once instead, and the native engine joins after kGroundingRaceFactor race delays.
-  using Clock = std::chrono::steady_clock;
-  const auto started = Clock::now();
-  auto after = [&](Clock::time_point from, double seconds) {
-    if (!(seconds < 1e9)) return Clock::time_point::max();  // never (or absurdly late)
-    return from + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
-  };
+template <typename T, typename Native, typename ViaAsp>
+T Reasoner::dispatchInTurn(const std::string& key, Native& native, ViaAsp& via_asp) {
+  std::string why;
+  try {
+    T r = native();
+    stats_.last_backend = Backend::Native;
+    return r;
+  } catch (const OutsideFragmentError& e) {
+    if (backend_ != Backend::Auto) throw;
+    outside_fragment_[key] = structure_version_;
+    why = e.what();
+  }
+  try {
+    return via_asp();
+  } catch (const IncoherentError&) {
+    throw;  // an answer about the program, not a failure of the back end
+  } catch (const UnknownSymbolError&) {
+    throw;
+  } catch (const Error& e) {
+    throw bothFailed(why, e);
+  }
+}
+
+bool Reasoner::mayLoopThroughNegation() {
   const std::pair<std::uint64_t, std::uint64_t> version{structure_version_, change_seq_};
   if (!negation_loop_valid_ || negation_loop_version_ != version) {
     negation_loop_reason_ = negationLoopReason(program_);
     negation_loop_version_ = version;
     negation_loop_valid_ = true;
   }
-  const bool asp_at_once = !negation_loop_reason_.empty();
+  return !negation_loop_reason_.empty();
+}
+
+AutoEstimate Reasoner::beginRace(bool asp_at_once) {
   if (asp_at_once) ++stats_.asp_started_at_once;
   AutoEstimate estimate;
   estimate.asp_seconds = aspCostSeconds(program_);
   stats_.last_estimate = estimate;
   stats_.last_auto_choice = asp_at_once ? AutoChoice::Race : AutoChoice::Native;
   stats_.last_asp_joined = false;
+  return estimate;
+}
+
+AutoDecision Reasoner::decideAtPlan(const EnginePlan& plan, const AutoEstimate& estimate,
+                                    bool asp_at_once) {
+  AutoEstimate e = estimate;
+  e.native_seconds = nativeCostSeconds(plan);
+  e.native_refuses = plan.largest_log2 > kMaxFactorLog2;
+  const AutoDecision d = decideAuto(e, race_delay_);
+  stats_.last_estimate = e;
+  if (!asp_at_once) stats_.last_auto_choice = d.choice;
+  return d;
+}
+
+template <typename T, typename Native, typename Asp>
+T Reasoner::dispatchRace(const std::string& key, Native& native, Asp& asp_answer) {
+  // Auto: the native engine grounds and plans; decideAuto then chooses from both estimates
+  // (see setBackend). A program that may loop through negation (negationLoopReason) is usually
+  // refused by the native engine, but only once it has grounded the query's cone: clingo
+  // starts at once instead, and the native engine joins after kGroundingRaceFactor race delays.
+  const auto started = RaceClock::now();
+  const bool asp_at_once = mayLoopThroughNegation();
+  const AutoEstimate estimate = beginRace(asp_at_once);
   AspBackend& backend = asp();  // made here: the helper thread must not create it
-  std::atomic<bool> native_done{false};
-  backend.setCancelFlag(&native_done);
   asp_won_ = false;
-  // The helper thread that runs clingo shares only this state with the query (it is detached:
-  // a query the native engine answers before clingo starts returns at once, without waiting
-  // for the helper to be scheduled, which took milliseconds on a loaded machine).
-  struct Shared {
-    std::mutex m;
-    std::condition_variable cv;
-    bool start_now = false, stop = false, started = false, finished = false;
-    Clock::time_point join_at = Clock::time_point::max();
-  };
-  auto sh = std::make_shared<Shared>();
-  sh->start_now = asp_at_once;
-  // When clingo joins if the native engine has not answered: while it grounds, from the
-  // estimate without a plan; from its plan on, from decideAuto.
-  sh->join_at = after(started, decideAuto(estimate, race_delay_).asp_join_seconds);
   std::optional<T> asp_result;
   std::exception_ptr asp_error;
   std::function<void()> run_asp = [&]() {
@@ -1104,48 +1238,14 @@ T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_
       asp_error = std::current_exception();
     }
   };
-  // The helper is started when clingo may be needed: at once for a program that may loop
-  // through negation, otherwise at the plan when the decision races or sets a time for clingo
-  // to join (a thread started for every query cost a sizeable part of sub-millisecond
-  // queries). A grounding that took longer than clingo would have joined races at the plan.
-  bool spawned = false;
-  auto spawn = [&]() {
-    if (spawned) return;
-    spawned = true;
-    std::thread([sh, job = &run_asp]() {
-      {
-        std::unique_lock<std::mutex> lock(sh->m);
-        for (;;) {
-          if (sh->stop) return;  // the query is over: `job` must not be touched
-          if (sh->start_now || Clock::now() >= sh->join_at) break;
-          if (sh->join_at == Clock::time_point::max()) sh->cv.wait(lock);
-          else sh->cv.wait_until(lock, sh->join_at);
-        }
-        sh->started = true;  // from here on the query waits for `finished`
-      }
-      (*job)();
-      {
-        std::lock_guard<std::mutex> lock(sh->m);
-        sh->finished = true;
-      }
-      sh->cv.notify_all();
-    }).detach();
-  };
-  if (asp_at_once) spawn();
+  // When clingo joins if the native engine has not answered: while it grounds, from the
+  // estimate without a plan; from its plan on, from decideAuto.
+  AspRace race(backend, run_asp, asp_at_once,
+               after(started, decideAuto(estimate, race_delay_).asp_join_seconds));
+  if (asp_at_once) race.spawn();
   plan_callback_ = [&](const EnginePlan& plan) {
-    AutoEstimate e = estimate;
-    e.native_seconds = nativeCostSeconds(plan);
-    e.native_refuses = plan.largest_log2 > kMaxFactorLog2;
-    const AutoDecision d = decideAuto(e, race_delay_);
-    stats_.last_estimate = e;
-    if (!asp_at_once) stats_.last_auto_choice = d.choice;
-    {
-      std::lock_guard<std::mutex> lock(sh->m);
-      if (d.choice != AutoChoice::Native || Clock::now() >= sh->join_at) sh->start_now = true;
-      else sh->join_at = after(Clock::now(), d.asp_join_seconds);
-    }
-    if (sh->start_now || sh->join_at != Clock::time_point::max()) spawn();
-    sh->cv.notify_all();
+    const AutoDecision d = decideAtPlan(plan, estimate, asp_at_once);
+    race.decide(d);
     if (d.choice == AutoChoice::Asp)
       throw OutsideFragmentError("the native engine's largest table would have 2^" +
                                  std::to_string(plan.largest_log2) + " rows (at most 2^" +
@@ -1156,71 +1256,40 @@ T Reasoner::dispatch(const std::set<std::string>& attrs, Native native, Asp asp_
     ~PlanGuard() { cb = nullptr; }
   } plan_guard{plan_callback_};
   auto finish = [&](bool cancel_asp) {
-    if (cancel_asp) native_done = true;
-    if (!cancel_asp) spawn();  // clingo's answer is wanted
-    std::unique_lock<std::mutex> lock(sh->m);
-    if (cancel_asp && !sh->started) {
-      sh->stop = true;  // clingo never started: the helper exits on its own
-    } else {
-      sh->start_now = true;
-      sh->cv.notify_all();
-      sh->cv.wait(lock, [&]() { return sh->finished; });
-    }
-    lock.unlock();
-    sh->cv.notify_all();
+    race.finish(cancel_asp);
     stats_.last_asp_joined = asp_result || asp_error;
-    backend.setCancelFlag(nullptr);
+    asp_won_ = false;
   };
   auto useAsp = [&](const std::string& why) -> T {
-    if (asp_result) {
-      stats_.last_backend = Backend::Asp;
-      ++stats_.asp_answers;
-      return *asp_result;
-    }
-    try {
-      std::rethrow_exception(asp_error);
-    } catch (const IncoherentError&) {
-      throw;
-    } catch (const UnknownSymbolError&) {
-      throw;
-    } catch (const CancelledError&) {
-      throw Error(why + "; the ASP back end was abandoned");
-    } catch (const Error& e) {
-      throw combined(why, e);
-    }
+    if (!asp_result) rethrowAspFailure(asp_error, why);
+    noteAspAnswer();
+    return *asp_result;
   };
   if (asp_at_once) {
     // clingo usually answers these programs: the native engine joins only if it has not
     // within kGroundingRaceFactor race delays (the two would otherwise share the machine).
-    std::unique_lock<std::mutex> lock(sh->m);
-    sh->cv.wait_for(lock,
-                    std::chrono::duration<double>(race_delay_) * AutoCostModel::kGroundingRaceFactor,
-                    [&]() { return sh->finished; });
+    race.waitFinished(std::chrono::duration<double>(race_delay_) *
+                      AutoCostModel::kGroundingRaceFactor);
   }
   if (asp_won_) {
     finish(false);
-    asp_won_ = false;
     return useAsp("clingo answered first");
   }
   try {
     T r = native();
     finish(true);
-    asp_won_ = false;
     stats_.last_backend = Backend::Native;
     return r;
   } catch (const OutsideFragmentError& e) {
     finish(false);
-    asp_won_ = false;
     outside_fragment_[key] = structure_version_;
     return useAsp(e.what());
   } catch (const CancelledError&) {
     finish(false);  // clingo has answered (or failed): wait for its thread
-    asp_won_ = false;
     if (asp_result || asp_error) return useAsp("the native engine was abandoned");
     throw;
   } catch (...) {
     finish(true);
-    asp_won_ = false;
     throw;
   }
 }
@@ -1403,6 +1472,96 @@ Table Reasoner::tableQuery(const std::string& target, const std::vector<std::str
       /*race=*/false);
 }
 
+namespace {
+
+/// @brief The ground instance of a table query's target or conditioning attribute term.
+/// @throws UnknownSymbolError when the grounding has none.
+int tableInstance(const GroundProgram& g, const std::string& term, const char* role) {
+  const int i = g.findInstance(term);
+  if (i < 0)
+    throw UnknownSymbolError("table query: " + std::string(role) + " " + term +
+                             " is not a random or derived attribute instance of the program");
+  return i;
+}
+
+/// @brief Marks in `todo` the rows of a cached table (rows by conditioning values, `stride`
+/// per conditioning instance) that the ground pr-atoms changed since `since` may change: a
+/// pr-atom with a literal c=v on a do()-fixed conditioning attribute is dead in every row
+/// where c has another value, so it cannot change those rows.
+void markChangedRows(const GroundProgram& g,
+                     const std::vector<std::pair<std::uint64_t, std::pair<int, int>>>& changes,
+                     std::uint64_t since, const std::vector<int>& ci,
+                     const std::vector<size_t>& stride, std::vector<char>& todo) {
+  std::vector<int> fixed(ci.size());
+  for (const auto& ch : changes) {
+    if (ch.first <= since) continue;
+    const GPr& pr = g.instances[static_cast<size_t>(ch.second.first)].prs[static_cast<size_t>(ch.second.second)];
+    std::fill(fixed.begin(), fixed.end(), -1);
+    for (const auto& l : pr.body) {
+      if (l.naf || l.neg || l.value < 0) continue;
+      for (size_t k = 0; k < ci.size(); ++k)
+        if (l.inst == ci[k]) fixed[k] = fixed[k] < 0 || fixed[k] == l.value ? l.value : -2;
+    }
+    bool dead = false;
+    for (int f : fixed) dead = dead || f == -2;  // two values for one attribute: never fires
+    if (dead) continue;
+    // enumerate the rows matching the fixed positions
+    std::vector<size_t> cur(ci.size(), 0);
+    for (;;) {
+      size_t row = 0;
+      for (size_t k = 0; k < ci.size(); ++k)
+        row += (fixed[k] >= 0 ? static_cast<size_t>(fixed[k]) : cur[k]) * stride[k];
+      todo[row] = 1;
+      size_t k = 0;
+      for (; k < ci.size(); ++k) {
+        if (fixed[k] >= 0) continue;
+        if (++cur[k] < g.instances[static_cast<size_t>(ci[k])].domain.size()) break;
+        cur[k] = 0;
+      }
+      if (k == ci.size()) break;
+    }
+  }
+}
+
+/// @brief One row of a table: the target's distribution for the conditioning values `cur`
+/// (value indices of the instances ci), set as do() on the engine or added as observations.
+TableRow tableRow(ExactEngine& e, const GroundProgram& g, int ti, const std::vector<int>& ci,
+                  const std::vector<int>& cur, const std::vector<GCondition>& evs,
+                  bool conditioning_as_do) {
+  const GInstance& tg = g.instances[static_cast<size_t>(ti)];
+  TableRow r;
+  std::vector<GCondition> evr = evs;
+  for (size_t k = 0; k < ci.size(); ++k) {
+    const GInstance& cg = g.instances[static_cast<size_t>(ci[k])];
+    r.conditioning_values.push_back(g.symbols->text(cg.domain[static_cast<size_t>(cur[k])]));
+    if (conditioning_as_do) {
+      e.setFixed(ci[k], cur[k]);
+    } else {
+      GCondition c;
+      c.lits.push_back(GLit{ci[k], cur[k], false, false});
+      evr.push_back(c);
+    }
+  }
+  std::vector<std::pair<int, double>> m = e.marginalSparse(ti, evr);
+  double z = 0;
+  for (const auto& x : m) z += x.second;
+  if (z > 0) {
+    for (const auto& x : m) {
+      if (!(x.second > 0)) continue;
+      if (x.first == static_cast<int>(tg.domain.size()))
+        r.undefined_probability = x.second / z;
+      else
+        r.distribution.push_back(
+            {g.symbols->text(tg.domain[static_cast<size_t>(x.first)]), x.second / z});
+    }
+  } else {
+    r.consistent = false;
+  }
+  return r;
+}
+
+}  // namespace
+
 Table Reasoner::nativeTable(const AttributeTerm& tat, const std::vector<AttributeTerm>& cats,
                             const Query& ev, const std::string& evidence,
                             bool conditioning_as_do) {
@@ -1416,22 +1575,12 @@ Table Reasoner::nativeTable(const AttributeTerm& tat, const std::vector<Attribut
   collectAttrs(ev, attrs);
   auto entry = groundEntryFor(attrs);
   const GroundProgram* g = entry->g.get();
-  int ti = g->findInstance(t.target);
-  if (ti < 0)
-    throw UnknownSymbolError("table query: target " + t.target +
-                             " is not a random or derived attribute instance of the program");
+  const int ti = tableInstance(*g, t.target, "target");
   std::vector<int> ci;
-  for (const auto& c : t.conditioning) {
-    int i = g->findInstance(c);
-    if (i < 0)
-      throw UnknownSymbolError("table query: conditioning attribute " + c +
-                               " is not a random or derived attribute instance of the program");
-    ci.push_back(i);
-  }
+  for (const auto& c : t.conditioning) ci.push_back(tableInstance(*g, c, "conditioning attribute"));
   ExactEngine e(*g);
   std::vector<GCondition> evs = prepareEngine(*g, ev, e);
   if (conditioning_as_do) e.indexBy(ci);
-  const GInstance& tg = g->instances[static_cast<size_t>(ti)];
   size_t total = 1;
   std::vector<size_t> stride(ci.size(), 1);
   for (size_t k = 0; k < ci.size(); ++k) {
@@ -1441,8 +1590,7 @@ Table Reasoner::nativeTable(const AttributeTerm& tat, const std::vector<Attribut
 
   // Rows to compute: all, unless the same table was computed on this grounding before and only
   // ground pr-atoms changed since; then only the rows whose do()-values a changed pr-atom's
-  // body requires (a pr-atom with a literal c=v on a do()-fixed conditioning attribute is dead
-  // in every row where c has another value, so it cannot change those rows).
+  // body requires (markChangedRows).
   std::string cache_key = t.target + "|";
   for (const auto& c : t.conditioning) cache_key += c + ",";
   cache_key += "|" + evidence + (conditioning_as_do ? "|do" : "|obs");
@@ -1456,35 +1604,7 @@ Table Reasoner::nativeTable(const AttributeTerm& tat, const std::vector<Attribut
                cache->conditioning == ci && cache->table.rows.size() == total;
   if (reuse) {
     std::fill(todo.begin(), todo.end(), 0);
-    std::vector<int> fixed(ci.size());
-    for (const auto& ch : entry->changes) {
-      if (ch.first <= cache->seq) continue;
-      const GPr& pr = g->instances[static_cast<size_t>(ch.second.first)].prs[static_cast<size_t>(ch.second.second)];
-      std::fill(fixed.begin(), fixed.end(), -1);
-      for (const auto& l : pr.body) {
-        if (l.naf || l.neg || l.value < 0) continue;
-        for (size_t k = 0; k < ci.size(); ++k)
-          if (l.inst == ci[k]) fixed[k] = fixed[k] < 0 || fixed[k] == l.value ? l.value : -2;
-      }
-      bool dead = false;
-      for (int f : fixed) dead = dead || f == -2;  // two values for one attribute: never fires
-      if (dead) continue;
-      // enumerate the rows matching the fixed positions
-      std::vector<size_t> cur(ci.size(), 0);
-      for (;;) {
-        size_t row = 0;
-        for (size_t k = 0; k < ci.size(); ++k)
-          row += (fixed[k] >= 0 ? static_cast<size_t>(fixed[k]) : cur[k]) * stride[k];
-        todo[row] = 1;
-        size_t k = 0;
-        for (; k < ci.size(); ++k) {
-          if (fixed[k] >= 0) continue;
-          if (++cur[k] < g->instances[static_cast<size_t>(ci[k])].domain.size()) break;
-          cur[k] = 0;
-        }
-        if (k == ci.size()) break;
-      }
-    }
+    markChangedRows(*g, entry->changes, cache->seq, ci, stride, todo);
   }
 
   // With a reusable cached table, rows are recomputed in place there and the result is one
@@ -1501,34 +1621,7 @@ Table Reasoner::nativeTable(const AttributeTerm& tat, const std::vector<Attribut
   for (size_t row = 0; row < total; ++row) {
     if (todo[row]) {
       ++computed;
-      TableRow r;
-      std::vector<GCondition> evr = evs;
-      for (size_t k = 0; k < ci.size(); ++k) {
-        const GInstance& cg = g->instances[static_cast<size_t>(ci[k])];
-        r.conditioning_values.push_back(g->symbols->text(cg.domain[static_cast<size_t>(cur[k])]));
-        if (conditioning_as_do) {
-          e.setFixed(ci[k], cur[k]);
-        } else {
-          GCondition c;
-          c.lits.push_back(GLit{ci[k], cur[k], false, false});
-          evr.push_back(c);
-        }
-      }
-      std::vector<std::pair<int, double>> m = e.marginalSparse(ti, evr);
-      double z = 0;
-      for (const auto& x : m) z += x.second;
-      if (z > 0) {
-        for (const auto& x : m) {
-          if (!(x.second > 0)) continue;
-          if (x.first == static_cast<int>(tg.domain.size()))
-            r.undefined_probability = x.second / z;
-          else
-            r.distribution.push_back(
-                {g->symbols->text(tg.domain[static_cast<size_t>(x.first)]), x.second / z});
-        }
-      } else {
-        r.consistent = false;
-      }
+      TableRow r = tableRow(e, *g, ti, ci, cur, evs, conditioning_as_do);
       if (reuse)
         (*rows)[row] = std::move(r);
       else
@@ -1541,30 +1634,36 @@ Table Reasoner::nativeTable(const AttributeTerm& tat, const std::vector<Attribut
   }
   stats_.table_rows_computed = computed;
   if (conditioning_as_do) {
-    if (!cache) cache = table_cache_[cache_key] = std::make_shared<TableCache>();
-    cache->entry_serial = entry->serial;
-    cache->seq = entry->seq;
-    cache->target = ti;
-    cache->conditioning = ci;
-    if (reuse) {
-      t.rows = cache->table.rows;
-    } else {
-      cache->table = t;
-    }
-    // Changes older than every table cached on this grounding are no longer needed.
-    std::uint64_t oldest = entry->seq;
-    for (const auto& kv : table_cache_)
-      if (kv.second && kv.second->entry_serial == entry->serial) oldest = std::min(oldest, kv.second->seq);
-    size_t k = 0;
-    while (k < entry->changes.size() && entry->changes[k].first <= oldest) ++k;
-    if (k) {
-      entry->changes.erase(entry->changes.begin(), entry->changes.begin() + static_cast<long>(k));
-      entry->changes_from = std::max(entry->changes_from, oldest);
-    }
+    cacheTable(cache_key, cache, *entry, ti, ci, reuse, t);
   } else {
     table_cache_.erase(cache_key);
   }
   return t;
+}
+
+void Reasoner::cacheTable(const std::string& cache_key, std::shared_ptr<TableCache> cache,
+                          GroundEntry& entry, int ti, const std::vector<int>& ci, bool reuse,
+                          Table& t) {
+  if (!cache) cache = table_cache_[cache_key] = std::make_shared<TableCache>();
+  cache->entry_serial = entry.serial;
+  cache->seq = entry.seq;
+  cache->target = ti;
+  cache->conditioning = ci;
+  if (reuse) {
+    t.rows = cache->table.rows;
+  } else {
+    cache->table = t;
+  }
+  // Changes older than every table cached on this grounding are no longer needed.
+  std::uint64_t oldest = entry.seq;
+  for (const auto& kv : table_cache_)
+    if (kv.second && kv.second->entry_serial == entry.serial) oldest = std::min(oldest, kv.second->seq);
+  size_t k = 0;
+  while (k < entry.changes.size() && entry.changes[k].first <= oldest) ++k;
+  if (k) {
+    entry.changes.erase(entry.changes.begin(), entry.changes.begin() + static_cast<long>(k));
+    entry.changes_from = std::max(entry.changes_from, oldest);
+  }
 }
 
 std::vector<QueryAnswer> Reasoner::answerProgramQueries() {

@@ -701,6 +701,8 @@ class Resolver {
     return true;
   }
 
+  /// @brief Resolve the raw statements into prog_: implicit declarations first (they must be
+  /// known before any statement is typed), then each statement in order.
   void resolveAll(const std::vector<RawStmt>& raw) {
     std::vector<RawStmt> renamed;
     const std::vector<RawStmt>& stmts = splitOverloadedPredicates(raw, renamed) ? renamed : raw;
@@ -708,150 +710,176 @@ class Resolver {
     declareObsAttribute(stmts);
     declareDoAttribute(stmts);
     declareImplicit(stmts);
-    {
-      std::size_t nr = 0, nrr = 0, np = 0;
-      for (const auto& s : stmts) {
-        nr += s.kind == RawStmt::Kind::Rule || s.kind == RawStmt::Kind::Obs ||
-              s.kind == RawStmt::Kind::Do;
-        nrr += s.kind == RawStmt::Kind::Random;
-        np += s.kind == RawStmt::Kind::Pr;
-      }
-      if (guard_ && !stmts.empty())
-        guard_->check("resolving the statements", stmts.front().loc,
-                      nr * sizeof(Rule) + nrr * sizeof(RandomRule) + np * sizeof(PrAtom));
-      prog_.rules.reserve(prog_.rules.size() + nr);
-      prog_.random_rules.reserve(prog_.random_rules.size() + nrr);
-      prog_.pr_atoms.reserve(prog_.pr_atoms.size() + np);
-    }
+    reserveStatements(stmts);
     for (const auto& s : stmts) {
       if (guard_) guard_->tick("resolving the statements", s.loc);
       switch (s.kind) {
-        case RawStmt::Kind::Rule: {
-          Rule r;
-          r.loc = s.loc;
-          r.consistency_restoring = s.consistency_restoring;
-          if (s.head) {
-            const int hid = headId(static_cast<std::size_t>(&s - stmts.data()));
-            if (hid >= 0) primeAttr(hid);
-            try {
-              r.head = resolveHeadAtom(*s.head, "a rule head");
-            } catch (const IllSortedValue& e) {
-              // Sorted grounding: the statement has no properly sorted ground instance.
-              if (strict_sorts_) throw;
-              prog_.warnings.push_back(
-                  e.loc.str() + ": warning: " + e.description +
-                  ": the statement has no well-sorted ground instance and is left out, as in "
-                  "P-log's sorted grounding (strict sorts make this an error)");
-              break;
-            }
-          }
-          r.body = resolveBody(s.body);
-          std::vector<std::string> vars;
-          if (r.head) {
-            typeAtom(*r.head, r.variable_sorts);
-            varsOfAtom(*r.head, vars);
-          }
-          typeBody(r.body, r.variable_sorts);
-          varsOfBody(r.body, vars);
-          typeDomains(vars, r.variable_sorts);
-          prog_.rules.push_back(std::move(r));
+        case RawStmt::Kind::Rule:
+          resolveRule(s, static_cast<std::size_t>(&s - stmts.data()));
           break;
-        }
-        case RawStmt::Kind::Random: {
-          RandomRule r;
-          r.loc = s.loc;
-          r.label = s.r().label;
-          r.consistency_restoring = s.consistency_restoring;
-          const Term& t = s.head->lhs;
-          if (t.kind != Term::Kind::Symbol && t.kind != Term::Kind::Compound)
-            throw ParseError(s.head->loc, "random(...) needs an attribute term");
-          r.attr = toAttr(t);
-          const AttributeDecl* d = findAttr(t.name);
-          r.has_range = s.r().has_range;
-          if (s.r().has_range) {
-            if (!s.r().range_pred.empty()) {
-              r.range_var = "_R" + std::to_string(fresh_++);
-              RawLit pl;
-              pl.loc = s.head->loc;
-              pl.lhs.kind = Term::Kind::Compound;
-              pl.lhs.name = s.r().range_pred;
-              pl.lhs.loc = s.head->loc;
-              pl.lhs.args.push_back(Term::variable(r.range_var, s.head->loc));
-              r.range_body = resolveBody({pl});
-            } else {
-              r.range_var = s.r().range_var;
-              r.range_body = resolveBody(s.r().range_body);
-            }
-            r.variable_sorts.emplace(r.range_var, d->range_sort);
-          }
-          r.body = resolveBody(s.body);
-          std::vector<std::string> vars;
-          for (const auto& a : r.attr.args) a.collectVariables(vars);
-          for (size_t i = 0; i < r.attr.args.size(); ++i)
-            typeTerm(r.attr.args[i], d->arg_sorts[i], r.variable_sorts);
-          typeBody(r.body, r.variable_sorts);
-          typeBody(r.range_body, r.variable_sorts);
-          varsOfBody(r.body, vars);
-          varsOfBody(r.range_body, vars);
-          typeDomains(vars, r.variable_sorts);
-          prog_.random_rules.push_back(std::move(r));
+        case RawStmt::Kind::Random:
+          resolveRandom(s);
           break;
-        }
-        case RawStmt::Kind::Pr: {
-          PrAtom p;
-          p.loc = s.loc;
-          p.label = s.r().label;
-          p.atom = resolveHeadAtom(s.r().pr_atom, "the atom of a pr-atom");
-          p.body = resolveBody(s.body);
-          p.probability = s.r().prob;
-          p.probability_text = s.r().prob_text;
-          p.priority = s.priority;
-          if (!(p.probability >= 0.0 && p.probability <= 1.0))
-            throw IncoherentError(s.loc.str() + ": probability " + s.r().prob_text + " of pr(" +
-                                  toString(p.atom) + ") is outside [0,1]");
-          std::vector<std::string> vars;
-          varsOfAtom(p.atom, vars);
-          varsOfBody(p.body, vars);
-          typeAtom(p.atom, p.variable_sorts);
-          typeBody(p.body, p.variable_sorts);
-          typeDomains(vars, p.variable_sorts);
-          prog_.pr_atoms.push_back(std::move(p));
+        case RawStmt::Kind::Pr:
+          resolvePr(s);
           break;
-        }
         case RawStmt::Kind::Obs:
           requireKnownAttribute(s.r().obs.lit);
           prog_.observations.push_back(resolveObs(s.r().obs));
           if (usesObsLiterals()) prog_.rules.push_back(obsFact(prog_.observations.back()));
           break;
-        case RawStmt::Kind::Do: {
-          const auto& a = s.r().do_args;
-          auto isTerm = [](const Term& t) {
-            return t.kind == Term::Kind::Symbol || t.kind == Term::Kind::Compound;
-          };
-          if (a.size() == 3 && isTerm(a[0]) && !findAttr(a[0].name) && isTerm(a[1]) &&
-              findAttr(a[1].name) && a[1].name != "do") {
-            // Agent form do(agent, a(t), y) (plog2.0's do with an agent, flag omitted): the
-            // agent fixes a(t) = y.
-            RawLit l;
-            l.loc = s.r().do_lit.loc;
-            l.lhs = a[1];
-            l.has_op = true;
-            l.op = CompareOp::Eq;
-            l.setRhs() = a[2];
-            prog_.interventions.push_back(resolveDo(l));
-          } else {
-            requireKnownAttribute(s.r().do_lit);
-            prog_.interventions.push_back(resolveDo(s.r().do_lit));
-          }
-          addDoFact(a, s.loc);
+        case RawStmt::Kind::Do:
+          resolveDoStatement(s);
           break;
-        }
         case RawStmt::Kind::Query:
           prog_.queries.push_back(resolveQuery(s.r().query));
           break;
       }
     }
     exportAttributeNames();
+  }
+
+  /// @brief Room for the statements' rules, selection rules and pr-atoms (charged to the
+  /// memory budget first), so that a million facts do not reallocate the rules.
+  void reserveStatements(const std::vector<RawStmt>& stmts) {
+    std::size_t nr = 0, nrr = 0, np = 0;
+    for (const auto& s : stmts) {
+      nr += s.kind == RawStmt::Kind::Rule || s.kind == RawStmt::Kind::Obs ||
+            s.kind == RawStmt::Kind::Do;
+      nrr += s.kind == RawStmt::Kind::Random;
+      np += s.kind == RawStmt::Kind::Pr;
+    }
+    if (guard_ && !stmts.empty())
+      guard_->check("resolving the statements", stmts.front().loc,
+                    nr * sizeof(Rule) + nrr * sizeof(RandomRule) + np * sizeof(PrAtom));
+    prog_.rules.reserve(prog_.rules.size() + nr);
+    prog_.random_rules.reserve(prog_.random_rules.size() + nrr);
+    prog_.pr_atoms.reserve(prog_.pr_atoms.size() + np);
+  }
+
+  /// @brief A rule, fact or constraint (statement number k); one whose head is outside its
+  /// sort is left out with a warning (unless strict_sorts_).
+  void resolveRule(const RawStmt& s, std::size_t k) {
+    Rule r;
+    r.loc = s.loc;
+    r.consistency_restoring = s.consistency_restoring;
+    if (s.head) {
+      const int hid = headId(k);
+      if (hid >= 0) primeAttr(hid);
+      try {
+        r.head = resolveHeadAtom(*s.head, "a rule head");
+      } catch (const IllSortedValue& e) {
+        // Sorted grounding: the statement has no properly sorted ground instance.
+        if (strict_sorts_) throw;
+        prog_.warnings.push_back(
+            e.loc.str() + ": warning: " + e.description +
+            ": the statement has no well-sorted ground instance and is left out, as in "
+            "P-log's sorted grounding (strict sorts make this an error)");
+        return;
+      }
+    }
+    r.body = resolveBody(s.body);
+    std::vector<std::string> vars;
+    if (r.head) {
+      typeAtom(*r.head, r.variable_sorts);
+      varsOfAtom(*r.head, vars);
+    }
+    typeBody(r.body, r.variable_sorts);
+    varsOfBody(r.body, vars);
+    typeDomains(vars, r.variable_sorts);
+    prog_.rules.push_back(std::move(r));
+  }
+
+  /// @brief A random selection rule `[r] random(a(t), range) :- body.`.
+  void resolveRandom(const RawStmt& s) {
+    RandomRule r;
+    r.loc = s.loc;
+    r.label = s.r().label;
+    r.consistency_restoring = s.consistency_restoring;
+    const Term& t = s.head->lhs;
+    if (t.kind != Term::Kind::Symbol && t.kind != Term::Kind::Compound)
+      throw ParseError(s.head->loc, "random(...) needs an attribute term");
+    r.attr = toAttr(t);
+    const AttributeDecl* d = findAttr(t.name);
+    r.has_range = s.r().has_range;
+    if (s.r().has_range) resolveRandomRange(s, *d, r);
+    r.body = resolveBody(s.body);
+    std::vector<std::string> vars;
+    for (const auto& a : r.attr.args) a.collectVariables(vars);
+    for (size_t i = 0; i < r.attr.args.size(); ++i)
+      typeTerm(r.attr.args[i], d->arg_sorts[i], r.variable_sorts);
+    typeBody(r.body, r.variable_sorts);
+    typeBody(r.range_body, r.variable_sorts);
+    varsOfBody(r.body, vars);
+    varsOfBody(r.range_body, vars);
+    typeDomains(vars, r.variable_sorts);
+    prog_.random_rules.push_back(std::move(r));
+  }
+
+  /// @brief The dynamic range of a selection rule: `random(a, p)` (plog2.0: the values y
+  /// with p(y), through a fresh variable) or `random(a : {Y : body})`; its variable ranges
+  /// over the attribute's range sort `d`.
+  void resolveRandomRange(const RawStmt& s, const AttributeDecl& d, RandomRule& r) {
+    if (!s.r().range_pred.empty()) {
+      r.range_var = "_R" + std::to_string(fresh_++);
+      RawLit pl;
+      pl.loc = s.head->loc;
+      pl.lhs.kind = Term::Kind::Compound;
+      pl.lhs.name = s.r().range_pred;
+      pl.lhs.loc = s.head->loc;
+      pl.lhs.args.push_back(Term::variable(r.range_var, s.head->loc));
+      r.range_body = resolveBody({pl});
+    } else {
+      r.range_var = s.r().range_var;
+      r.range_body = resolveBody(s.r().range_body);
+    }
+    r.variable_sorts.emplace(r.range_var, d.range_sort);
+  }
+
+  /// @brief A pr-atom `[r] pr(a(t) = y | body) = p.` (p in [0, 1]).
+  void resolvePr(const RawStmt& s) {
+    PrAtom p;
+    p.loc = s.loc;
+    p.label = s.r().label;
+    p.atom = resolveHeadAtom(s.r().pr_atom, "the atom of a pr-atom");
+    p.body = resolveBody(s.body);
+    p.probability = s.r().prob;
+    p.probability_text = s.r().prob_text;
+    p.priority = s.priority;
+    if (!(p.probability >= 0.0 && p.probability <= 1.0))
+      throw IncoherentError(s.loc.str() + ": probability " + s.r().prob_text + " of pr(" +
+                            toString(p.atom) + ") is outside [0,1]");
+    std::vector<std::string> vars;
+    varsOfAtom(p.atom, vars);
+    varsOfBody(p.body, vars);
+    typeAtom(p.atom, p.variable_sorts);
+    typeBody(p.body, p.variable_sorts);
+    typeDomains(vars, p.variable_sorts);
+    prog_.pr_atoms.push_back(std::move(p));
+  }
+
+  /// @brief A `do(...)` statement: an intervention, and the do fact its arguments make.
+  void resolveDoStatement(const RawStmt& s) {
+    const auto& a = s.r().do_args;
+    auto isTerm = [](const Term& t) {
+      return t.kind == Term::Kind::Symbol || t.kind == Term::Kind::Compound;
+    };
+    if (a.size() == 3 && isTerm(a[0]) && !findAttr(a[0].name) && isTerm(a[1]) &&
+        findAttr(a[1].name) && a[1].name != "do") {
+      // Agent form do(agent, a(t), y) (plog2.0's do with an agent, flag omitted): the
+      // agent fixes a(t) = y.
+      RawLit l;
+      l.loc = s.r().do_lit.loc;
+      l.lhs = a[1];
+      l.has_op = true;
+      l.op = CompareOp::Eq;
+      l.setRhs() = a[2];
+      prog_.interventions.push_back(resolveDo(l));
+    } else {
+      requireKnownAttribute(s.r().do_lit);
+      prog_.interventions.push_back(resolveDo(s.r().do_lit));
+    }
+    addDoFact(a, s.loc);
   }
 
   int fresh_ = 0;

@@ -140,8 +140,30 @@ class ExactEngine {
   bool atomHolds(int inst, int value);
   int valueOf(int inst);
   bool bodyHolds(const std::vector<GLit>& body);
+  /// @brief The factors of a query: the relevant instances (collectRelevant, collectEvidence),
+  /// the plan of their tables (planFactors, which may stop the query), then the tables.
   void buildFactors(const std::vector<const std::vector<GCondition>*>& seeds, int seed_inst,
                     std::vector<Factor>& factors);
+  struct Relevance;
+  /// @brief Adds the instances of scope not yet relevant (their states computed, their
+  /// parents queued).
+  void addRelevant(Relevance& r, const std::vector<int>& scope);
+  /// @brief Adds the parents of the queued instances, transitively.
+  void closeRelevant(Relevance& r);
+  /// @brief The random instances the conditions (and seed_inst, and every selection over a
+  /// dynamic range) depend on.
+  void collectRelevant(const std::vector<const std::vector<GCondition>*>& seeds, int seed_inst,
+                       Relevance& r);
+  /// @brief The live constraints and the derived instances that may get two values, with the
+  /// instances they depend on.
+  void collectEvidence(Relevance& r);
+  /// @brief The sizes of the tables about to be filled, reported as the plan (reportPlan).
+  void planFactors(const std::vector<const std::vector<GCondition>*>& seeds, Relevance& r);
+  /// @brief Records the plan and gives it to on_plan_. @throws CostlierError over the cost cap.
+  void reportPlan(double largest, double rows);
+  /// @brief One CPT per relevant instance, an indicator per constraint and per derived
+  /// instance with two live values.
+  void fillFactors(const Relevance& r, std::vector<Factor>& factors);
   void computeStates(int inst);
   void buildAtomSccs();
   void evaluateScc(int scc);
@@ -151,7 +173,27 @@ class ExactEngine {
     std::string message;
   };
   void checkPendingErrors(const std::vector<Factor>& factors);
+  /// @brief The conditional table of random instance inst given its parents, row by row
+  /// (a row that breaks coherence is left zero and kept in pending_errors_).
   void buildCpt(int inst, Factor& f);
+  struct CptRow;
+  /// @brief The parents of inst (sorted). @throws OutsideFragmentError when inst is among them.
+  std::vector<int> cptParents(int inst);
+  /// @brief f's variables and cardinalities (inst first); returns its number of entries.
+  /// @throws OutsideFragmentError over kMaxFactor entries.
+  size_t cptScope(int inst, const std::vector<int>& parents, Factor& f);
+  /// @brief One row of the table, for the parents' values in assign_. @throws IncoherentError
+  void fillCptRow(const GInstance& gi, const std::vector<Item>& items, CptRow& r);
+  /// @brief The live selection rule of gi that applies (-1: none). @throws IncoherentError
+  /// when two apply.
+  int firedSelection(const GInstance& gi, const std::vector<Item>& items);
+  /// @brief Marks the values the selection may choose in r.possible; returns how many.
+  int markPossibleValues(const GSelection& sel, CptRow& r);
+  /// @brief The probabilities the applicable pr-atoms assign to possible values (newer
+  /// knowledge generations override older ones), added to sum; returns how many values.
+  /// @throws IncoherentError on two different probabilities of one generation.
+  int assignProbabilities(const GInstance& gi, const std::vector<Item>& items,
+                          const GSelection& sel, CptRow& r, double& sum);
   /// @brief Measure of each state of the random, unfixed instance inst together with the
   /// evidence (states_[inst] order; one entry when the instance is not in the result scope).
   std::vector<double> unnormalisedMarginal(int inst, const std::vector<GCondition>& evidence);

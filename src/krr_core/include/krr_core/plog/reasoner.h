@@ -310,8 +310,30 @@ class Reasoner {
   template <typename T, typename Native, typename Asp>
   T dispatch(const std::set<std::string>& attrs, Native native, Asp asp_answer,
              bool race = true);
+  /// @brief dispatch without a race: the native engine, then (Backend::Auto, outside its
+  /// fragment) via_asp(); `key`: the query attributes' key in outside_fragment_.
+  template <typename T, typename Native, typename ViaAsp>
+  T dispatchInTurn(const std::string& key, Native& native, ViaAsp& via_asp);
+  /// @brief dispatch under Backend::Auto: the native engine plans, decideAuto chooses, and
+  /// clingo runs on a helper thread when raced (at once for a program that may loop through
+  /// negation); the first definite answer wins.
+  template <typename T, typename Native, typename Asp>
+  T dispatchRace(const std::string& key, Native& native, Asp& asp_answer);
+  /// @brief Counts an answer of clingo in stats_.
+  void noteAspAnswer();
+  /// @brief negationLoopReason(program_) is not empty (cached per program version).
+  bool mayLoopThroughNegation();
+  /// @brief The estimate of a raced query before any plan (clingo's side), noted in stats_.
+  AutoEstimate beginRace(bool asp_at_once);
+  /// @brief decideAuto at the native engine's plan, noted in stats_.
+  AutoDecision decideAtPlan(const EnginePlan& plan, const AutoEstimate& estimate,
+                            bool asp_at_once);
   struct GroundEntry;
   struct TableCache;
+  /// @brief Keeps a table conditioned by do() (complete) for later queries on the same
+  /// grounding, and drops the grounding's changes no cached table needs any more.
+  void cacheTable(const std::string& cache_key, std::shared_ptr<TableCache> cache,
+                  GroundEntry& entry, int ti, const std::vector<int>& ci, bool reuse, Table& t);
   struct Change {
     enum Kind { kAddRule, kRemoveRule, kAddPr, kRemovePr } kind;
     std::uint64_t seq;
