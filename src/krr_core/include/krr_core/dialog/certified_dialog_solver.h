@@ -167,8 +167,12 @@ struct CertifiedReport {
   std::size_t bytes = 0;      ///< memory held by the tables
   SolveStop stop = SolveStop::kRunning;
   double gap() const { return upper - lower; }
-  /// @brief Stopped by the precision or the trial budget: the same on every run.
-  bool reproducible() const { return stop == SolveStop::kPrecision || stop == SolveStop::kTrials; }
+  /// @brief Stopped by the precision or the trial budget, with no sub-dialog cut off: the same
+  /// on every run. A cut depends on the memory budget (the machine's, limits.h) or the clock,
+  /// so such a policy is not the same everywhere (solveDialogPolicy does not cache it).
+  bool reproducible() const {
+    return (stop == SolveStop::kPrecision || stop == SolveStop::kTrials) && subCapped == 0;
+  }
 };
 
 /// @brief See the file comment.
