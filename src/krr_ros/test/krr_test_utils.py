@@ -104,3 +104,46 @@ def appender(lock, target):
         with lock:
             target.append(msg)
     return cb
+
+
+class RecordingMixin:
+    """For a unittest.TestCase class that starts a node itself (as a subprocess) and records
+    what it publishes. The class sets: node_name (its /rosout lines go to cls.logs), lock,
+    logs, and log_file (the node's output); topic callbacks come from _append(list)."""
+
+    @classmethod
+    def _append(cls, target):
+        def cb(msg):
+            with cls.lock:
+                target.append((time.time(), msg))
+        return cb
+
+    @classmethod
+    def _log(cls, msg):
+        if msg.name == "/" + cls.node_name:
+            with cls.lock:
+                cls.logs.append((time.time(), msg))
+
+    def node_output(self):
+        with open(self.log_file) as f:
+            return "".join(f.readlines()[-60:])
+
+    def wait_for(self, items, pred, start=0, timeout=10.0, what="message"):
+        """The first (receipt time, message) of items[start:] with pred(message), or fail."""
+        deadline = time.time() + timeout
+        while time.time() < deadline and not rospy.is_shutdown():
+            with self.lock:
+                for t, m in items[start:]:
+                    if pred(m):
+                        return t, m
+            time.sleep(0.01)
+        with self.lock:
+            got = [getattr(m, "text", getattr(m, "msg", getattr(m, "status", m)))
+                   for _, m in items[start:]]
+        self.fail("timed out after %.0f s waiting for %s; got %r\nnode output:\n%s" %
+                  (timeout, what, got, self.node_output()))
+
+    def logged(self, text, start=0):
+        """The node's log messages since start that contain text."""
+        with self.lock:
+            return [m for _, m in self.logs[start:] if text in m.msg]

@@ -22,7 +22,7 @@ import yaml
 from krr_msgs.msg import DeliveryStatus, DialogPolicy, RobotUtterance, UserUtterance
 from rosgraph_msgs.msg import Log
 
-from krr_test_utils import node_binary
+from krr_test_utils import RecordingMixin, node_binary
 
 QUESTIONS = (RobotUtterance.ASK_ITEM, RobotUtterance.ASK_ROOM, RobotUtterance.ASK_PERSON,
              RobotUtterance.CONFIRM_ITEM, RobotUtterance.CONFIRM_ROOM,
@@ -37,8 +37,9 @@ START_WAIT = 60.0    # s for the node to serve (a provisional solve takes second
 SOLVE_WAIT = 300.0   # s for the certified background solve (about 25 s alone on this model)
 
 
-class DialogCertifyTest(unittest.TestCase):
+class DialogCertifyTest(RecordingMixin, unittest.TestCase):
     """Runs in name order: the steps build on each other (one node, then a second start)."""
+    node_name = NODE
 
     @classmethod
     def setUpClass(cls):
@@ -100,41 +101,9 @@ class DialogCertifyTest(unittest.TestCase):
         cls.out.close()
         rospy.delete_param("/" + NODE)
 
-    @classmethod
-    def _append(cls, target):
-        def cb(msg):
-            with cls.lock:
-                target.append((time.time(), msg))
-        return cb
-
-    @classmethod
-    def _log(cls, msg):
-        if msg.name == "/" + NODE:
-            with cls.lock:
-                cls.logs.append((time.time(), msg))
-
     # --- helpers ----------------------------------------------------------------------------
-    def node_output(self):
-        with open(self.log_file) as f:
-            return "".join(f.readlines()[-60:])
-
     def setUp(self):
         self.assertIsNone(self.proc.poll(), "dialog_node exited:\n" + self.node_output())
-
-    def wait_for(self, items, pred, start=0, timeout=10.0, what="message"):
-        deadline = time.time() + timeout
-        while time.time() < deadline and not rospy.is_shutdown():
-            with self.lock:
-                for t, m in items[start:]:
-                    if pred(m):
-                        return t, m
-            time.sleep(0.01)
-        self.fail("timed out after %.0f s waiting for %s\nnode output:\n%s" %
-                  (timeout, what, self.node_output()))
-
-    def logged(self, text):
-        with self.lock:
-            return [m for _, m in self.logs if text in m.msg]
 
     def request_and_finish(self, dialog_id):
         """Say SENTENCE (first reply within MAX_LATENCY), answer truthfully, serve; the delivery

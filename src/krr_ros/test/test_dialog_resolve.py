@@ -23,7 +23,7 @@ import yaml
 from krr_msgs.msg import DeliveryStatus, KnowledgeUpdate, RobotUtterance, UserUtterance
 from rosgraph_msgs.msg import Log
 
-from krr_test_utils import node_binary
+from krr_test_utils import RecordingMixin, node_binary
 
 QUESTIONS = (RobotUtterance.ASK_ITEM, RobotUtterance.ASK_ROOM, RobotUtterance.ASK_PERSON,
              RobotUtterance.CONFIRM_ITEM, RobotUtterance.CONFIRM_ROOM,
@@ -45,8 +45,9 @@ INSTALLED = "new dialog policy installed"
 FAILED = "background rebuild failed"
 
 
-class DialogResolveTest(unittest.TestCase):
+class DialogResolveTest(RecordingMixin, unittest.TestCase):
     """Runs in name order against one dialog_node: the steps build on each other."""
+    node_name = NODE
 
     @classmethod
     def setUpClass(cls):
@@ -97,24 +98,7 @@ class DialogResolveTest(unittest.TestCase):
         cls.out.close()
         rospy.delete_param("/" + NODE)
 
-    @classmethod
-    def _append(cls, target):
-        def cb(msg):
-            with cls.lock:
-                target.append((time.time(), msg))
-        return cb
-
-    @classmethod
-    def _log(cls, msg):
-        if msg.name == "/" + NODE:
-            with cls.lock:
-                cls.logs.append((time.time(), msg))
-
     # --- helpers ----------------------------------------------------------------------------
-    def node_output(self):
-        with open(self.log_file) as f:
-            return "".join(f.readlines()[-60:])
-
     def setUp(self):
         self.assertIsNone(self.proc.poll(), "dialog_node exited:\n" + self.node_output())
 
@@ -127,26 +111,6 @@ class DialogResolveTest(unittest.TestCase):
     def mark(self):
         with self.lock:
             return len(self.utterances), len(self.statuses), len(self.logs)
-
-    def wait_for(self, items, pred, start, timeout=10.0, what="message"):
-        """The first (receipt time, message) of items[start:] with pred(message), or fail."""
-        deadline = time.time() + timeout
-        while time.time() < deadline and not rospy.is_shutdown():
-            with self.lock:
-                for t, m in items[start:]:
-                    if pred(m):
-                        return t, m
-            time.sleep(0.01)
-        with self.lock:
-            got = [getattr(m, "text", getattr(m, "msg", getattr(m, "status", m)))
-                   for _, m in items[start:]]
-        self.fail("timed out after %.0f s waiting for %s; got %r\nnode output:\n%s" %
-                  (timeout, what, got, self.node_output()))
-
-    def logged(self, text, start=0):
-        """The node's log messages since start that contain text."""
-        with self.lock:
-            return [m for _, m in self.logs[start:] if text in m.msg]
 
     def wait_log(self, text, start, timeout=SOLVE_WAIT):
         return self.wait_for(self.logs, lambda m: text in m.msg, start, timeout, repr(text))[1]
