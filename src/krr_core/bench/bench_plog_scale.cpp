@@ -25,6 +25,7 @@
 
 #include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
+#include "krr_core/common/main_guard.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/common/subprocess.h"
 #include "krr_core/plog/reasoner.h"
@@ -78,7 +79,11 @@ double runChild(std::size_t class_index, int size) {
                      std::to_string(class_index) + " at size " + std::to_string(size) +
                      " failed (exit " + std::to_string(r.exit_code) + ", signal " +
                      std::to_string(r.signal) + ")");
-  return std::stod(r.out);
+  char* end = nullptr;
+  const double seconds = std::strtod(r.out.c_str(), &end);
+  if (end == r.out.c_str() || !std::isfinite(seconds))
+    throw krr::Error("bench_plog_scale: the child printed '" + r.out + "', not seconds");
+  return seconds;
 }
 
 double slope(const std::vector<double>& x, const std::vector<double>& y) {
@@ -96,7 +101,9 @@ double slope(const std::vector<double>& x, const std::vector<double>& y) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+/// @brief The benchmark; main() runs it under guardedMain (a bad option or a failed child is
+/// a message and exit status 1, not an abort).
+static int mainBody(int argc, char** argv) {
   int repeat = 3;
   bool quick = false, same_process = false;
   std::string measure;
@@ -129,14 +136,13 @@ int main(int argc, char** argv) {
        "10000 x 10000, one atom <= 0.1 s"},
   };
   if (!measure.empty()) {
-    const std::size_t colon = measure.find(':');
-    const std::size_t k = colon == std::string::npos ? classes.size()
-                                                     : std::stoul(measure.substr(0, colon));
-    if (k >= classes.size()) {
-      std::fprintf(stderr, "bench_plog_scale: --measure %s: not CLASS:SIZE\n", measure.c_str());
-      return 2;
-    }
-    std::printf("%.9f\n", runOnce(classes[k].gen(std::stoi(measure.substr(colon + 1)))));
+    const std::vector<std::string> parts = krr::splitOption(measure, ':');
+    const std::size_t k = parts.size() == 2 ? krr::parseCountOption("--measure", parts[0]) : 0;
+    const std::size_t n = parts.size() == 2 ? krr::parseCountOption("--measure", parts[1]) : 0;
+    if (parts.size() != 2 || k >= classes.size() || n == 0 || n > 10000000)
+      throw krr::ConfigError("option --measure: '" + measure + "' is not CLASS:SIZE (class 0-" +
+                             std::to_string(classes.size() - 1) + ", size 1-10000000)");
+    std::printf("%.9f\n", runOnce(classes[k].gen(static_cast<int>(n))));
     return 0;
   }
   bool all_ok = true;
@@ -177,3 +183,5 @@ int main(int argc, char** argv) {
   std::printf("\nall targets met: %s\n", all_ok ? "yes" : "no");
   return 0;
 }
+
+int main(int argc, char** argv) { return krr::guardedMain("bench_plog_scale", mainBody, argc, argv); }
