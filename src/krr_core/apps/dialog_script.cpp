@@ -1,6 +1,6 @@
 // dialog_script: talk to the robot's dialog manager from the command line, without ROS.
 //
-//   dialog_script --utterance "a coke for Bob to office2" --utterance coke --utterance yes
+//   dialog_script --utterance "tea for Dave to the reading room" --utterance tea --utterance yes
 //                 [--question ask_item ...] [--no-policy] [--deliver [--check TEXT ...]
 //                 [--legs ok,ok,fail]] [--out turns.csv] [--json] [--reach P,...
 //                 [--reach-back P,...]] [--dialog-config F] [--language F]

@@ -44,8 +44,8 @@ namespace {
 
 /// @brief On a slot of two values, "is it v?" and "is it w?" are one experiment (yes to one is
 /// no to the other, at the same accuracy), so solvers keep one of them; a person expects the
-/// robot to name the value it believes more likely ("is it for Bob?" at 98 % Bob, not "is it
-/// for Alice?"). Any other action is returned as it is.
+/// robot to name the value it believes more likely ("is it for Dave?" at 98 % Dave, not "is it
+/// for Erin?"). Any other action is returned as it is.
 std::size_t phrasedConfirm(const DialogPomdp& d, std::size_t a, const pomdp::Belief& b) {
   const DialogActionKind kind = d.actionKind(a);
   int slot;

@@ -28,7 +28,7 @@ std::string join(const std::vector<std::string>& w, std::size_t from, std::size_
   return s;
 }
 
-/// "room2" -> "room 2" if the word is letters followed by digits, else "".
+/// "lab2" -> "lab 2" if the word is letters followed by digits, else "".
 std::string splitDigits(const std::string& word) {
   std::size_t k = 0;
   while (k < word.size() && word[k] >= 'a' && word[k] <= 'z') ++k;
@@ -178,7 +178,7 @@ LanguageFrontEnd::LanguageFrontEnd(const std::vector<std::string>& items,
     e.source = "synonym '" + phrase + "' of " + target;
     add(norm(phrase), e, configName);
   }
-  // "room2" also as "room 2" (explicit entries win over generated variants).
+  // "lab2" also as "lab 2" (explicit entries win over generated variants).
   std::vector<std::pair<std::string, Entry>> variants;
   for (const auto& [phrase, e] : lexicon_) {
     const std::size_t sp = phrase.rfind(' ');

@@ -167,8 +167,8 @@ SiteReport checkSite(const SiteFiles& files) {
     return nav::loadNavigationConfig(files.navigation_config);
   });
   if (nav) report.places_file = nav->places;
-  std::optional<nav::PlacesFile> places = files.places;
-  if (!places && nav)
+  std::optional<nav::PlacesFile> places;
+  if (nav)
     places = check.load(nav->places, [&] { return nav::loadPlaces(nav->places); });
   if (places) {
     for (const nav::Place& p : places->places) report.places.push_back(p.name);

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+#include <iostream>
 #include <string>
 
 #include "krr_core/common/files.h"
@@ -7,7 +9,7 @@
 #include "krr_core/nav/blockage_simulator.h"
 #include "krr_core/nav/grid_astar.h"
 #include "krr_core/nav/navigation_config.h"
-#include "krr_core/nav/office_map.h"
+#include "../support/office_map.h"
 
 using namespace krr;
 using namespace krr::nav;
@@ -44,10 +46,22 @@ std::string crossed(const NavGrid& g, const GridRoute& r, int* ba_cells) {
 
 }  // namespace
 
-// The committed map files are exactly what the generator produces (reproducibility).
+// The committed map files are exactly the drawing (test/support/office_map.h). With
+// KRR_WRITE_OFFICE_MAP=1 the test first rewrites them from the drawing (maps/README.md); the
+// domains are then re-cut with make_nav_domain.
 TEST(OfficeMap, CommittedFilesMatchGenerator) {
   NavigationConfig cfg = config();
-  OfficeMap office = makeOfficeMap();
+  const krr_test::OfficeMap office = krr_test::makeOfficeMap();
+  const char* write = std::getenv("KRR_WRITE_OFFICE_MAP");
+  if (write && std::string(write) == "1") {
+    saveMap(office.grid, cfg.map, "office.pgm");
+    writeFileAtomic(cfg.places,
+                    "# Named places and blocking areas of the office map (metres, map frame).\n"
+                    "# Drawn by src/krr_core/test/support/office_map.h (maps/README.md). Do not "
+                    "edit.\n" +
+                        placesToYaml(office.places));
+    std::cerr << "wrote " << cfg.map << ", " << cfg.places << "\n";
+  }
   OccupancyGrid loaded = loadMap(cfg.map);
   EXPECT_EQ(loaded.width, 300);
   EXPECT_EQ(loaded.height, 300);

@@ -8,7 +8,7 @@
  * questions and the serve (robot_utterance), every decision in the manager's vocabulary
  * (~decisions), and the delivery's progress (delivery_status). Navigation legs go to the
  * `navigate` action (to the shop to pick the item up, then to the room); at the room the person
- * checks the delivery ("yes", or "no, a soda for john to room5"), and a wrong delivery goes
+ * checks the delivery ("yes", or "no, water for Erin to the studio"), and a wrong delivery goes
  * back to the shop and is delivered again (the paper's redelivery rule).
  *
  * The dialog model is the one builder's (DialogKnowledge::buildSpec over config/dialog.yaml,

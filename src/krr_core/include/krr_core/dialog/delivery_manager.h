@@ -112,8 +112,8 @@ class DeliveryManager {
   /// @brief The current leg ended: next leg, the check at the room, or failed.
   void legDone(bool reached, std::size_t moves, const std::string& why = "");
   /**
-   * @brief The person's words at the room (kAwaitCheck): "yes", or what they asked for ("no, a
-   * soda for john to room5"; only what differs is needed). `reply` receives what the robot
+   * @brief The person's words at the room (kAwaitCheck): "yes", or what they asked for ("no, water
+   * for Erin to the studio"; only what differs is needed). `reply` receives what the robot
    * should say when the result is kUnclear.
    */
   CheckResult check(const std::string& text, std::string* reply = nullptr);

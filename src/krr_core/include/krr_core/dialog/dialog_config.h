@@ -39,7 +39,7 @@ ServeCostMode serveCostModeFromString(const std::string& text);
 struct DialogConfig {
   // dialog:
   double general_cost = 2.0;     ///< "which item / room / person?"
-  double confirm_cost = 1.5;     ///< "is it coke?"
+  double confirm_cost = 1.5;     ///< "is it tea?"
   double success_reward = 80.0;  ///< fulfilled delivery
   double failure_reward = -80.0; ///< unfulfilled delivery
   int turn_limit = 20;           ///< questions before a forced delivery

@@ -5,7 +5,7 @@
  * Hidden state: the service request <item, room, person> (|I| |R| |P| states, 30 in the
  * paper) plus one absorbing terminal state entered by every serve action. Actions: three
  * general questions ("which item / room / person?", cost 2.0), one confirming question per
- * value ("is it coke?", cost 1.5), and serve(I,R,P) for every request. Serving request a when
+ * value ("is it tea?", cost 1.5), and serve(I,R,P) for every request. Serving request a when
  * the true request is s is fulfilled with probability T^D(s, a) (the paper's delivery
  * equation, computed by the knowledge base from navigation reach probabilities): reward +80
  * if fulfilled, -80 otherwise, so R(s, serve a) = 80 T^D - 80 (1 - T^D) (minus serveCost(s, a)

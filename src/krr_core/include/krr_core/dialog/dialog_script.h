@@ -1,7 +1,7 @@
 /**
  * @file dialog_script.h
  * @brief Scripted dialogs: replay a list of user utterances and record the belief per turn
- * (the paper's Figure 4: "a coke for Bob to office2", then the answers).
+ * (as in the paper's Figure 4: a request in free text, then the answers).
  *
  * Turn 0 is the prior; the robot greets and the user speaks first (utterance 1, as in the
  * paper). Before every further utterance the robot acts: the next scripted question if one is

@@ -4,7 +4,7 @@
  *
  * The dialog POMDP (DialogPomdp) observes one answer per question: an item / room /
  * person name after a general question, yes / no after a confirming question. People do not
- * talk like that ("I'd like a coke for Bob to office2"), so this front end maps free text to a
+ * talk like that ("I'd like tea for Dave to the reading room"), so this front end maps free text to a
  * list of such observations. It is deliberately simple and fully documented:
  *
  * 1. Normalisation. The text is truncated to `max_utterance_chars`, lower-cased (ASCII), and
@@ -12,36 +12,36 @@
  *    (punctuation and white space separate words; bytes >= 0x80, e.g. UTF-8, stay inside
  *    words so that they are reported; bytes that are not valid UTF-8 are written as \xNN, so
  *    reports are always valid UTF-8). In each word a possessive "'s" suffix
- *    is dropped ("bob's" -> "bob") and the remaining apostrophes are removed ("i'd" -> "id").
+ *    is dropped ("dave's" -> "dave") and the remaining apostrophes are removed ("i'd" -> "id").
  * 2. Lexicon. Phrases of one or more words, each with a meaning:
  *    - the value names of the model (items, rooms, persons, case-insensitive),
- *    - `synonyms` (phrase -> value name, e.g. "office2" -> room2, "cola" -> coke),
+ *    - `synonyms` (phrase -> value name, e.g. "reading room" -> library, "chai" -> tea),
  *    - `yes` and `no` words,
  *    - `ignore` words (articles, prepositions, politeness: understood, carry nothing).
- *    Every phrase whose last word is letters followed by digits ("room2", "office2") is also
- *    accepted with a space before the digits ("room 2", "office 2").
+ *    Every phrase whose last word is letters followed by digits ("lab2", "office12") is
+ *    also accepted with a space before the digits ("lab 2", "office 12").
  * 3. Matching, left to right, longest phrase first. A word that starts no phrase is an
  *    unknown word: it is returned in ParsedUtterance::unknownWords (never thrown).
  * 4. Interpretation (interpret()), relative to the robot's last question:
  *    - every distinct value mentioned becomes one observation of the general question of its
- *      factor, in the order of first mention: "a coke for Bob to office2" is the three
- *      successive observations (ask_item, item_coke), (ask_person, person_bob),
- *      (ask_room, room_room2). The dialog model's questions do not change the hidden request
+ *      factor, in the order of first mention: "tea for Dave to the reading room" is the
+ *      three successive observations (ask_item, item_tea), (ask_person, person_dave),
+ *      (ask_room, room_library). The dialog model's questions do not change the hidden request
  *      and answers are independent given the request, so the order does not change the
  *      resulting belief; mentioning the same value twice in one utterance counts once;
  *    - yes / no is the answer to the last question if it was a confirming question, and is
  *      otherwise ignored with a note; an utterance with both yes and no words is
  *      contradictory: both are ignored with a note;
- *    - negation is not understood ("not coke" is a mention of coke): "not" is deliberately
+ *    - negation is not understood ("not tea" is a mention of tea): "not" is deliberately
  *      in neither list, so it is reported as an unknown word.
  * 5. Empty or garbage input gives no observation, the unknown words and a note.
  *
- * Configuration (YAML, e.g. config/language.yaml):
+ * Configuration (YAML, e.g. a site folder's language.yaml):
  * @code
  *   yes: [yes, yeah, correct]
  *   no: [no, nope, wrong]
  *   ignore: [a, an, the, for, to, please]
- *   synonyms: {office2: room2, cola: coke, "john's office": room5}
+ *   synonyms: {"reading room": library, chai: tea, "dave's office": library}
  *   max_utterance_chars: 500
  * @endcode
  * A phrase with two meanings, a synonym of an unknown value name or an empty phrase is a
@@ -165,8 +165,8 @@ class LanguageFrontEnd {
 
 /**
  * @brief What the robot says for a model action: "Which item is it?", "Should I deliver a
- * coke?", "Should I deliver to room2?", "Is it for bob?", "OK, I am delivering a coke for bob
- * to room2." @throws ConfigError for an action index out of range.
+ * tea?", "Should I deliver to library?", "Is it for dave?", "OK, I am delivering a tea for
+ * dave to library." @throws ConfigError for an action index out of range.
  */
 std::string robotUtterance(const DialogPomdp& dialog, std::size_t action);
 

@@ -52,7 +52,7 @@ void parseInto(Program& program, const std::string& text, const std::string& fil
 Query parseQuery(const Program& program, const std::string& text,
                  const std::string& file_name = "<query>");
 
-/// @brief Parse one attribute term (`next_cell`, `curr_room(bob)`) against a program.
+/// @brief Parse one attribute term (`next_cell`, `curr_room(dave)`) against a program.
 AttributeTerm parseAttributeTerm(const Program& program, const std::string& text,
                                  const std::string& file_name = "<term>");
 

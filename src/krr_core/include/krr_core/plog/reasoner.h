@@ -236,7 +236,7 @@ class Reasoner {
   double probability(const std::string& query);
   double probability(const Query& query);
 
-  /// @brief Distribution of an attribute instance (`next_cell`, `curr_room(bob)`) given
+  /// @brief Distribution of an attribute instance (`next_cell`, `curr_room(dave)`) given
   /// evidence written as `obs(...), do(...)` (may be empty). Values with probability > 0; the
   /// mass of worlds where the instance has no value is left out.
   std::vector<ValueProb> distribution(const std::string& attribute_term,

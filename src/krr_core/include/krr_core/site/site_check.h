@@ -75,9 +75,6 @@ struct SiteFiles {
   /// config's; `shop_source` names where it came from ("option --shop").
   std::string shop;
   std::string shop_source;
-  /// The places to check instead of the places file (make_nav_domain --generate-office checks
-  /// the places it is about to write); the places file's path still names them in messages.
-  std::optional<nav::PlacesFile> places;
   /// The navigation and dialog configs already loaded (a site folder's, site.h: the base
   /// configs with the site's names), instead of loading navigation_config / dialog_config;
   /// those paths still name them in messages.

@@ -1,21 +1,57 @@
-#include "krr_core/nav/office_map.h"
+/**
+ * @file office_map.h
+ * @brief The drawing of the bundled office site's map (the paper's Figure 3), kept with the
+ * tests: nav_test_office_map checks that the committed maps/office.pgm and office_places.yaml are
+ * exactly this drawing, and rewrites them when KRR_WRITE_OFFICE_MAP=1 (maps/README.md). The
+ * office is data of its site; no program of the stack draws it.
+ *
+ * 15 m x 15 m at 0.05 m/px. Layout (metres): a corridor ring x,y in [3,12] (1.5 m wide) around
+ * room3 (top half of the centre) and a closed lab; west of the ring, from south to north, room1,
+ * the shop and room4; room2 south of the ring; room5 east of it. Blocking areas: BA1 on the
+ * south corridor (3 m, between the shop and room2), BA2 on the east corridor south of room5's
+ * door (1.5 m), BA3 on the north corridor (1.5 m, before room3's door) and BA4 on the east
+ * corridor north of room5's door (3 m). Hence room1 and room4 are reached without crossing a BA,
+ * room3 crosses BA3, room2 crosses BA1 (or detours through three BAs) and room5 crosses two BAs
+ * (BA1+BA2 or BA3+BA4, 4.5 m of blocking area either way). Unvisited rooms are unknown space,
+ * as in a map built by a real robot.
+ */
+#pragma once
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <utility>
 #include <vector>
 
-namespace krr {
-namespace nav {
+#include "krr_core/nav/nav_grid.h"
+#include "krr_core/nav/occupancy_grid.h"
 
-namespace {
+namespace krr_test {
 
-constexpr double kRes = 0.05;   // m/px
-constexpr int kSize = 300;      // 15 m
+/// @brief The drawn office: the occupancy grid plus its places and blocking areas.
+struct OfficeMap {
+  krr::nav::OccupancyGrid grid;
+  krr::nav::PlacesFile places;
+};
 
-int px(double metres) { return static_cast<int>(std::lround(metres / kRes)); }
+namespace office_map_detail {
 
-void fill(OccupancyGrid& g, double x0, double y0, double x1, double y1, std::int8_t v) {
+using krr::nav::BlockingArea;
+using krr::nav::kFree;
+using krr::nav::kOccupied;
+using krr::nav::kUnknown;
+using krr::nav::OccupancyGrid;
+using krr::nav::Place;
+using krr::nav::PlacesFile;
+using krr::nav::Point2;
+using krr::nav::Rect;
+
+inline constexpr double kRes = 0.05;   // m/px
+inline constexpr int kSize = 300;      // 15 m
+
+inline int px(double metres) { return static_cast<int>(std::lround(metres / kRes)); }
+
+inline void fill(OccupancyGrid& g, double x0, double y0, double x1, double y1, std::int8_t v) {
   for (int j = std::max(0, px(y0)); j < std::min(g.height, px(y1)); ++j) {
     for (int i = std::max(0, px(x0)); i < std::min(g.width, px(x1)); ++i) {
       g.data[static_cast<size_t>(g.index(i, j))] = v;
@@ -25,7 +61,7 @@ void fill(OccupancyGrid& g, double x0, double y0, double x1, double y1, std::int
 
 using Gaps = std::vector<std::pair<double, double>>;
 
-bool inGap(int k, const Gaps& gaps) {
+inline bool inGap(int k, const Gaps& gaps) {
   for (const auto& d : gaps) {
     if (k >= px(d.first) && k < px(d.second)) return true;
   }
@@ -33,7 +69,7 @@ bool inGap(int k, const Gaps& gaps) {
 }
 
 /// 2-px wall centred on the vertical line x from y0 to y1, with door gaps [d0, d1).
-void wallV(OccupancyGrid& g, double x, double y0, double y1, const Gaps& doors = {}) {
+inline void wallV(OccupancyGrid& g, double x, double y0, double y1, const Gaps& doors = {}) {
   for (int j = px(y0) - 1; j < px(y1) + 1; ++j) {
     if (inGap(j, doors)) continue;
     for (int i = px(x) - 1; i <= px(x); ++i) {
@@ -43,7 +79,7 @@ void wallV(OccupancyGrid& g, double x, double y0, double y1, const Gaps& doors =
 }
 
 /// 2-px wall centred on the horizontal line y from x0 to x1, with door gaps [d0, d1).
-void wallH(OccupancyGrid& g, double y, double x0, double x1, const Gaps& doors = {}) {
+inline void wallH(OccupancyGrid& g, double y, double x0, double x1, const Gaps& doors = {}) {
   for (int i = px(x0) - 1; i < px(x1) + 1; ++i) {
     if (inGap(i, doors)) continue;
     for (int j = px(y) - 1; j <= px(y); ++j) {
@@ -52,7 +88,7 @@ void wallH(OccupancyGrid& g, double y, double x0, double x1, const Gaps& doors =
   }
 }
 
-Place place(const char* name, double x, double y, Rect room) {
+inline Place place(const char* name, double x, double y, Rect room) {
   Place p;
   p.name = name;
   p.point = Point2{x, y};
@@ -61,9 +97,11 @@ Place place(const char* name, double x, double y, Rect room) {
   return p;
 }
 
-}  // namespace
+}  // namespace office_map_detail
 
-OfficeMap makeOfficeMap() {
+/// @brief Draw the office map deterministically (no randomness, no files).
+inline OfficeMap makeOfficeMap() {
+  using namespace office_map_detail;
   OfficeMap m;
   OccupancyGrid& g = m.grid;
   g.width = kSize;
@@ -135,5 +173,4 @@ OfficeMap makeOfficeMap() {
   return m;
 }
 
-}  // namespace nav
-}  // namespace krr
+}  // namespace krr_test
