@@ -26,13 +26,12 @@
 #include "krr_core/common/json.h"
 #include "krr_core/common/limits.h"
 #include "krr_core/common/main_guard.h"
-#include "krr_core/common/resource_locator.h"
 #include "krr_core/nav/grid_astar.h"
 #include "krr_core/nav/nav_grid.h"
 #include "krr_core/nav/navigation_config.h"
 #include "krr_core/nav/occupancy_grid.h"
-#include "krr_core/site/site.h"
 #include "krr_core/site/site_check.h"
+#include "krr_core/site/site_options.h"
 
 using namespace krr;
 using namespace krr::nav;
@@ -48,49 +47,17 @@ std::string baseName(const std::string& p) {
 
 /// @brief The program; main() runs it under guardedMain so that no exception aborts it.
 static int mainBody(int argc, char** argv) {
-  std::string config_path, dialog_config, shop_flag, site_dir, root;
+  site::SiteOptions options;
   OptionParser parser("make_nav_domain",
                       "Cut the map named by the config (map_server YAML + PGM or PNG) into the\n"
                       "navigation domains it lists; write <domain>.yaml and\n"
                       "<domain>_geometry.plog next to the map.");
-  parser.add("--config", "FILE", "navigation config", &config_path)
-      .defaultText("ROOT/config/navigation.yaml");
-  parser.add("--dialog-config", "FILE", "dialog config whose navigation.shop is the shop",
-             &dialog_config)
-      .defaultText("dialog.yaml beside the navigation config");
-  parser.add("--shop", "NAME", "the place routes start from (overrides the dialog config's)",
-             &shop_flag);
-  parser.add("--site", "DIR",
-             "site folder: cut its map into its domains (written beside its map), with the "
-             "generic settings of ROOT/config",
-             &site_dir);
-  parser.add("--root", "DIR", kRepositoryRootHelp, &root);
-  if (const auto status = parser.parse(argc, argv, [&] {
-        if (!site_dir.empty() && (!config_path.empty() || !dialog_config.empty()))
-          throw ConfigError("--site names the map, the places and the shop: no --config "
-                            "or --dialog-config with it");
-      }))
-    return *status;
-  NavigationConfig cfg;
-  site::SiteFiles site;
-  if (!site_dir.empty()) {
-    // Site::read, not load: the check below runs once, with --shop if given.
-    const site::Site s = site::Site::read(site_dir, findRepositoryRoot(root) + "/config");
-    cfg = s.navigation();
-    config_path = s.manifest();
-    site = s.files();
-  } else {
-    config_path = resourcePath(config_path, "config/navigation.yaml");
-    cfg = loadNavigationConfig(config_path);
-    site = site::SiteFiles::inConfigDir(dirName(config_path));
-    site.navigation_config = config_path;
-    if (!dialog_config.empty()) site.dialog_config = dialog_config;
-  }
-  if (!shop_flag.empty()) {
-    site.shop = shop_flag;
-    site.shop_source = "option --shop";
-  }
-  const std::string shopName = site::requireConsistentSite(site).shop;
+  options.declare(parser, /*with_shop=*/true);
+  if (const auto status = parser.parse(argc, argv, [&] { options.check(); })) return *status;
+  const site::ResolvedSite resolved = options.resolve();
+  const NavigationConfig& cfg = resolved.navigation;
+  const std::string& config_path = resolved.config_path;
+  const std::string shopName = site::requireConsistentSite(resolved.files).shop;
   OccupancyGrid map = loadMap(cfg.map);
   PlacesFile places = loadPlaces(cfg.places);
   const std::string dir = dirName(cfg.map);

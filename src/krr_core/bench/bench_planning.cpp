@@ -3,11 +3,11 @@
  * @brief Speed of grid A* and OMPL planning on the site's domains, simulator throughput, and
  * the calibration table of navigation success rates (shortest-path policy) per blocking rate.
  *
- *   bench_planning [--config ROOT/config/navigation.yaml] [--dialog-config FILE] [--seed N]
- *                  [--episodes N]
+ *   bench_planning [--config ROOT/config/navigation.yaml] [--dialog-config FILE] [--site DIR
+ *                  [--root DIR]] [--seed N] [--episodes N]
  *
- * Routes start at the site's shop (the dialog config's navigation.shop) and go to every other
- * place of the places file, in its order.
+ * Routes start at the site's shop (the dialog config's navigation.shop, or site.yaml's shop with
+ * --site, site/site_options.h) and go to every other place of the places file, in its order.
  *
  * Targets: A* and OMPL queries well under a millisecond each.
  */
@@ -21,13 +21,13 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/random.h"
-#include "krr_core/common/resource_locator.h"
+#include "krr_core/common/main_guard.h"
 #include "krr_core/common/resources.h"
-#include "krr_core/dialog/dialog_config.h"
 #include "krr_core/nav/blockage_simulator.h"
 #include "krr_core/nav/grid_astar.h"
 #include "krr_core/nav/navigation_config.h"
 #include "krr_core/nav/ompl_planner.h"
+#include "krr_core/site/site_options.h"
 
 using namespace krr;
 using namespace krr::nav;
@@ -127,42 +127,35 @@ static void benchDomain(const NavigationConfig& cfg, const OccupancyGrid& map,
   }
 }
 
-int main(int argc, char** argv) {
-  std::string config_path, dialog_path;
+/// @brief The benchmark; main() runs it under guardedMain, which reports a bad option or file.
+static int mainBody(int argc, char** argv) {
+  site::SiteOptions options;
   std::uint64_t seed = 1;
   std::size_t episodes = 10000;
   OptionParser cli("bench_planning",
                    "Speed of grid A* and OMPL planning on the site's domains, simulator\n"
                    "throughput, and the success rates of the shortest-path policy per blocking\n"
                    "rate.");
-  cli.add("--config", "FILE", "navigation config", &config_path)
-      .defaultText("ROOT/config/navigation.yaml");
-  cli.add("--dialog-config", "FILE", "dialog config whose navigation.shop routes start from",
-          &dialog_path)
-      .defaultText("dialog.yaml beside the navigation config");
+  options.declare(cli);
   cli.add("--seed", "N", "seed of the planner and the simulator", &seed);
   cli.add("--episodes", "N", "episodes per success rate", &episodes);
-  if (const auto status = cli.parse(argc, argv)) return *status;
-  try {
-    config_path = resourcePath(config_path, "config/navigation.yaml");
-    NavigationConfig cfg = loadNavigationConfig(config_path);
-    OccupancyGrid map = loadMap(cfg.map);
-    PlacesFile places = loadPlaces(cfg.places);
-    OmplPlanner planner(map, cfg.planner, seed);
-    // The site's shop and every other place (the rooms), in the places file's order.
-    const std::string shopName =
-        dialog::loadDialogConfig(dialog_path.empty() ? dirName(config_path) + "/dialog.yaml"
-                                                     : dialog_path)
-            .shop;
-    std::vector<std::string> rooms;
-    for (const Place& p : places.places)
-      if (p.name != shopName) rooms.push_back(p.name);
-    for (const DomainConfig& d : cfg.domains)
-      benchDomain(cfg, map, places, planner, d, shopName, rooms, seed, episodes);
-    std::printf("peak RSS %.1f MiB\n", peakRssMiB());
-  } catch (const krr::Error& e) {
-    std::cerr << "bench_planning: " << e.what() << "\n";
-    return 1;
-  }
+  if (const auto status = cli.parse(argc, argv, [&] { options.check(); })) return *status;
+  const site::ResolvedSite site = options.resolve();
+  const NavigationConfig& cfg = site.navigation;
+  OccupancyGrid map = loadMap(cfg.map);
+  PlacesFile places = loadPlaces(cfg.places);
+  OmplPlanner planner(map, cfg.planner, seed);
+  // The site's shop and every other place (the rooms), in the places file's order.
+  const std::string shopName = site.shop();
+  std::vector<std::string> rooms;
+  for (const Place& p : places.places)
+    if (p.name != shopName) rooms.push_back(p.name);
+  for (const DomainConfig& d : cfg.domains)
+    benchDomain(cfg, map, places, planner, d, shopName, rooms, seed, episodes);
+  std::printf("peak RSS %.1f MiB\n", peakRssMiB());
   return 0;
+}
+
+int main(int argc, char** argv) {
+  return krr::guardedMain("bench_planning", mainBody, argc, argv);
 }
