@@ -177,6 +177,19 @@ class TestNodeParams(unittest.TestCase):
                 self.assertIn(os.path.join(ROOT, 'config', node + '.yaml'), out.stdout)
                 self.assertIn(param, out.stdout)
 
+    def test_python_nodes_help_needs_no_master(self):
+        import subprocess
+        from krr_test_utils import node_binary
+        for node in ('simulated_user', 'fake_move_base', 'belief_markers'):
+            for flag in ('--help', '-h'):
+                env = dict(os.environ, ROS_MASTER_URI='http://127.0.0.1:9')  # nobody there
+                out = subprocess.run([node_binary(node), flag], env=env, timeout=20,
+                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                     universal_newlines=True)
+                self.assertEqual(out.returncode, 0, '%s %s:\n%s' % (node, flag, out.stderr))
+                self.assertIn('usage: rosrun krr_ros %s' % node, out.stdout)
+                self.assertIn('%s: ' % node, out.stdout)  # the docstring's first line
+
     def test_sim_launch_passes_kb_config_to_every_node(self):
         import subprocess
         tmp = rospy.get_param('~tmp_dir')
