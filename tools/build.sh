@@ -4,6 +4,7 @@
 # percentage and the target being built) is printed every KRR_PROGRESS_SECONDS (default 20)
 # so that a first build of several minutes is never silent. On failure: the log's tail and
 # its path.
+case "${1:-}" in -h|--help) awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0 ;; esac
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 export PATH="/usr/bin:/bin:$PATH"

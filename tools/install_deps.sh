@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
 # Install the Debian packages the stack needs. Idempotent: apt is only called for missing ones.
+case "${1:-}" in -h|--help) awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0 ;; esac
 set -euo pipefail
 PKGS=(build-essential cmake ros-base-dev catkin python3-rospy python3-rostest librostest-dev
       libtf2-ros-dev libnav-msgs-dev python3-nav-msgs libactionlib-dev python3-actionlib

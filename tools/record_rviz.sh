@@ -9,6 +9,7 @@
 # picked the item up and is on its way to the room (delivery_status to_room) with a planned
 # path, lets it drive about half of the route, then grabs the screen with PIL.
 #   bash tools/record_rviz.sh [OUT.png]        (after bash tools/build.sh; needs rviz, xvfb)
+case "${1:-}" in -h|--help) awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0 ;; esac
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 OUT="${1:-$ROOT/docs/img/rviz_delivery.png}"

@@ -6,6 +6,7 @@
 # docs/example_session.txt; `rosrun krr_eval record_results` then puts it into src/krr_ros/README.md (so the
 # README never shows output that was typed by hand).
 #   bash tools/record_session.sh        (after bash tools/build.sh)
+case "${1:-}" in -h|--help) awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0 ;; esac
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 export PATH="/usr/bin:/bin:$PATH"

@@ -6,6 +6,8 @@
 #      and a report comparing with the paper's numbers.
 # Output goes to out/ (override with KRR_OUT). Options are passed on to krr_eval's evaluate, e.g.
 #   bash tools/run_main.sh --trials-scale 0.1       # a faster, smaller evaluation
+#   bash tools/run_main.sh --help                   # this text (evaluate's own: rosrun krr_eval evaluate --help)
+case "${1:-}" in -h|--help) awk 'NR > 1 && !/^#/ {exit} NR > 1 {sub(/^# ?/, ""); print}' "$0"; exit 0 ;; esac
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 START=$(date +%s)

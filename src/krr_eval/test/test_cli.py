@@ -36,6 +36,31 @@ class CliTest(unittest.TestCase):
                 self.assertTrue(res.stdout.startswith("usage: " + name), res.stdout[:200])
                 self.assertEqual(os.listdir(self.tmp), [], "--help wrote files")
 
+    def test_tools_scripts_help_prints_their_header_and_runs_nothing(self):
+        tools = os.path.join(paths.root(), "tools")
+        scripts = sorted(f for f in os.listdir(tools) if f.endswith(".sh"))
+        self.assertIn("run_main.sh", scripts)
+        for name in scripts:
+            path = os.path.join(tools, name)
+            with open(path) as f:
+                lines = f.read().split("\n")[1:]
+            header = []
+            for line in lines:
+                if not line.startswith("#"):
+                    break
+                header.append(line[2:] if line.startswith("# ") else line[1:])
+            for flag in ("--help", "-h"):
+                with self.subTest(script=name, flag=flag):
+                    # KRR_OUT in the test's folder: a script that ran would write there.
+                    env = dict(os.environ, KRR_OUT=os.path.join(self.tmp, "out"))
+                    res = subprocess.run(["bash", path, flag], cwd=self.tmp, env=env,
+                                         stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                         universal_newlines=True, timeout=30)
+                    self.assertEqual(res.returncode, 0, res.stderr)
+                    self.assertEqual(res.stdout, "\n".join(header) + "\n")
+                    self.assertEqual(res.stderr, "")
+                    self.assertEqual(os.listdir(self.tmp), [])
+
     def test_root_is_the_repository(self):
         root = paths.root()
         self.assertTrue(os.path.isfile(os.path.join(root, "config", "dialog.yaml")))
