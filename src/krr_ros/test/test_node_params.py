@@ -161,34 +161,32 @@ class TestNodeParams(unittest.TestCase):
             proc.kill()
             proc.clear_params()
 
-    def test_help_needs_no_master_and_lists_the_parameters(self):
+    def node_help(self, node):
+        """Each of --help and -h, without a master: exit 0, the usage line; their stdout."""
         import subprocess
         from krr_test_utils import node_binary
+        outputs = []
+        for flag in ('--help', '-h'):
+            env = dict(os.environ, ROS_MASTER_URI='http://127.0.0.1:9')  # nobody there
+            out = subprocess.run([node_binary(node), flag], env=env, timeout=20,
+                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                 universal_newlines=True)
+            self.assertEqual(out.returncode, 0, '%s %s:\n%s%s' % (node, flag, out.stdout, out.stderr))
+            self.assertIn('usage: rosrun krr_ros %s' % node, out.stdout)
+            outputs.append(out.stdout)
+        return outputs
+
+    def test_help_needs_no_master_and_lists_the_parameters(self):
         for node, param in (('reasoner_node', 'discount:'), ('navigation_node', 'sim_rate:'),
                             ('learner_node', 'max_episodes_per_task:'),
                             ('dialog_node', 'seed:')):
-            for flag in ('--help', '-h'):
-                env = dict(os.environ, ROS_MASTER_URI='http://127.0.0.1:9')  # nobody there
-                out = subprocess.run([node_binary(node), flag], env=env, timeout=20,
-                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                     universal_newlines=True)
-                self.assertEqual(out.returncode, 0, '%s %s:\n%s' % (node, flag, out.stdout))
-                self.assertIn('usage: rosrun krr_ros %s' % node, out.stdout)
-                self.assertIn(os.path.join(ROOT, 'config', node + '.yaml'), out.stdout)
-                self.assertIn(param, out.stdout)
-
-    def test_python_nodes_help_needs_no_master(self):
-        import subprocess
-        from krr_test_utils import node_binary
+            for text in self.node_help(node):
+                self.assertIn(os.path.join(ROOT, 'config', node + '.yaml'), text)
+                self.assertIn(param, text)
+        # The Python nodes print their docstring, which starts with the node's name.
         for node in ('simulated_user', 'fake_move_base', 'belief_markers'):
-            for flag in ('--help', '-h'):
-                env = dict(os.environ, ROS_MASTER_URI='http://127.0.0.1:9')  # nobody there
-                out = subprocess.run([node_binary(node), flag], env=env, timeout=20,
-                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                     universal_newlines=True)
-                self.assertEqual(out.returncode, 0, '%s %s:\n%s' % (node, flag, out.stderr))
-                self.assertIn('usage: rosrun krr_ros %s' % node, out.stdout)
-                self.assertIn('%s: ' % node, out.stdout)  # the docstring's first line
+            for text in self.node_help(node):
+                self.assertIn('\n%s: ' % node, text)
 
     def test_sim_launch_passes_kb_config_to_every_node(self):
         import subprocess
