@@ -4,8 +4,9 @@
 #      disagreement would otherwise surface as a confusing failure of some later test), and
 #      the second bundled site, config/sites/lab: its check, a dialog_script delivery and 300
 #      delivery_trials (nothing of the office is hard-wired), a site scaffolded by make_site
-#      from its map and places, cut by make_nav_domain and checked, and one whose map make_site
-#      draws from a room / corridor description; the lab's sim.launch
+#      from its map and places (its domain cut by make_site, cut again by make_nav_domain,
+#      checked), and one whose map make_site draws from a room / corridor description, which
+#      runs a dialog_script delivery as make_site wrote it; the lab's sim.launch
 #      delivery is the rostest delivery_e2e_site.test,
 #   1. the core gtests (no roscore),
 #   2. every rostest .test (each starts its own master; run after sourcing devel/setup.bash,
@@ -65,8 +66,8 @@ site_case delivery_trials_lab '300 trials \[0, 300\): reward' "$B/delivery_trial
   --site "$LAB" --br 0.3 --condition learned --seed 1 --trials 300 --solver-trials 300 \
   --learned-cache "$SITE_TMP/learned"
 # A starter site scaffolded from the lab's map and places with other people and items
-# (make_site), then cut into its domain and checked as a user would.
-site_case make_site_scaffold 'site consistent: 4 rooms' "$B/make_site" --root "$ROOT" \
+# (make_site, which cuts its domain), then cut again and checked as a user would.
+site_case make_site_scaffold 'domains cut: scaffold_24x16 \(24x16' "$B/make_site" --root "$ROOT" \
   --map "$LAB/map.yaml" --places "$LAB/places.yaml" --people ann,ben_li,cy --items juice,soup \
   --offices ann:kitchen,ben_li:studio --shop mailroom --cell 0.5 --out "$SITE_TMP/scaffold"
 site_case make_nav_domain_scaffold '"domain": "scaffold_24x16"' "$B/make_nav_domain" \
@@ -78,8 +79,13 @@ printf '%s\n' 'size 20 12' 'corridor 0 5 20 7' 'room entrance 0 0 5 5 door 2 3.5
   'room office_a 5 0 10 5 door 7 8.5' 'room lounge 0 7 6 12 door 2 3.5' 'area hall_a 5 5 6 7' \
   > "$SITE_TMP/drawn.txt"
 site_case make_site_drawn 'site consistent: 2 rooms' "$B/make_site" --root "$ROOT" \
-  --rooms-from-text "$SITE_TMP/drawn.txt" --people ann,ben --items juice --offices ann:office_a \
+  --rooms-from-text "$SITE_TMP/drawn.txt" --people ann,ben --items juice,cake --offices ann:office_a \
   --shop entrance --cell 0.5 --out "$SITE_TMP/drawn"
+# The folder runs as make_site wrote it: a delivery before any make_nav_domain.
+site_case dialog_script_drawn '^fulfilled$' "$B/dialog_script" --root "$ROOT" \
+  --site "$SITE_TMP/drawn" --cache "$SITE_TMP/policies" --solver-trials 1500 --deliver \
+  --check yes --utterance "juice for Ann to Ann's office" --utterance yes --utterance yes \
+  --utterance yes --utterance yes --utterance yes --utterance yes
 site_case make_nav_domain_drawn '"domain": "drawn_40x24".*"lounge": \{"moves"' "$B/make_nav_domain" \
   --root "$ROOT" --site "$SITE_TMP/drawn"
 rm -rf "$SITE_TMP"

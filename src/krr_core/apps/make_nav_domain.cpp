@@ -30,20 +30,12 @@
 #include "krr_core/nav/nav_grid.h"
 #include "krr_core/nav/navigation_config.h"
 #include "krr_core/nav/occupancy_grid.h"
+#include "krr_core/site/site.h"
 #include "krr_core/site/site_check.h"
 #include "krr_core/site/site_options.h"
 
 using namespace krr;
 using namespace krr::nav;
-
-namespace {
-
-std::string baseName(const std::string& p) {
-  auto pos = p.find_last_of('/');
-  return pos == std::string::npos ? p : p.substr(pos + 1);
-}
-
-}  // namespace
 
 /// @brief The program; main() runs it under guardedMain so that no exception aborts it.
 static int mainBody(int argc, char** argv) {
@@ -56,24 +48,11 @@ static int mainBody(int argc, char** argv) {
   if (const auto status = parser.parse(argc, argv, [&] { options.check(); })) return *status;
   const site::ResolvedSite resolved = options.resolve();
   const NavigationConfig& cfg = resolved.navigation;
-  const std::string& config_path = resolved.config_path;
   const std::string shopName = site::requireConsistentSite(resolved.files).shop;
   OccupancyGrid map = loadMap(cfg.map);
   PlacesFile places = loadPlaces(cfg.places);
-  const std::string dir = dirName(cfg.map);
   for (const DomainConfig& d : cfg.domains) {
-    // The loader already refuses such names; this guards the file names written below.
-    if (!isPlainName(d.name)) {
-      throw ConfigError(config_path + ": domain name '" + d.name +
-                        "' must be a plain identifier [A-Za-z0-9_-]+");
-    }
-    NavGridOptions opt;
-    opt.cols = d.cols;
-    opt.rows = d.rows;
-    opt.max_blocked_fraction = cfg.max_blocked_fraction;
-    NavGrid grid = NavGrid::fromMap(map, places, opt);
-    writeFileAtomic(dir + "/" + d.name + ".yaml", grid.toYaml(d.name, baseName(cfg.map)));
-    writeFileAtomic(dir + "/" + d.name + "_geometry.plog", grid.toPlog(d.name));
+    const NavGrid grid = site::writeDomain(cfg, d, map, places);
     std::cout << "{\"domain\": " << jsonString(d.name) << ", \"free_cells\": "
               << grid.numFreeCells() << ", \"cell_size\": " << jsonNumber(grid.cellWidth());
     for (size_t a = 0; a < grid.areas().size(); ++a) {

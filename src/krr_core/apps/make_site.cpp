@@ -11,7 +11,9 @@
  *
  * Every option is validated before anything is written (an error names the option and the
  * value); the folder is written atomically and checked with the site consistency check, whose
- * one line is printed. Then `make_nav_domain --site DIR` cuts its domains.
+ * one line is printed. Its domains are cut too (<domain>.yaml and <domain>_geometry.plog), so
+ * the stack runs on it at once; after editing its map, places or domains, `make_nav_domain
+ * --site DIR` cuts them again.
  */
 #include <iostream>
 #include <string>
@@ -86,7 +88,13 @@ static int mainBody(int argc, char** argv) {
   const krr::site::Scaffold scaffold(o);
   const krr::site::SiteReport report = scaffold.write(krr::findRepositoryRoot(root) + "/config");
   std::cout << o.out << ": " << report.summary() << "\n";
-  std::cout << "next: make_nav_domain --site " << o.out << "\n";
+  std::cout << "domains cut:";
+  for (const krr::site::ScaffoldDomain& d : scaffold.domains())
+    std::cout << " " << d.name << " (" << d.cols << "x" << d.rows << ", step limit "
+              << d.step_limit << ")";
+  std::cout << "\nnext: roslaunch krr_ros sim.launch site:=" << o.out
+            << " (after editing its map, places or domains: make_nav_domain --site " << o.out
+            << ")\n";
   return 0;
 }
 

@@ -56,6 +56,10 @@ const std::vector<std::string> kNumbers = {"zero",    "one",     "two",      "th
                                            "fourteen", "fifteen", "sixteen", "seventeen",
                                            "eighteen", "nineteen", "twenty"};
 
+/// The dialog's speech model hears a wrong answer as another value of the sort (site_check.h).
+const char* const kTwoValues =
+    ": the dialog needs at least two of each (a misheard answer is another one)";
+
 std::string join(const std::vector<std::string>& v, const std::string& sep = ", ") {
   std::string out;
   for (const std::string& s : v) out += (out.empty() ? "" : sep) + s;
@@ -255,8 +259,6 @@ void Scaffold::validate() {
 }
 
 void Scaffold::validateNames() {
-  if (o_.people.empty()) throw ConfigError("--people: at least one person is required");
-  if (o_.items.empty()) throw ConfigError("--items: at least one item is required");
   // Every name the knowledge or the geometry declares, with where it came from.
   std::map<std::string, std::string> seen;
   auto declare = [&](const std::string& what, const std::string& name) {
@@ -273,6 +275,12 @@ void Scaffold::validateNames() {
       (o_.rooms_from_text.empty() ? "--places " : "--rooms-from-text ") + places_file_;
   for (const nav::Place& p : places_.places) declare(source + ": place", p.name);
   for (const nav::BlockingArea& a : places_.areas) declare(source + ": blocking area", a.name);
+  if (o_.people.size() < 2)
+    throw ConfigError("--people: value '" + join(o_.people) + "': " +
+                      std::to_string(o_.people.size()) + " person" + kTwoValues);
+  if (o_.items.size() < 2)
+    throw ConfigError("--items: value '" + join(o_.items) + "': " +
+                      std::to_string(o_.items.size()) + " item" + kTwoValues);
 }
 
 void Scaffold::validateRoomsAndOffices() {
@@ -297,11 +305,13 @@ void Scaffold::validateRoomsAndOffices() {
       rooms_.push_back(r);
     }
   }
-  if (rooms_.empty())
-    throw ConfigError((o_.rooms_from_text.empty() ? "--places" : "--rooms-from-text") +
-                      std::string(": value '") + places_file_ +
-                      "' has no place besides the shop '" + o_.shop +
-                      "': a site needs at least one room");
+  if (rooms_.size() < 2)
+    throw ConfigError((o_.rooms.empty() ? (o_.rooms_from_text.empty() ? "--places"
+                                                                      : "--rooms-from-text")
+                                        : "--rooms") +
+                      std::string(": value '") + (o_.rooms.empty() ? places_file_ : join(o_.rooms)) +
+                      "': " + std::to_string(rooms_.size()) + " room(s) besides the shop '" +
+                      o_.shop + "'" + kTwoValues);
   std::set<std::string> placed;
   for (const auto& [person, room] : o_.offices) {
     const std::string value = "'" + person + ":" + room + "'";
@@ -391,8 +401,9 @@ std::string Scaffold::siteYaml() const {
     << (image_.empty() ? o_.rooms_from_text + " (the map drawn from it)"
                        : o_.map + " and " + o_.places) << ".\n"
     << "# Its files are the default names of this folder: map.yaml + its image, places.yaml,\n"
-    << "# knowledge.plog, language.yaml. Edit freely, then: make_nav_domain --site DIR (writes\n"
-    << "# <domain>.yaml and <domain>_geometry.plog here) and check_site --site DIR.\n"
+    << "# knowledge.plog, language.yaml; make_site also cut the domains (<domain>.yaml and\n"
+    << "# <domain>_geometry.plog). Edit freely; after changing the map, the places or the\n"
+    << "# domains: make_nav_domain --site DIR. Then check_site --site DIR.\n"
     << "shop: " << o_.shop << "            # where every delivery starts: a place, no room\n\n"
     << "# Navigation domains cut from the map (cell = map size / cols, rows); step limit per\n"
     << "# trip: 5 x the longest route from the shop unless given. Moves from the shop on "
@@ -558,7 +569,13 @@ SiteReport Scaffold::write(const std::string& base_config_dir) const {
     writeFileAtomic((tmp / "site.yaml").string(), siteYaml());
     writeFileAtomic((tmp / "knowledge.plog").string(), knowledgePlog());
     writeFileAtomic((tmp / "language.yaml").string(), languageYaml());
-    requireConsistentSite(Site::read(tmp.string(), base_config_dir).files());
+    const Site site = Site::read(tmp.string(), base_config_dir);
+    requireConsistentSite(site.files());
+    // The domains as make_nav_domain cuts them, so the folder runs as it is.
+    const nav::NavigationConfig& navigation = site.navigation();
+    const nav::OccupancyGrid map = nav::loadMap(navigation.map);
+    const nav::PlacesFile places = nav::loadPlaces(navigation.places);
+    for (const nav::DomainConfig& d : navigation.domains) writeDomain(navigation, d, map, places);
     if (fs::exists(target)) {
       if (fs::is_empty(target)) {
         fs::remove(target);

@@ -7,6 +7,7 @@
 
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
+#include "krr_core/common/limits.h"
 #include "krr_core/common/yaml_section.h"
 #include "krr_core/nav/occupancy_grid.h"
 
@@ -149,12 +150,12 @@ dialog::DialogConfig Site::dialogOver(dialog::DialogConfig base) const {
 
 std::string Site::domainFile(const std::string& domain) const {
   navigation_.domain(domain);  // UnknownSymbolError naming the site's domains
-  return dirName(navigation_.map) + "/" + domain + ".yaml";
+  return domainFileBeside(navigation_.map, domain);
 }
 
 std::string Site::geometry(const std::string& domain) const {
   navigation_.domain(domain);
-  return dirName(navigation_.map) + "/" + domain + "_geometry.plog";
+  return geometryFileBeside(navigation_.map, domain);
 }
 
 std::string Site::experimentPlace(const std::string& experiment, const std::string& field) const {
@@ -178,6 +179,30 @@ SiteFiles Site::files() const {
   f.shop = dialog_.shop;
   f.shop_source = manifest_ + ": field 'shop'";
   return f;
+}
+
+std::string domainFileBeside(const std::string& map_yaml, const std::string& name) {
+  return dirName(map_yaml) + "/" + name + ".yaml";
+}
+
+std::string geometryFileBeside(const std::string& map_yaml, const std::string& name) {
+  return dirName(map_yaml) + "/" + name + "_geometry.plog";
+}
+
+nav::NavGrid writeDomain(const nav::NavigationConfig& cfg, const nav::DomainConfig& d,
+                         const nav::OccupancyGrid& map, const nav::PlacesFile& places) {
+  // The config loaders already refuse such names; this guards the file names written below.
+  if (!isPlainName(d.name))
+    throw ConfigError("domain name '" + d.name + "' must be a plain identifier [A-Za-z0-9_-]+");
+  nav::NavGridOptions opt;
+  opt.cols = d.cols;
+  opt.rows = d.rows;
+  opt.max_blocked_fraction = cfg.max_blocked_fraction;
+  nav::NavGrid grid = nav::NavGrid::fromMap(map, places, opt);
+  writeFileAtomic(domainFileBeside(cfg.map, d.name),
+                  grid.toYaml(d.name, fs::path(cfg.map).filename().string()));
+  writeFileAtomic(geometryFileBeside(cfg.map, d.name), grid.toPlog(d.name));
+  return grid;
 }
 
 }  // namespace site

@@ -196,6 +196,15 @@ SiteReport checkSite(const SiteFiles& files) {
                   "room, person>");
     }
   }
+  // The speech model (config/dialog.plog) hears a wrong answer as another value of the sort.
+  for (int s = 0; s < 3; ++s) {
+    if (!sorts[s] || sorts[s]->size() >= 2) continue;
+    check.add(report.knowledge, std::string("sort ") + kSorts[s], join(*sorts[s]),
+              std::string("the dialog needs at least two values of each of item, room and "
+                          "person (a misheard answer is another value of the sort); sort '") +
+                  kSorts[s] + "' has " + std::to_string(sorts[s]->size()) +
+                  (sorts[s]->empty() ? "" : ": '" + join(*sorts[s]) + "'"));
+  }
   const auto& rooms = sorts[1];
   if (rooms) report.rooms = *rooms;
 

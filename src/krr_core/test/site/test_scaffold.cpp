@@ -102,6 +102,18 @@ TEST(Scaffold, TheLabsMapWithOtherNamesMakesAConsistentSite) {
   for (const std::string& room : scaffold.rooms())
     EXPECT_NO_THROW(astar.plan(grid.placeCell("mailroom"), grid.placeCell(room))) << room;
 
+  // make_site cut the domain already, exactly as make_nav_domain --site writes it
+  // (site::writeDomain), so the folder runs as it is.
+  ASSERT_TRUE(fs::is_regular_file(site.domainFile("site_24x16")));
+  ASSERT_TRUE(fs::is_regular_file(site.geometry("site_24x16")));
+  EXPECT_EQ(krr::readFile(site.domainFile("site_24x16")), grid.toYaml("site_24x16", "map.yaml"));
+  EXPECT_EQ(krr::readFile(site.geometry("site_24x16")), grid.toPlog("site_24x16"));
+  EXPECT_EQ(site.domainFile("site_24x16"), o.out + "/site_24x16.yaml");
+  const std::string before = krr::readFile(site.geometry("site_24x16"));
+  krr::site::writeDomain(site.navigation(), dc, krr::nav::loadMap(site.map()),
+                         krr::nav::loadPlaces(site.places()));
+  EXPECT_EQ(krr::readFile(site.geometry("site_24x16")), before);
+
   // The lab's request prior, with the site's names.
   krr::plog::Reasoner reasoner;
   reasoner.loadFile(site.knowledge());
@@ -187,6 +199,16 @@ TEST(Scaffold, EveryBadOptionIsRefusedNamingTheOptionAndTheValue) {
           "'Ann' must be a P-log constant");
   refused("reserved", [](ScaffoldOptions& o) { o.items = {"room"}; }, "--items",
           "'room' is a symbol");
+  refused("one_item", [](ScaffoldOptions& o) { o.items = {"juice"}; }, "--items",
+          "'juice': 1 item: the dialog needs at least two");
+  refused("one_person", [](ScaffoldOptions& o) {
+    o.people = {"ann"};
+    o.offices = {{"ann", "kitchen"}};
+  }, "--people", "'ann': 1 person: the dialog needs at least two");
+  refused("one_room", [](ScaffoldOptions& o) {
+    o.rooms = {"lab"};
+    o.offices = {};
+  }, "--rooms", "'lab': 1 room(s) besides the shop 'mailroom': the dialog needs at least two");
   refused("cell", [](ScaffoldOptions& o) { o.cell = 0.7; }, "--cell", "does not divide the map");
   refused("no_domain", [](ScaffoldOptions& o) { o.cell = 0; }, "--domain", "--cell");
   refused("domain", [](ScaffoldOptions& o) {

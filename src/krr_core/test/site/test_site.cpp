@@ -170,3 +170,25 @@ TEST(Site, AStaleNameIsRefusedWithEveryFinding) {
 }
 
 }  // namespace
+
+// site::writeDomain, the one writer of a domain's files: the bundled lab's committed files are
+// exactly what it writes, and a name that is no file name is refused before anything is written.
+TEST(Site, WriteDomainWritesTheCommittedFilesAndRefusesABadName) {
+  const std::string dir = labCopy("write_domain");
+  const Site site = Site::load(dir, config());
+  const krr::nav::NavigationConfig& nav = site.navigation();
+  const krr::nav::OccupancyGrid map = krr::nav::loadMap(nav.map);
+  const krr::nav::PlacesFile places = krr::nav::loadPlaces(nav.places);
+  fs::remove(site.geometry("lab_24x16"));
+  fs::remove(site.domainFile("lab_24x16"));
+  krr::site::writeDomain(nav, nav.domain("lab_24x16"), map, places);
+  const std::string lab = config() + "/sites/lab/";
+  EXPECT_EQ(readText(site.geometry("lab_24x16")), readText(lab + "lab_24x16_geometry.plog"));
+  EXPECT_EQ(readText(site.domainFile("lab_24x16")), readText(lab + "lab_24x16.yaml"));
+
+  krr::nav::DomainConfig bad = nav.domain("lab_24x16");
+  bad.name = "../escape";
+  EXPECT_THROW(krr::site::writeDomain(nav, bad, map, places), krr::ConfigError);
+  EXPECT_FALSE(fs::exists(fs::path(dir).parent_path() / "escape.yaml"));
+  EXPECT_FALSE(fs::exists(fs::path(dir).parent_path() / "escape_geometry.plog"));
+}

@@ -119,6 +119,20 @@ TEST(SiteCheck, ARoomWithoutAPlaceNamesThePlacesFileAndThePlacesThatAreNoRooms) 
   EXPECT_EQ(f.message.find("mailroom"), std::string::npos) << "the shop is no room by design";
 }
 
+TEST(SiteCheck, ASortOfOneValueNamesTheKnowledgeAndTheSort) {
+  // The speech model hears a wrong answer as another value: one item leaves it none.
+  const std::string root = writeSite({{"config/site.plog",
+                                       "boolean = {true, false}.\n"
+                                       "person = {ada, max}.\n"
+                                       "item = {tea}.\n"
+                                       "room = {lab, studio}.\n"}});
+  const Finding f = only(check(root));
+  expectNames(f, root + "/config/site.plog", "sort item", "tea");
+  EXPECT_NE(f.message.find("at least two values of each of item, room and person"),
+            std::string::npos)
+      << f.message;
+}
+
 TEST(SiteCheck, AShopThatIsNoPlaceNamesTheDialogConfig) {
   const std::string root = writeSite({{"config/dialog.yaml",
                                        "navigation: {shop: shop}\n"

@@ -27,7 +27,8 @@
  * from the shop at that grid, rounded up to ten (the README's "a few times the longest
  * route"), and every room must be reachable from the shop on every domain's grid. write()
  * builds the folder in a temporary sibling directory, checks it with the site consistency check
- * (site_check.h) and renames it into place, so that a refused or failed run leaves nothing.
+ * (site_check.h), cuts its domains as make_nav_domain does (site::writeDomain), and renames it
+ * into place, so that a refused or failed run leaves nothing and a written folder runs as it is.
  */
 #pragma once
 

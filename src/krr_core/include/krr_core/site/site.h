@@ -37,7 +37,9 @@
 #include <vector>
 
 #include "krr_core/dialog/dialog_config.h"
+#include "krr_core/nav/nav_grid.h"
 #include "krr_core/nav/navigation_config.h"
+#include "krr_core/nav/occupancy_grid.h"
 #include "krr_core/site/site_check.h"
 
 namespace krr {
@@ -99,6 +101,21 @@ class Site {
   dialog::DialogConfig dialog_;
   std::map<std::string, std::map<std::string, std::string>> experiments_;
 };
+
+/**
+ * @brief Cut the map of `cfg` into domain `d` (NavGrid::fromMap with cfg's
+ * max_blocked_fraction) and write it beside the map as <d.name>.yaml and
+ * <d.name>_geometry.plog, the files Site::domainFile() and Site::geometry() name: the one
+ * writer of a domain (make_nav_domain, and make_site, whose folder is then complete).
+ * @return the grid. @throws ConfigError for a domain name that is no plain identifier;
+ * MapError when the grid cannot be cut; IoError when a file cannot be written.
+ */
+nav::NavGrid writeDomain(const nav::NavigationConfig& cfg, const nav::DomainConfig& d,
+                         const nav::OccupancyGrid& map, const nav::PlacesFile& places);
+
+/// @brief The generated files of domain `name` beside the map file `map_yaml`.
+std::string domainFileBeside(const std::string& map_yaml, const std::string& name);
+std::string geometryFileBeside(const std::string& map_yaml, const std::string& name);
 
 }  // namespace site
 }  // namespace krr

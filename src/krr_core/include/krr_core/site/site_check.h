@@ -24,7 +24,10 @@
  *     listed; and the front end builds from the file and the knowledge;
  *  5. knowledge: the reasoner's domain_files, when given, include the dialog's
  *     knowledge.office, compared as resolved paths, so the reasoner and the dialog reason about
- *     the same building (not given: the reasoner loads knowledge.office itself).
+ *     the same building (not given: the reasoner loads knowledge.office itself);
+ *  6. sorts: the knowledge has at least two values of each of item, room and person (the
+ *     speech model, config/dialog.plog, hears a misheard answer as another value of the sort;
+ *     with one value its probabilities would not sum to 1).
  *
  * A file that cannot be read is a finding too, and the rules that need it are skipped.
  * Every finding names the file, the field and the value.
