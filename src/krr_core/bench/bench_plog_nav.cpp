@@ -12,6 +12,7 @@
 
 #include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
+#include "krr_core/common/main_guard.h"
 #include "krr_core/common/resources.h"
 #include "krr_core/examples/grid_program.h"
 #include "krr_core/plog/reasoner.h"
@@ -33,7 +34,8 @@ krr::examples::GridNavigationSpec spec(int n) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+/// @brief The benchmark; main() runs it under guardedMain, which reports a bad option or file.
+static int mainBody(int argc, char** argv) {
   std::vector<int> sizes;
   krr::OptionParser cli("bench_plog_nav",
                         "The native P-log reasoner on the paper's grid-navigation program: the full\n"
@@ -46,61 +48,60 @@ int main(int argc, char** argv) {
   }, true);
   if (const auto status = cli.parse(argc, argv)) return *status;
   if (sizes.empty()) sizes = {30, 50};
-  try {
-    for (int n : sizes) {
-      krr::examples::GridNavigationSpec s = spec(n);
-      std::string text = krr::examples::makeGridNavigationProgram(s);
-      krr::Stopwatch sw;
-      krr::plog::Reasoner r;
-      r.loadString(text, "grid" + std::to_string(n));
-      double t_load = sw.seconds();
-      sw.reset();
-      // single query: first call grounds the cone (ground time), second is the query time
-      int c = krr::examples::gridCell(s, s.areas[0].x0, s.areas[0].y0);
-      std::string q = "?{next_cell=" + std::to_string(c + 1) + "} | do(curr_cell=" +
-                      std::to_string(c) + "), do(act_move=right)";
-      double p1 = r.probability(q);
-      double t_first = sw.seconds();
-      double t_ground = r.stats().ground_seconds;
-      sw.reset();
-      double p2 = r.probability(q);
-      double t_single = sw.seconds();
-      sw.reset();
-      krr::plog::Table t = r.tableQuery("next_cell", {"curr_cell", "act_move"});
-      double t_table = sw.seconds();
-      size_t entries = 0;
-      for (const auto& row : t.rows) entries += row.distribution.size();
-      std::printf("grid %dx%d: cells %zu, table rows %zu, nonzero entries %zu\n", n, n,
-                  r.sortValues("cell").size(), t.rows.size(), entries);
-      std::printf("  load+parse %.4f s, ground %.4f s (%zu instances, %zu ground statements)\n",
-                  t_load, t_ground, r.stats().ground_instances, r.stats().ground_statements);
-      std::printf("  table P(next_cell | do curr_cell, do act_move) %.4f s\n", t_table);
-      std::printf("  single query %s = %.6f: first (incl. grounding) %.4f s, cached %.6f s\n",
-                  q.c_str(), p1, t_first, t_single);
-      // learned knowledge: one batch of 100 learned pr-atoms, then re-learning one of them
-      std::string learned;
-      for (int k = 0; k < 100; ++k)
-        learned += "pr(next_cell=" + std::to_string(k + 1) + " | curr_cell=" + std::to_string(k) +
-                   ", act_move=right, curr_time=morning) = 0.83.\n";
-      sw.reset();
-      r.addStatements(learned, "learned");
-      double t_add = sw.seconds();
-      sw.reset();
-      r.addStatements("pr(next_cell=1 | curr_cell=0, act_move=right, curr_time=morning) = 0.8.",
-                      "learned");
-      double t_relearn = sw.seconds();
-      sw.reset();
-      krr::plog::Table t2 = r.tableQuery("next_cell", {"curr_cell", "act_move"});
-      double t_table2 = sw.seconds();
-      std::printf("  addStatements: batch of 100 learned pr-atoms %.4f s, re-learn one %.4f s; "
-                  "table after learning (re-ground + table) %.4f s (%zu rows)\n",
-                  t_add, t_relearn, t_table2, t2.rows.size());
-      std::printf("  peak RSS %.1f MiB\n", krr::peakRssMiB());
-      (void)p2;
-    }
-  } catch (const krr::Error& e) {
-    std::fprintf(stderr, "bench_plog_nav: %s\n", e.what());
-    return 1;
+  for (int n : sizes) {
+    krr::examples::GridNavigationSpec s = spec(n);
+    std::string text = krr::examples::makeGridNavigationProgram(s);
+    krr::Stopwatch sw;
+    krr::plog::Reasoner r;
+    r.loadString(text, "grid" + std::to_string(n));
+    double t_load = sw.seconds();
+    sw.reset();
+    // single query: first call grounds the cone (ground time), second is the query time
+    int c = krr::examples::gridCell(s, s.areas[0].x0, s.areas[0].y0);
+    std::string q = "?{next_cell=" + std::to_string(c + 1) + "} | do(curr_cell=" +
+                    std::to_string(c) + "), do(act_move=right)";
+    double p1 = r.probability(q);
+    double t_first = sw.seconds();
+    double t_ground = r.stats().ground_seconds;
+    sw.reset();
+    double p2 = r.probability(q);
+    double t_single = sw.seconds();
+    sw.reset();
+    krr::plog::Table t = r.tableQuery("next_cell", {"curr_cell", "act_move"});
+    double t_table = sw.seconds();
+    size_t entries = 0;
+    for (const auto& row : t.rows) entries += row.distribution.size();
+    std::printf("grid %dx%d: cells %zu, table rows %zu, nonzero entries %zu\n", n, n,
+                r.sortValues("cell").size(), t.rows.size(), entries);
+    std::printf("  load+parse %.4f s, ground %.4f s (%zu instances, %zu ground statements)\n",
+                t_load, t_ground, r.stats().ground_instances, r.stats().ground_statements);
+    std::printf("  table P(next_cell | do curr_cell, do act_move) %.4f s\n", t_table);
+    std::printf("  single query %s = %.6f: first (incl. grounding) %.4f s, cached %.6f s\n",
+                q.c_str(), p1, t_first, t_single);
+    // learned knowledge: one batch of 100 learned pr-atoms, then re-learning one of them
+    std::string learned;
+    for (int k = 0; k < 100; ++k)
+      learned += "pr(next_cell=" + std::to_string(k + 1) + " | curr_cell=" + std::to_string(k) +
+                 ", act_move=right, curr_time=morning) = 0.83.\n";
+    sw.reset();
+    r.addStatements(learned, "learned");
+    double t_add = sw.seconds();
+    sw.reset();
+    r.addStatements("pr(next_cell=1 | curr_cell=0, act_move=right, curr_time=morning) = 0.8.",
+                    "learned");
+    double t_relearn = sw.seconds();
+    sw.reset();
+    krr::plog::Table t2 = r.tableQuery("next_cell", {"curr_cell", "act_move"});
+    double t_table2 = sw.seconds();
+    std::printf("  addStatements: batch of 100 learned pr-atoms %.4f s, re-learn one %.4f s; "
+                "table after learning (re-ground + table) %.4f s (%zu rows)\n",
+                t_add, t_relearn, t_table2, t2.rows.size());
+    std::printf("  peak RSS %.1f MiB\n", krr::peakRssMiB());
+    (void)p2;
   }
   return 0;
+}
+
+int main(int argc, char** argv) {
+  return krr::guardedMain("bench_plog_nav", mainBody, argc, argv);
 }

@@ -29,6 +29,7 @@
 #include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
+#include "krr_core/common/main_guard.h"
 #include "krr_core/common/random.h"
 #include "krr_core/common/resource_locator.h"
 #include "krr_core/common/resources.h"
@@ -184,7 +185,8 @@ int runChildren(const std::string& repo, const std::string& time, int repeat,
 
 }  // namespace
 
-int main(int argc, char** argv) {
+/// @brief The benchmark; main() runs it under guardedMain, which reports a bad option or file.
+static int mainBody(int argc, char** argv) {
   std::string repo, time = "morning";
   int repeat = 3;
   bool inProcess = false;
@@ -202,19 +204,18 @@ int main(int argc, char** argv) {
                  [&](const std::string& v) { domains.push_back(v); }, true);
   if (const auto status = cli.parse(argc, argv)) return *status;
   repeat = std::max(1, repeat);
-  try {
-    if (domains.empty()) {
-      const auto cfg =
-          krr::nav::loadNavigationConfig(krr::findRepositoryRoot(repo) + "/config/navigation.yaml");
-      for (const auto& d : cfg.domains) domains.push_back(d.name);
-    }
-    if (!inProcess) return runChildren(repo, time, repeat, domains);
-    int status_all = 0;
-    for (const std::string& d : domains)
-      if (runDomain(krr::findRepositoryRoot(repo), d, time, repeat) != 0) status_all = 1;
-    return status_all;
-  } catch (const krr::Error& e) {
-    std::fprintf(stderr, "bench_procedure2: %s\n", e.what());
-    return 1;
+  if (domains.empty()) {
+    const auto cfg =
+        krr::nav::loadNavigationConfig(krr::findRepositoryRoot(repo) + "/config/navigation.yaml");
+    for (const auto& d : cfg.domains) domains.push_back(d.name);
   }
+  if (!inProcess) return runChildren(repo, time, repeat, domains);
+  int status_all = 0;
+  for (const std::string& d : domains)
+    if (runDomain(krr::findRepositoryRoot(repo), d, time, repeat) != 0) status_all = 1;
+  return status_all;
+}
+
+int main(int argc, char** argv) {
+  return krr::guardedMain("bench_procedure2", mainBody, argc, argv);
 }
