@@ -2,8 +2,9 @@
  * @file scc.h
  * @brief Private to the P-log reasoner: strongly connected components of a dependency graph,
  * shared by the ground check of the native engine (engine.cpp), the check of the program
- * text before grounding (negationLoopReason in reasoner.cpp) and the grounder's order of the
- * static attributes (grounder.cpp).
+ * text before grounding (negationLoopReason in reasoner_auto.cpp), the relevance cone's loops
+ * through negation (relevance_cone.cpp) and the grounder's order of the static attributes
+ * (grounder_static.cpp).
  */
 #pragma once
 
