@@ -12,7 +12,6 @@
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/resources.h"
-#include "krr_core/nav/grid_astar.h"
 
 namespace krr {
 namespace experiments {
@@ -34,25 +33,7 @@ kb::NavTask DeliveryRouteSelector::next(const kb::NavModel& model, const kb::Nav
       remaining_.push_back({r, shop_});
     }
   }
-  nav::GridAStar astar(space.grid());
-  std::vector<std::size_t> best;
-  long bestUnknown = -1;
-  for (std::size_t i = 0; i < remaining_.size(); ++i) {
-    const nav::GridRoute route = astar.plan(space.grid().placeCell(remaining_[i].start),
-                                            space.grid().placeCell(remaining_[i].goal));
-    long unknown = 0;
-    for (std::size_t k = 0; k < route.moves.size(); ++k) {
-      const mdp::StateId s = space.stateOf(route.cells[k]);
-      unknown += model.learned[s * 4 + static_cast<std::size_t>(route.moves[k])] ? 0 : 1;
-    }
-    if (unknown > bestUnknown) {
-      bestUnknown = unknown;
-      best.clear();
-    }
-    if (unknown == bestUnknown) best.push_back(i);
-  }
-  const std::size_t pick = best[std::min(best.size() - 1,
-                                         static_cast<std::size_t>(uniform01(rng) * best.size()))];
+  const std::size_t pick = kb::leastKnownTask(remaining_, model, space, rng);
   const kb::NavTask task = remaining_[pick];
   remaining_.erase(remaining_.begin() + static_cast<long>(pick));
   return task;

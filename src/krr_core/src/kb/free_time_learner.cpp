@@ -1,5 +1,7 @@
 #include "krr_core/kb/free_time_learner.h"
 
+#include <algorithm>
+
 #include "krr_core/kb/area_knowledge.h"
 #include "krr_core/common/errors.h"
 #include "krr_core/nav/blocking_rate.h"
@@ -24,13 +26,15 @@ LeastKnownSelector::LeastKnownSelector(std::vector<std::string> places, std::str
                       start_ + "'");
 }
 
-NavTask LeastKnownSelector::next(const NavModel& model, const NavStateSpace& space, Rng& rng) {
+std::size_t leastKnownTask(const std::vector<NavTask>& tasks, const NavModel& model,
+                           const NavStateSpace& space, Rng& rng) {
+  if (tasks.empty()) throw ConfigError("least known task: no task to choose from");
   nav::GridAStar astar(space.grid());
-  const int start = space.grid().placeCell(start_);
   std::vector<std::size_t> best;
   long best_unknown = -1;
-  for (std::size_t i = 0; i < places_.size(); ++i) {
-    const nav::GridRoute route = astar.plan(start, space.grid().placeCell(places_[i]));
+  for (std::size_t i = 0; i < tasks.size(); ++i) {
+    const nav::GridRoute route = astar.plan(space.grid().placeCell(tasks[i].start),
+                                            space.grid().placeCell(tasks[i].goal));
     long unknown = 0;
     for (std::size_t k = 0; k < route.moves.size(); ++k) {
       const mdp::StateId s = space.stateOf(route.cells[k]);
@@ -42,8 +46,13 @@ NavTask LeastKnownSelector::next(const NavModel& model, const NavStateSpace& spa
     }
     if (unknown == best_unknown) best.push_back(i);
   }
-  const std::size_t pick = best[static_cast<std::size_t>(uniform01(rng) * best.size())];
-  return NavTask{start_, places_[pick]};
+  return best[std::min(best.size() - 1, static_cast<std::size_t>(uniform01(rng) * best.size()))];
+}
+
+NavTask LeastKnownSelector::next(const NavModel& model, const NavStateSpace& space, Rng& rng) {
+  std::vector<NavTask> tasks;
+  for (const std::string& goal : places_) tasks.push_back(NavTask{start_, goal});
+  return tasks[leastKnownTask(tasks, model, space, rng)];
 }
 
 void FreeTimeOptions::validate() const {

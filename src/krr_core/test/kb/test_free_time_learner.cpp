@@ -44,6 +44,14 @@ TEST(LeastKnownSelector, PicksTheRouteTheKnowledgeBaseKnowsLeast) {
   for (int i = 0; i < 5; ++i)
     EXPECT_EQ(sel.next(kb.buildModel({"morning"}), *d.space, rng).goal, "room2");
   EXPECT_THROW(LeastKnownSelector({"shop"}, "shop"), krr::ConfigError);
+  // The rule itself, as the delivery route selector uses it: any start, any order of tasks.
+  const NavModel model = kb.buildModel({"morning"});
+  const std::vector<NavTask> tasks = {{"room2", "shop"}, {"shop", "room1"}, {"shop", "room2"}};
+  for (int i = 0; i < 5; ++i) {
+    const std::size_t pick = krr::kb::leastKnownTask(tasks, model, *d.space, rng);
+    EXPECT_NE(tasks[pick].goal, "room1") << "shop->room1 is fully known";
+  }
+  EXPECT_THROW(krr::kb::leastKnownTask({}, model, *d.space, rng), krr::ConfigError);
 }
 
 /// @brief How much the knowledge base learned at `time`, in the extraction's own unit: learned

@@ -40,6 +40,15 @@ class TaskSelector {
 };
 
 /**
+ * @brief The task of `tasks` whose grid shortest route has the most moves `model` has not
+ * learned yet (ties broken uniformly with one draw of `rng`): the "least known" rule of
+ * LeastKnownSelector and of the delivery experiments' route selector, in one place.
+ * @return its index. @throws ConfigError when `tasks` is empty.
+ */
+std::size_t leastKnownTask(const std::vector<NavTask>& tasks, const NavModel& model,
+                           const NavStateSpace& space, Rng& rng);
+
+/**
  * @brief Practise the task whose route the knowledge base knows least: for every candidate
  * (start, goal) pair, count the unknown pairs along the grid shortest path and pick the
  * largest count (ties broken at random). A simple curriculum; the paper leaves it open.
