@@ -1,6 +1,5 @@
 #include "krr_core/common/resource_locator.h"
 
-#include <sys/stat.h>
 #include <unistd.h>
 
 #include <climits>
@@ -11,17 +10,13 @@
 
 #include "krr_core/common/cli.h"
 #include "krr_core/common/errors.h"
+#include "krr_core/common/files.h"
 
 namespace krr {
 
 namespace {
 
 const char* const kPackage = "krr_core";
-
-bool isRegularFile(const std::string& p) {
-  struct stat st;
-  return ::stat(p.c_str(), &st) == 0 && S_ISREG(st.st_mode);
-}
 
 std::string parentDir(const std::string& dir) {
   const auto pos = dir.find_last_of('/');

@@ -1,7 +1,5 @@
 #include "krr_core/dialog/dialog_policy.h"
 
-#include <sys/stat.h>
-
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
@@ -16,11 +14,6 @@ namespace krr {
 namespace dialog {
 
 namespace {
-
-bool fileExists(const std::string& path) {
-  struct stat st;
-  return ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
-}
 
 /// A fingerprint of the solver's behaviour (its bounds and policy on a small penalised
 /// dialog after a fixed number of trials), part of the cache key: a changed solver never
@@ -133,7 +126,7 @@ std::string boundsFileOf(const std::string& policy_file) {
 /// The cached entry `rep.file`, if complete (the policy file's presence marks it so).
 std::optional<pomdp::TurnLimitedPolicy> loadCached(const DialogPomdp& dialog, double precision,
                                                    PolicyReport& rep) {
-  if (!fileExists(rep.file) || !fileExists(boundsFileOf(rep.file))) return std::nullopt;
+  if (!isRegularFile(rep.file) || !isRegularFile(boundsFileOf(rep.file))) return std::nullopt;
   pomdp::TurnLimitedPolicy p = pomdp::TurnLimitedPolicy::load(rep.file);
   const std::string mismatch = policyMismatch(p, dialog);
   if (!mismatch.empty())

@@ -1,7 +1,5 @@
 #include "krr_core/experiments/delivery_learning.h"
 
-#include <sys/stat.h>
-
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
@@ -70,11 +68,6 @@ std::string simulatorKey(const kb::NavDomain& d) {
   return o.str();
 }
 
-bool fileExists(const std::string& path) {
-  struct stat st;
-  return ::stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
-}
-
 }  // namespace
 
 std::string learnedCacheName(const kb::NavDomain& domain, const DialogConfig& c,
@@ -123,7 +116,7 @@ LearningReport prepareLearnedKnowledge(const kb::NavDomain& domain,
     } catch (const IoError&) {
       // a read-only cache: load what is there, or work without caching below
     }
-    if (fileExists(report.cache_file)) {
+    if (isRegularFile(report.cache_file)) {
       knowledge.loadLearned(report.cache_file);
       report.from_cache = true;
       report.pairs = knowledge.buildModel({config.time}).numLearned();

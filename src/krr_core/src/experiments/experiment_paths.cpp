@@ -1,7 +1,5 @@
 #include "krr_core/experiments/experiment_paths.h"
 
-#include <sys/stat.h>
-
 #include "krr_core/common/errors.h"
 #include "krr_core/common/files.h"
 #include "krr_core/common/resource_locator.h"
@@ -10,15 +8,6 @@
 
 namespace krr {
 namespace experiments {
-
-namespace {
-
-bool isFile(const std::string& p) {
-  struct stat st;
-  return ::stat(p.c_str(), &st) == 0 && S_ISREG(st.st_mode);
-}
-
-}  // namespace
 
 nav::NavigationConfig ExperimentPaths::navigationConfig() const {
   return site ? site->navigation() : nav::loadNavigationConfig(navigation_yaml);
@@ -38,12 +27,12 @@ ExperimentPaths ExperimentPaths::find(const std::string& root_hint, const std::s
   p.navigation_yaml = root + "/config/navigation.yaml";
   p.navigation_plog = root + "/config/navigation.plog";
   for (const std::string* f : {&p.dialog_yaml, &p.delivery_yaml, &p.navigation_yaml, &p.navigation_plog})
-    if (!isFile(*f)) throw ConfigError("missing input file " + *f + " (repository root " + root + ")");
+    if (!isRegularFile(*f)) throw ConfigError("missing input file " + *f + " (repository root " + root + ")");
   if (!site_dir.empty()) p.site = std::make_shared<site::Site>(site::Site::load(site_dir, root + "/config"));
   const std::string domains = p.site ? p.site->manifest() : p.navigation_yaml;
   p.domain = domain.empty() ? p.navigationConfig().defaultDomain().name : domain;
   p.geometry = p.site ? p.site->geometry(p.domain) : root + "/maps/" + p.domain + "_geometry.plog";
-  if (!isFile(p.geometry)) {
+  if (!isRegularFile(p.geometry)) {
     const std::string chosen = domain.empty()
                                    ? "the first domain of " + domains + "; --domain chooses another"
                                    : "--domain";

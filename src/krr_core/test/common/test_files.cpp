@@ -42,6 +42,19 @@ TEST(Files, AtomicWriteReplacesContentAndLeavesNoTemporaries) {
   std::system(("rm -rf " + dir).c_str());
 }
 
+TEST(Files, IsRegularFileIsTrueOnlyForWhatAReaderCanOpen) {
+  const std::string dir = tempDir();
+  krr::writeFileAtomic(dir + "/kb.plog", "a.\n");
+  EXPECT_TRUE(krr::isRegularFile(dir + "/kb.plog"));
+  EXPECT_EQ(::symlink((dir + "/kb.plog").c_str(), (dir + "/link.plog").c_str()), 0);
+  EXPECT_TRUE(krr::isRegularFile(dir + "/link.plog"));  // a symlink to a file is followed
+  EXPECT_FALSE(krr::isRegularFile(dir));                 // a directory
+  EXPECT_FALSE(krr::isRegularFile("/dev/null"));         // a device
+  EXPECT_FALSE(krr::isRegularFile(dir + "/missing"));
+  EXPECT_FALSE(krr::isRegularFile(""));
+  std::system(("rm -rf " + dir).c_str());
+}
+
 TEST(Files, FailedWriteKeepsOldContentAndNamesTheFile) {
   std::string dir = tempDir();
   std::string path = dir + "/sub/none.txt";  // directory does not exist

@@ -22,6 +22,10 @@ std::string readFile(const std::string& path);
 /// @throws IoError naming the file; the previous content is then left untouched.
 void writeFileAtomic(const std::string& path, const std::string& data);
 
+/// @brief Whether `path` names a regular file (following symlinks): what a reader of files
+/// can open (not a directory, device or pipe). Never throws.
+bool isRegularFile(const std::string& path);
+
 /// @brief Directory part of a path ("." when there is none).
 std::string dirName(const std::string& path);
 
