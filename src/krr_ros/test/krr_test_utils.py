@@ -7,6 +7,8 @@ import time
 
 import roslib.packages
 import rospy
+import yaml
+from krr_msgs.msg import DeliveryStatus, RobotUtterance
 
 
 def node_binary(name):
@@ -106,10 +108,36 @@ def appender(lock, target):
     return cb
 
 
+# The office dialog the dialog_node rostests hold: the robot's replies and a delivery's end.
+DIALOG_QUESTIONS = (RobotUtterance.ASK_ITEM, RobotUtterance.ASK_ROOM, RobotUtterance.ASK_PERSON,
+                    RobotUtterance.CONFIRM_ITEM, RobotUtterance.CONFIRM_ROOM,
+                    RobotUtterance.CONFIRM_PERSON)
+DIALOG_REPLIES = DIALOG_QUESTIONS + (RobotUtterance.SERVE,)
+DELIVERY_FINAL = (DeliveryStatus.FULFILLED, DeliveryStatus.UNCONFIRMED, DeliveryStatus.FAILED)
+DIALOG_REQUEST = {"item": "coke", "room": "room2", "person": "bob"}
+DIALOG_SENTENCE = "a coke for bob to room2"
+
+
+def dialog_node_params(root, **overrides):
+    """dialog_node's parameters as shipped (config/navigation_kb.yaml, config/dialog_node.yaml)
+    on the office's reach model, without a navigation server to wait for, then `overrides`."""
+    params = {}
+    for f in ("navigation_kb.yaml", "dialog_node.yaml"):
+        with open(os.path.join(root, "config", f)) as fh:
+            params.update(yaml.safe_load(fh))
+    params.update({
+        "base_dir": root, "model_source": "reach",
+        "reach_probabilities": [0.95, 0.65, 0.75, 0.95, 0.5],
+        "server_wait": 1.0, "check_timeout": 3.0})
+    params.update(overrides)
+    return params
+
+
 class RecordingMixin:
-    """For a unittest.TestCase class that starts a node itself (as a subprocess) and records
-    what it publishes. The class sets: node_name (its /rosout lines go to cls.logs), lock,
-    logs, and log_file (the node's output); topic callbacks come from _append(list)."""
+    """For a unittest.TestCase class that starts a node itself (start_node_process: a
+    subprocess, SIGKILLed at the end, checked alive before every test) and records what it
+    publishes. The class sets node_name (its /rosout lines go to cls.logs), lock and logs;
+    topic callbacks come from _append(list)."""
 
     @classmethod
     def _append(cls, target):
@@ -123,6 +151,39 @@ class RecordingMixin:
         if msg.name == "/" + cls.node_name:
             with cls.lock:
                 cls.logs.append((time.time(), msg))
+
+    @classmethod
+    def start_node_process(cls, binary, log_file, connected, timeout):
+        """Start `binary` as cls.node_name with its output in log_file (cls.proc, cls.out), and
+        wait until connected() or the node exits or `timeout` s pass; then 0.5 s more."""
+        if getattr(cls, "out", None):
+            cls.out.close()
+        cls.log_file = log_file
+        cls.out = open(log_file, "w")
+        cls.proc = subprocess.Popen([node_binary(binary), "__name:=" + cls.node_name],
+                                    stdout=cls.out, stderr=subprocess.STDOUT,
+                                    env=dict(os.environ, ROSCONSOLE_STDOUT_LINE_BUFFERED="1"))
+        deadline = time.time() + timeout
+        while time.time() < deadline and not rospy.is_shutdown() and cls.proc.poll() is None:
+            if connected():
+                break
+            time.sleep(0.1)
+        ready = time.time()
+        time.sleep(0.5)
+        return ready
+
+    @classmethod
+    def tearDownClass(cls):
+        if getattr(cls, "proc", None) and cls.proc.poll() is None:
+            cls.proc.send_signal(signal.SIGKILL)
+            cls.proc.wait(10)
+        if getattr(cls, "out", None):
+            cls.out.close()
+        rospy.delete_param("/" + cls.node_name)
+
+    def setUp(self):
+        self.assertIsNone(self.proc.poll(), "%s exited:\n%s" % (self.node_name,
+                                                                  self.node_output()))
 
     def node_output(self):
         with open(self.log_file) as f:

@@ -10,7 +10,6 @@ loads the certified policy directly: no provisional policy, no background solve.
 import os
 import shutil
 import signal
-import subprocess
 import sys
 import threading
 import time
@@ -18,19 +17,13 @@ import unittest
 
 import rospy
 import rostest
-import yaml
 from krr_msgs.msg import DeliveryStatus, DialogPolicy, RobotUtterance, UserUtterance
 from rosgraph_msgs.msg import Log
 
-from krr_test_utils import RecordingMixin, node_binary
+from krr_test_utils import (DELIVERY_FINAL as FINAL, DIALOG_REPLIES as REPLIES,
+                            DIALOG_REQUEST as REQUEST, DIALOG_SENTENCE as SENTENCE,
+                            RecordingMixin, dialog_node_params)
 
-QUESTIONS = (RobotUtterance.ASK_ITEM, RobotUtterance.ASK_ROOM, RobotUtterance.ASK_PERSON,
-             RobotUtterance.CONFIRM_ITEM, RobotUtterance.CONFIRM_ROOM,
-             RobotUtterance.CONFIRM_PERSON)
-REPLIES = QUESTIONS + (RobotUtterance.SERVE,)
-FINAL = (DeliveryStatus.FULFILLED, DeliveryStatus.UNCONFIRMED, DeliveryStatus.FAILED)
-REQUEST = {"item": "coke", "room": "room2", "person": "bob"}
-SENTENCE = "a coke for bob to room2"
 NODE = "dialog"
 MAX_LATENCY = 0.5    # s from a request to the robot's first reply
 START_WAIT = 60.0    # s for the node to serve (a provisional solve takes seconds)
@@ -49,15 +42,7 @@ class DialogCertifyTest(RecordingMixin, unittest.TestCase):
         cls.cache = os.path.join(cls.tmp, "policies")
         shutil.rmtree(cls.cache, ignore_errors=True)
         os.makedirs(cls.tmp, exist_ok=True)
-        params = {}
-        for f in ("navigation_kb.yaml", "dialog_node.yaml"):
-            with open(os.path.join(root, "config", f)) as fh:
-                params.update(yaml.safe_load(fh))
-        params.update({
-            "base_dir": root, "model_source": "reach",
-            "reach_probabilities": [0.95, 0.65, 0.75, 0.95, 0.5],
-            "policy_cache": cls.cache, "knowledge_updates": "", "server_wait": 1.0,
-            "check_timeout": 3.0})
+        params = dialog_node_params(root, policy_cache=cls.cache, knowledge_updates="")
         rospy.set_param("/" + NODE, params)
         cls.lock = threading.Lock()
         cls.utterances, cls.statuses, cls.policies, cls.logs = [], [], [], []
@@ -68,43 +53,21 @@ class DialogCertifyTest(RecordingMixin, unittest.TestCase):
             rospy.Subscriber("/rosout", Log, cls._log, queue_size=1000),
         ]
         cls.pub = rospy.Publisher("user_utterance", UserUtterance, queue_size=10)
-        cls.proc, cls.out = None, None
         cls.start_node("first")
 
     @classmethod
     def start_node(cls, tag):
-        if cls.out:
-            cls.out.close()
-        cls.log_file = os.path.join(cls.tmp, "dialog_node_%s.log" % tag)
-        cls.out = open(cls.log_file, "w")
         with cls.lock:
             del cls.policies[:]
             del cls.logs[:]
         cls.started = time.time()
-        cls.proc = subprocess.Popen([node_binary("dialog_node"), "__name:=" + NODE],
-                                    stdout=cls.out, stderr=subprocess.STDOUT,
-                                    env=dict(os.environ, ROSCONSOLE_STDOUT_LINE_BUFFERED="1"))
-        deadline = time.time() + START_WAIT
-        while time.time() < deadline and not rospy.is_shutdown() and cls.proc.poll() is None:
-            if cls.pub.get_num_connections() > 0 and all(s.get_num_connections() > 0
-                                                         for s in cls.subs[:3]):
-                break
-            time.sleep(0.1)
-        cls.ready = time.time()
-        time.sleep(0.5)
-
-    @classmethod
-    def tearDownClass(cls):
-        if cls.proc and cls.proc.poll() is None:
-            cls.proc.send_signal(signal.SIGKILL)
-            cls.proc.wait(10)
-        cls.out.close()
-        rospy.delete_param("/" + NODE)
+        cls.ready = cls.start_node_process(
+            "dialog_node", os.path.join(cls.tmp, "dialog_node_%s.log" % tag),
+            lambda: cls.pub.get_num_connections() > 0 and all(
+                s.get_num_connections() > 0 for s in cls.subs[:3]),
+            START_WAIT)
 
     # --- helpers ----------------------------------------------------------------------------
-    def setUp(self):
-        self.assertIsNone(self.proc.poll(), "dialog_node exited:\n" + self.node_output())
-
     def request_and_finish(self, dialog_id):
         """Say SENTENCE (first reply within MAX_LATENCY), answer truthfully, serve; the delivery
         fails without a navigation server. Returns the first reply's latency."""

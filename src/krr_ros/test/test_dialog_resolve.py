@@ -19,19 +19,13 @@ import unittest
 
 import rospy
 import rostest
-import yaml
 from krr_msgs.msg import DeliveryStatus, KnowledgeUpdate, RobotUtterance, UserUtterance
 from rosgraph_msgs.msg import Log
 
-from krr_test_utils import RecordingMixin, node_binary
+from krr_test_utils import (DELIVERY_FINAL as FINAL, DIALOG_REPLIES as REPLIES,
+                            DIALOG_REQUEST as REQUEST, DIALOG_SENTENCE as SENTENCE,
+                            RecordingMixin, dialog_node_params)
 
-QUESTIONS = (RobotUtterance.ASK_ITEM, RobotUtterance.ASK_ROOM, RobotUtterance.ASK_PERSON,
-             RobotUtterance.CONFIRM_ITEM, RobotUtterance.CONFIRM_ROOM,
-             RobotUtterance.CONFIRM_PERSON)
-REPLIES = QUESTIONS + (RobotUtterance.SERVE,)
-FINAL = (DeliveryStatus.FULFILLED, DeliveryStatus.UNCONFIRMED, DeliveryStatus.FAILED)
-REQUEST = {"item": "coke", "room": "room2", "person": "bob"}
-SENTENCE = "a coke for bob to room2"
 NODE = "dialog"
 UPDATES = "/reasoner/knowledge_updates"
 MAX_LATENCY = 0.5   # s from the request to the robot's first reply
@@ -55,16 +49,9 @@ class DialogResolveTest(RecordingMixin, unittest.TestCase):
         root = os.path.realpath(rospy.get_param("~root"))  # catkin_ws/src links to src/
         tmp = rospy.get_param("~tmp_dir")
         os.makedirs(tmp, exist_ok=True)
-        params = {}
-        for f in ("navigation_kb.yaml", "dialog_node.yaml"):
-            with open(os.path.join(root, "config", f)) as fh:
-                params.update(yaml.safe_load(fh))
-        params.update({
-            "base_dir": root, "model_source": "reach",
-            "reach_probabilities": [0.95, 0.65, 0.75, 0.95, 0.5],
-            "solver_max_trials": int(rospy.get_param("~max_trials")), "startup_max_trials": 0,
-            "policy_cache": "none", "knowledge_updates": UPDATES, "server_wait": 1.0,
-            "check_timeout": 3.0})
+        params = dialog_node_params(
+            root, solver_max_trials=int(rospy.get_param("~max_trials")), startup_max_trials=0,
+            policy_cache="none", knowledge_updates=UPDATES)
         rospy.set_param("/" + NODE, params)
 
         cls.lock = threading.Lock()
@@ -77,31 +64,15 @@ class DialogResolveTest(RecordingMixin, unittest.TestCase):
         cls.pub = rospy.Publisher("user_utterance", UserUtterance, queue_size=10)
         cls.updates = rospy.Publisher(UPDATES, KnowledgeUpdate, queue_size=10)
 
-        cls.log_file = os.path.join(tmp, "dialog_node.log")
-        cls.out = open(cls.log_file, "w")
-        cls.proc = subprocess.Popen([node_binary("dialog_node"), "__name:=" + NODE],
-                                    stdout=cls.out, stderr=subprocess.STDOUT,
-                                    env=dict(os.environ, ROSCONSOLE_STDOUT_LINE_BUFFERED="1"))
-        deadline = time.time() + SOLVE_WAIT  # the node solves its first model before serving
-        while time.time() < deadline and not rospy.is_shutdown() and cls.proc.poll() is None:
-            if (cls.pub.get_num_connections() > 0 and cls.updates.get_num_connections() > 0 and
-                    all(s.get_num_connections() > 0 for s in cls.subs[:2])):
-                break
-            time.sleep(0.1)
-        time.sleep(0.5)
-
-    @classmethod
-    def tearDownClass(cls):
-        if cls.proc.poll() is None:
-            cls.proc.send_signal(signal.SIGKILL)
-            cls.proc.wait(10)
-        cls.out.close()
-        rospy.delete_param("/" + NODE)
+        # The node solves its first model before serving.
+        cls.start_node_process(
+            "dialog_node", os.path.join(tmp, "dialog_node.log"),
+            lambda: (cls.pub.get_num_connections() > 0 and
+                     cls.updates.get_num_connections() > 0 and
+                     all(s.get_num_connections() > 0 for s in cls.subs[:2])),
+            SOLVE_WAIT)
 
     # --- helpers ----------------------------------------------------------------------------
-    def setUp(self):
-        self.assertIsNone(self.proc.poll(), "dialog_node exited:\n" + self.node_output())
-
     def say(self, text):
         self.pub.publish(UserUtterance(text=text))
 
