@@ -14,7 +14,8 @@
  *
  * Before anything is written, the site consistency check (site/site_check.h) runs on the files
  * beside the navigation config (dialog.yaml, language.yaml, reasoner_node.yaml, the root their
- * parent) or of the site folder: a shop, room, blocking area or synonym that the files disagree on stops the program with every finding.
+ * parent) or of the site folder: a shop, room, blocking area or synonym that the files disagree
+ * on stops the program with every finding.
  */
 #include <cstdio>
 #include <iostream>

@@ -41,6 +41,7 @@
 #include "krr_core/kb/navigation_learning.h"
 #include "krr_core/kb/simulated_navigation.h"
 #include "krr_core/mdp/rmax_agent.h"
+#include "krr_core/site/site.h"
 
 namespace {
 
@@ -84,8 +85,10 @@ int runDomain(const std::string& repo, const std::string& name, const std::strin
   tasks.start = krr::dialog::loadDialogConfig(repo + "/config/dialog.yaml").shop;
   tasks = krr::experiments::loadNavTransferOptions(
       repo + "/config/experiments/nav_transfer.yaml", tasks);
+  const std::string config = repo + "/config/navigation.yaml";
   krr::kb::NavDomain dom = krr::kb::NavDomain::load(
-      repo + "/config/navigation.yaml", name, repo + "/maps/" + name + "_geometry.plog",
+      config, name,
+      krr::site::geometryFileBeside(krr::nav::loadNavigationConfig(config).map, name),
       repo + "/config/navigation.plog");
   Figure t_construct, t_first, t_rebuild, t_rebuild2, t_mixed, t_add, t_add2, t_clear;
   std::vector<double> g_first, g_rebuild;

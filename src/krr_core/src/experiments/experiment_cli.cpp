@@ -8,6 +8,7 @@
 #include "krr_core/common/resource_locator.h"
 #include "krr_core/common/yaml_section.h"
 #include "krr_core/nav/navigation_config.h"
+#include "krr_core/site/site.h"
 #include "experiment_yaml.h"
 
 namespace krr {
@@ -95,7 +96,7 @@ void NavExperimentFiles::declare(OptionParser& p, const std::string& options_fil
       .defaultText("ROOT/" + options_file + options_note);
   p.add("--config", "FILE", "navigation config", &config).defaultText("ROOT/config/navigation.yaml");
   p.add("--geometry", "FILE", "domain geometry", &geometry)
-      .defaultText("ROOT/maps/<domain>_geometry.plog");
+      .defaultText("<domain>_geometry.plog beside the config's map");
   p.add("--knowledge", "FILE", "human navigation knowledge", &knowledge)
       .defaultText("ROOT/config/navigation.plog");
   p.add("--site", "DIR",
@@ -142,8 +143,10 @@ std::string NavExperimentFiles::siteShop() const {
 
 void NavExperimentFiles::resolveInputs(const std::string& domain) {
   if (config.empty()) config = root + "/config/navigation.yaml";
-  if (geometry.empty())
-    geometry = site ? site->geometry(domain) : root + "/maps/" + domain + "_geometry.plog";
+  if (geometry.empty()) {
+    geometry = site ? site->geometry(domain)
+                    : site::geometryFileBeside(nav::loadNavigationConfig(config).map, domain);
+  }
   if (knowledge.empty()) knowledge = root + "/config/navigation.plog";
 }
 

@@ -5,6 +5,7 @@
 #include "krr_core/common/resource_locator.h"
 #include "krr_core/dialog/dialog_config.h"
 #include "krr_core/nav/navigation_config.h"
+#include "krr_core/site/site.h"
 
 namespace krr {
 namespace experiments {
@@ -27,11 +28,18 @@ ExperimentPaths ExperimentPaths::find(const std::string& root_hint, const std::s
   p.navigation_yaml = root + "/config/navigation.yaml";
   p.navigation_plog = root + "/config/navigation.plog";
   for (const std::string* f : {&p.dialog_yaml, &p.delivery_yaml, &p.navigation_yaml, &p.navigation_plog})
-    if (!isRegularFile(*f)) throw ConfigError("missing input file " + *f + " (repository root " + root + ")");
+    if (!isRegularFile(*f))
+      throw ConfigError("missing input file " + *f + " (repository root " + root + ")");
   if (!site_dir.empty()) p.site = std::make_shared<site::Site>(site::Site::load(site_dir, root + "/config"));
   const std::string domains = p.site ? p.site->manifest() : p.navigation_yaml;
-  p.domain = domain.empty() ? p.navigationConfig().defaultDomain().name : domain;
-  p.geometry = p.site ? p.site->geometry(p.domain) : root + "/maps/" + p.domain + "_geometry.plog";
+  const nav::NavigationConfig navigation = p.navigationConfig();
+  p.domain = domain.empty() ? navigation.defaultDomain().name : domain;
+  try {
+    navigation.domain(p.domain);
+  } catch (const UnknownSymbolError& e) {
+    throw ConfigError("--domain: value '" + p.domain + "': " + e.what() + " in " + domains);
+  }
+  p.geometry = site::geometryFileBeside(navigation.map, p.domain);
   if (!isRegularFile(p.geometry)) {
     const std::string chosen = domain.empty()
                                    ? "the first domain of " + domains + "; --domain chooses another"

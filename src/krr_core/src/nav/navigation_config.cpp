@@ -86,7 +86,10 @@ const DomainConfig& NavigationConfig::domain(const std::string& name) const {
   for (const DomainConfig& d : domains) {
     if (d.name == name) return d;
   }
-  throw UnknownSymbolError("navigation config: unknown domain '" + name + "'");
+  std::string known;
+  for (const DomainConfig& d : domains) known += (known.empty() ? "" : ", ") + d.name;
+  throw UnknownSymbolError("navigation config: unknown domain '" + name + "' (domains: " +
+                           (known.empty() ? "none" : known) + ")");
 }
 
 const DomainConfig& NavigationConfig::defaultDomain() const {

@@ -182,11 +182,11 @@ SiteFiles Site::files() const {
 }
 
 std::string domainFileBeside(const std::string& map_yaml, const std::string& name) {
-  return dirName(map_yaml) + "/" + name + ".yaml";
+  return fs::weakly_canonical(fs::path(dirName(map_yaml)) / (name + ".yaml")).string();
 }
 
 std::string geometryFileBeside(const std::string& map_yaml, const std::string& name) {
-  return dirName(map_yaml) + "/" + name + "_geometry.plog";
+  return fs::weakly_canonical(fs::path(dirName(map_yaml)) / (name + "_geometry.plog")).string();
 }
 
 nav::NavGrid writeDomain(const nav::NavigationConfig& cfg, const nav::DomainConfig& d,

@@ -1,9 +1,10 @@
 // ExperimentPaths: finding the repository's config/ and maps/ for the CLIs.
 #include <gtest/gtest.h>
 
-#include "krr_core/common/errors.h"
+#include <filesystem>
 #include <fstream>
 
+#include "krr_core/common/errors.h"
 #include "krr_core/dialog/dialog_config.h"
 #include "krr_core/experiments/experiment_cli.h"
 #include "krr_core/experiments/experiment_paths.h"
@@ -17,14 +18,19 @@ TEST(ExperimentPaths, ResolvesTheRepositoryFiles) {
   const std::string root = delivery_test::repo("");
   const ExperimentPaths p = ExperimentPaths::find(root, "office_30x30");
   EXPECT_EQ(p.dialog_yaml, p.root + "/config/dialog.yaml");
-  EXPECT_EQ(p.geometry, p.root + "/maps/office_30x30_geometry.plog");
+  // Beside the navigation config's map (maps/office.yaml), canonical.
+  EXPECT_EQ(p.geometry,
+            std::filesystem::weakly_canonical(p.root + "/maps/office_30x30_geometry.plog").string());
   EXPECT_EQ(p.navigation_plog, p.root + "/config/navigation.plog");
-  // Unknown domain: no geometry file, named in the error.
+  // Unknown domain: named with the option, the known domains and the file listing them.
   try {
     ExperimentPaths::find(root, "office_7x7");
     ADD_FAILURE() << "no error";
   } catch (const krr::ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("office_7x7"), std::string::npos) << e.what();
+    const std::string m = e.what();
+    EXPECT_NE(m.find("--domain: value 'office_7x7'"), std::string::npos) << m;
+    EXPECT_NE(m.find("(domains: office_30x30, office_50x50) in " + p.navigation_yaml),
+              std::string::npos) << m;
   }
   EXPECT_THROW(ExperimentPaths::find(delivery_test::tempDir("no_repo"), "office_30x30"),
                krr::ConfigError);

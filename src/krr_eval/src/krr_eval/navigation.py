@@ -125,11 +125,9 @@ def run_domain(domain, out_dir, trials, seed, threads, target_episodes=100, extr
     returns (table, summary text)."""
     grid, _ = resolve_domain(domain)
     csv_path = os.path.join(out_dir, "nav_transfer_%s.csv" % domain)
-    cmd = [paths.program("nav_transfer"),
-           "--config", paths.repo("config", "navigation.yaml"),
-           "--domain", grid,
-           "--geometry", paths.repo("maps", grid + "_geometry.plog"),
-           "--knowledge", paths.repo("config", "navigation.plog"),
+    # The program derives the navigation config, the domain's geometry and the knowledge
+    # from the root, as it does for a user.
+    cmd = [paths.program("nav_transfer"), "--root", paths.root(), "--domain", grid,
            "--trials", str(trials), "--threads", str(threads), "--seed", str(seed),
            "--target-episodes", str(target_episodes), "--out", csv_path] + list(extra)
     res = subprocess.run(cmd, capture_output=True, text=True)

@@ -30,8 +30,7 @@ NavKbParams NavKbParams::read(ParamReader& params) {
   } catch (const krr::UnknownSymbolError& e) {
     params.refuse("domain", "'" + p.domain + "'", e.what());
   }
-  p.geometry = params.path(
-      "geometry", p.site ? p.site->geometry(p.domain) : "maps/" + p.domain + "_geometry.plog", true);
+  p.geometry = params.path("geometry", krr::site::geometryFileBeside(config.map, p.domain), true);
   p.navigation_files = params.paths("navigation_files", {"config/navigation.plog"}, true);
   if (p.navigation_files.empty())
     params.refuse("navigation_files", "[]", "at least one P-log file is required");

@@ -37,9 +37,10 @@
  * Why more than the paper's formula. With +-80 alone, a wrong delivery to a room the robot
  * always reaches costs nothing: T^D(s, a) = P^N(shop, a) P^N(a, shop) P^N(shop, s) =
  * P^N(shop, s) = T^D(s, s) when P^N(shop, a) = P^N(a, shop) = 1 (a room beside the shop
- * with no blocking area on the way). The optimal policy then serves such a room at once, whatever was asked for, and uses
- * the redelivery rule as a free oracle (a request for a far room served to that near room). Charging
- * the trips driven makes the probe cost two trips, still cheap next to questions; the penalty
+ * with no blocking area on the way). The optimal policy then serves such a room at once,
+ * whatever was asked for, and uses the redelivery rule as a free oracle (a request for a far
+ * room served to that near room). Charging the trips driven makes the probe cost two trips,
+ * still cheap next to questions; the penalty
  * P_w charges what the person experiences: they waited and got the wrong item. With the
  * default P_w (dialog.yaml) the robot serves only a request it believes, and the request it
  * serves is the most likely one (tested in test_dialog_knowledge and the dialog rostests).

@@ -4,8 +4,8 @@
  *
  * The dialog POMDP (DialogPomdp) observes one answer per question: an item / room /
  * person name after a general question, yes / no after a confirming question. People do not
- * talk like that ("I'd like tea for Dave to the reading room"), so this front end maps free text to a
- * list of such observations. It is deliberately simple and fully documented:
+ * talk like that ("I'd like tea for Dave to the reading room"), so this front end maps free
+ * text to a list of such observations. It is deliberately simple and fully documented:
  *
  * 1. Normalisation. The text is truncated to `max_utterance_chars`, lower-cased (ASCII), and
  *    split into words at every character that is not a letter, a digit or an apostrophe

@@ -113,7 +113,8 @@ class Site {
 nav::NavGrid writeDomain(const nav::NavigationConfig& cfg, const nav::DomainConfig& d,
                          const nav::OccupancyGrid& map, const nav::PlacesFile& places);
 
-/// @brief The generated files of domain `name` beside the map file `map_yaml`.
+/// @brief The generated files of domain `name` beside the map file `map_yaml`, where every
+/// program looks for them; canonical (config/../maps resolved as the file system does).
 std::string domainFileBeside(const std::string& map_yaml, const std::string& name);
 std::string geometryFileBeside(const std::string& map_yaml, const std::string& name);
 
